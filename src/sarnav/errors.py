@@ -1,0 +1,59 @@
+"""Exceptions that the CLI turns into one-line messages (no traceback).
+
+Every error raised for bad user input names the field and the valid range, e.g.
+``ConfigError("imu.tau_accel", "must be > 0 s, got -1.0")`` prints as
+``imu.tau_accel: must be > 0 s, got -1.0``.
+"""
+
+from __future__ import annotations
+
+
+class SarnavError(Exception):
+    """Base class for errors caused by user input; the CLI prints ``str(err)`` and exits 2."""
+
+
+class ConfigError(SarnavError, ValueError):
+    """A scenario / parameter value is missing, unknown, of the wrong type or out of range."""
+
+    def __init__(self, field: str, message: str):
+        self.field = field
+        self.message = message
+        super().__init__(f"{field}: {message}")
+
+
+class InputDataError(SarnavError, ValueError):
+    """An input array is malformed (wrong shape, NaN, missing samples)."""
+
+    def __init__(self, field: str, message: str):
+        self.field = field
+        self.message = message
+        super().__init__(f"{field}: {message}")
+
+
+def require_positive(field: str, value, unit: str = "") -> float:
+    """Return float(value) or raise ConfigError naming the field when it is not finite and > 0."""
+    import math
+
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(field, f"must be a number > 0{(' ' + unit) if unit else ''}, got {value!r}") from None
+    if not math.isfinite(v) or v <= 0:
+        raise ConfigError(field, f"must be finite and > 0{(' ' + unit) if unit else ''}, got {v!r}")
+    return v
+
+
+def require_finite(field: str, value, lo=None, hi=None, unit: str = "") -> float:
+    """Return float(value) or raise ConfigError when it is NaN/inf or outside [lo, hi]."""
+    import math
+
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(field, f"must be a number, got {value!r}") from None
+    rng = f"[{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]{(' ' + unit) if unit else ''}"
+    if not math.isfinite(v):
+        raise ConfigError(field, f"must be finite in {rng}, got {v!r}")
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ConfigError(field, f"must be in {rng}, got {v!r}")
+    return v

@@ -1,0 +1,195 @@
+"""Quaternions, direction-cosine matrices, Euler angles and the skew operator.
+
+Convention (docs/conventions.md; thesis §2.2 of the extraction, eqs. 4.8-4.9, A.4-A.6):
+
+* quaternions are scalar first, ``q = [w, x, y, z]``, Hamilton product (thesis L1985)
+  ``[r; s] (x) [q; t] = [r q - s.t ; r t + q s + s x t]``;
+* ``q_b^n`` rotates body vectors into the navigation frame, ``v^n = q (x) [0; v^b] (x) q*``,
+  and ``dcm(q1 (x) q2) = dcm(q1) @ dcm(q2)``;
+* kinematics ``q_dot = 1/2 q (x) [0; omega_b]``;
+* attitude error ``T_true = (I - [dtheta x]) T_est`` i.e. ``q = [1; -dtheta/2] (x) q_est``.
+
+All functions accept stacked inputs: a leading batch shape ``(..., 4)`` / ``(..., 3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def skew(v):
+    """Cross-product matrix: ``skew(a) @ b == cross(a, b)``. Shape (..., 3) -> (..., 3, 3)."""
+    v = np.asarray(v, dtype=float)
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack(
+        [np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2
+    )
+
+
+def quat_multiply(q1, q2):
+    """Hamilton product q1 (x) q2, scalar first."""
+    q1 = np.asarray(q1, dtype=float)
+    q2 = np.asarray(q2, dtype=float)
+    r, s = q1[..., :1], q1[..., 1:]
+    q, t = q2[..., :1], q2[..., 1:]
+    scal = r * q - np.sum(s * t, axis=-1, keepdims=True)
+    vec = r * t + q * s + np.cross(s, t)
+    return np.concatenate([scal, vec], axis=-1)
+
+
+def quat_conjugate(q):
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([q[..., :1], -q[..., 1:]], axis=-1)
+
+
+def quat_normalize(q):
+    q = np.asarray(q, dtype=float)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_identity(shape=()):
+    q = np.zeros(tuple(np.atleast_1d(shape)) + (4,) if shape != () else (4,))
+    q[..., 0] = 1.0
+    return q
+
+
+def quat_to_dcm(q):
+    """DCM T such that v^n = T v^b for q = q_b^n (Hamilton, scalar first)."""
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    return np.stack(
+        [
+            np.stack([ww + xx - yy - zz, 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), ww - xx + yy - zz, 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), ww - xx - yy + zz], -1),
+        ],
+        -2,
+    )
+
+
+def dcm_to_quat(T):
+    """Inverse of :func:`quat_to_dcm`; returns the quaternion with non-negative scalar part."""
+    T = np.asarray(T, dtype=float)
+    batch = T.shape[:-2]
+    Tf = T.reshape((-1, 3, 3))
+    out = np.empty((Tf.shape[0], 4))
+    for i, m in enumerate(Tf):
+        tr = np.trace(m)
+        # Shepperd's method: choose the largest of 4 candidates for numerical stability
+        cands = np.array([tr, m[0, 0], m[1, 1], m[2, 2]])
+        k = int(np.argmax(cands))
+        if k == 0:
+            w = 0.5 * np.sqrt(1.0 + tr)
+            q = [w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w)]
+        elif k == 1:
+            x = 0.5 * np.sqrt(1.0 + 2 * m[0, 0] - tr)
+            q = [(m[2, 1] - m[1, 2]) / (4 * x), x, (m[0, 1] + m[1, 0]) / (4 * x), (m[0, 2] + m[2, 0]) / (4 * x)]
+        elif k == 2:
+            y = 0.5 * np.sqrt(1.0 + 2 * m[1, 1] - tr)
+            q = [(m[0, 2] - m[2, 0]) / (4 * y), (m[0, 1] + m[1, 0]) / (4 * y), y, (m[1, 2] + m[2, 1]) / (4 * y)]
+        else:
+            z = 0.5 * np.sqrt(1.0 + 2 * m[2, 2] - tr)
+            q = [(m[1, 0] - m[0, 1]) / (4 * z), (m[0, 2] + m[2, 0]) / (4 * z), (m[1, 2] + m[2, 1]) / (4 * z), z]
+        q = np.asarray(q)
+        out[i] = q if q[0] >= 0 else -q
+    return out.reshape(batch + (4,))
+
+
+def quat_rotate(q, v):
+    """Rotate body vector(s) v into the navigation frame: dcm(q) @ v."""
+    return np.einsum("...ij,...j->...i", quat_to_dcm(q), np.asarray(v, dtype=float))
+
+
+def rotvec_to_quat(phi):
+    """Quaternion of a rotation vector phi (axis * angle): [cos(|phi|/2); sin(|phi|/2) phi/|phi|]."""
+    phi = np.asarray(phi, dtype=float)
+    ang = np.linalg.norm(phi, axis=-1, keepdims=True)
+    half = 0.5 * ang
+    # sin(x/2)/x, with its Taylor series near zero
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = np.where(ang > 1e-8, np.sin(half) / np.where(ang > 0, ang, 1.0), 0.5 - ang**2 / 48.0)
+    return np.concatenate([np.cos(half), k * phi], axis=-1)
+
+
+def quat_to_rotvec(q):
+    q = quat_normalize(q)
+    q = np.where(q[..., :1] < 0, -q, q)
+    s = np.linalg.norm(q[..., 1:], axis=-1, keepdims=True)
+    ang = 2.0 * np.arctan2(s, q[..., :1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = np.where(s > 1e-12, ang / np.where(s > 0, s, 1.0), 2.0)
+    return k * q[..., 1:]
+
+
+def euler_to_dcm(roll, pitch, yaw):
+    """Body-to-NED DCM from 3-2-1 (yaw, pitch, roll) Euler angles: T = Rz(yaw) Ry(pitch) Rx(roll)."""
+    roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (roll, pitch, yaw)))
+    cr, sr = np.cos(roll), np.sin(roll)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    return np.stack(
+        [
+            np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
+            np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
+            np.stack([-sp, cp * sr, cp * cr], -1),
+        ],
+        -2,
+    )
+
+
+def dcm_to_euler(T):
+    """(roll, pitch, yaw) of a body-to-NED DCM, 3-2-1 sequence."""
+    T = np.asarray(T, dtype=float)
+    roll = np.arctan2(T[..., 2, 1], T[..., 2, 2])
+    pitch = -np.arcsin(np.clip(T[..., 2, 0], -1.0, 1.0))
+    yaw = np.arctan2(T[..., 1, 0], T[..., 0, 0])
+    return roll, pitch, yaw
+
+
+def euler_to_quat(roll, pitch, yaw):
+    """q_b^n for 3-2-1 Euler angles (Hamilton, scalar first)."""
+    roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (roll, pitch, yaw)))
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    return np.stack(
+        [
+            cy * cp * cr + sy * sp * sr,
+            cy * cp * sr - sy * sp * cr,
+            cy * sp * cr + sy * cp * sr,
+            sy * cp * cr - cy * sp * sr,
+        ],
+        -1,
+    )
+
+
+def quat_to_euler(q):
+    return dcm_to_euler(quat_to_dcm(q))
+
+
+# --- attitude error mappings (thesis App. A, eqs. A.4-A.6) -------------------------------
+
+def attitude_error(q_true, q_est):
+    """n(): delta-theta from truth and estimate, dtheta = -2 (q (x) q_est*)_{2:4} (eq. A.6).
+
+    Defined so that T_true = (I - [dtheta x]) T_est to first order (eq. 4.9).
+    """
+    dq = quat_multiply(q_true, quat_conjugate(q_est))
+    dq = np.where(dq[..., :1] < 0, -dq, dq)
+    return -2.0 * dq[..., 1:]
+
+
+def apply_attitude_error(q_est, dtheta):
+    """l(): truth from estimate and error, q = [1; -dtheta/2] (x) q_est, normalised (eq. A.4)."""
+    dtheta = np.asarray(dtheta, dtype=float)
+    dq = np.concatenate([np.ones(dtheta.shape[:-1] + (1,)), -0.5 * dtheta], axis=-1)
+    return quat_normalize(quat_multiply(dq, q_est))
+
+
+def corrupt_attitude(q_true, dtheta):
+    """m(): estimate from truth and error, q_est = [1; +dtheta/2] (x) q, normalised (eq. A.5)."""
+    dtheta = np.asarray(dtheta, dtype=float)
+    dq = np.concatenate([np.ones(dtheta.shape[:-1] + (1,)), 0.5 * dtheta], axis=-1)
+    return quat_normalize(quat_multiply(dq, q_true))
