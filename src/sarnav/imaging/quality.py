@@ -1,0 +1,172 @@
+"""Scene-independent image-quality (focus) scores: kurtosis, histogram entropy, contrast.
+
+Sources
+-------
+* Hathaway (2023) thesis, extraction ``notes/seed-004-image-quality-gpsd.md`` §2.3–2.4:
+  complex kurtosis, eq. (3.5) — the *raw* fourth cumulant (no normalisation, which is **not** an
+  "excess kurtosis" of a normalised variable, but for a circular complex Gaussian it is 0, the same
+  reference point); Shannon entropy of an N-bin histogram, eq. (3.6), in bits, of the pixel
+  magnitudes ("entropy magnitude") or of Re + Im ("entropy sum").
+* Lindstrom (2020) thesis App. D.2, eqs. (D.11)–(D.12): contrast metrics (notes/seed-000 §10.2).
+* Spacecraft SAR-TRN paper, eq. (3) (Groen et al.): normalised variance sharpness
+  (notes/seed-002 §2.9).
+
+Kurtosis is maximised by a well-focused image; entropy is minimised; contrast and normalised
+variance are maximised.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sarnav.errors import ConfigError, InputDataError
+
+__all__ = [
+    "complex_kurtosis",
+    "normalised_complex_kurtosis",
+    "entropy_bits",
+    "histogram_entropy",
+    "entropy_magnitude",
+    "entropy_sum",
+    "normalised_variance",
+    "intensity_contrast",
+    "std_to_mean_contrast",
+]
+
+
+def _pixels(image, field: str = "image") -> np.ndarray:
+    """Flattened pixel array of an ndarray or a ``SarImage``; rejects empty or non-finite input."""
+    data = getattr(image, "data", image)
+    y = np.asarray(data).ravel()
+    if y.size == 0:
+        raise InputDataError(field, "is empty; need at least one pixel")
+    if not np.all(np.isfinite(y)):
+        raise InputDataError(field, "contains NaN or inf; all pixels must be finite")
+    return y
+
+
+def complex_kurtosis(image, *, remove_mean: bool = False) -> float:
+    """Sample fourth cumulant of complex pixels, Hathaway eq. (3.5).
+
+    ``K = mean(|y|^4) - 2 mean(|y|^2)^2 - |mean(y^2)|^2``, over all pixels. Zero for circular
+    complex Gaussian noise (eq. 3.3); positive (super-Gaussian) for a focused scene of point-like
+    scatterers. Not normalised: it scales as amplitude^4 (see :func:`normalised_complex_kurtosis`).
+
+    Parameters
+    ----------
+    image : complex ndarray or SarImage
+    remove_mean : subtract the pixel mean first (the thesis' "mean-removed kurtosis", L598).
+
+    Returns
+    -------
+    float
+    """
+    y = _pixels(image).astype(np.complex128, copy=False)
+    if remove_mean:
+        y = y - y.mean()
+    p = (y.real**2 + y.imag**2)
+    return float(np.mean(p * p) - 2.0 * np.mean(p) ** 2 - np.abs(np.mean(y * y)) ** 2)
+
+
+def normalised_complex_kurtosis(image, *, remove_mean: bool = False) -> float:
+    """Eq. (3.5) divided by ``mean(|y|^2)^2`` (scale-invariant variant, seed-004 §2.3 [decision]).
+
+    For circular complex Gaussian noise this is 0; for a single real spike among P pixels it is P − 3.
+    """
+    y = _pixels(image).astype(np.complex128, copy=False)
+    if remove_mean:
+        y = y - y.mean()
+    m2 = float(np.mean(y.real**2 + y.imag**2))
+    if m2 == 0.0:
+        raise InputDataError("image", "is identically zero; normalised kurtosis undefined")
+    return complex_kurtosis(y) / m2**2
+
+
+def entropy_bits(probabilities) -> float:
+    """Shannon entropy ``-sum p log2 p`` in bits, eq. (3.6), with ``0 log 0 = 0``.
+
+    Parameters
+    ----------
+    probabilities : array of non-negative numbers summing to 1 (within 1e-9).
+    """
+    p = np.asarray(probabilities, dtype=np.float64).ravel()
+    if p.size == 0 or np.any(~np.isfinite(p)) or np.any(p < 0):
+        raise InputDataError("probabilities", "must be a non-empty array of finite values >= 0")
+    if abs(p.sum() - 1.0) > 1e-9:
+        raise InputDataError("probabilities", f"must sum to 1, got {p.sum()!r}")
+    nz = p[p > 0]
+    return float(-np.sum(nz * np.log2(nz)))
+
+
+def histogram_entropy(values, n_bins: int) -> float:
+    """Entropy in bits of the N-bin equal-width histogram of ``values`` over [min, max].
+
+    PMF estimate of Hathaway §3.2.2 (L337): ``p_k = count_k / number of values``, bins of equal
+    width between the minimum and maximum value (numpy.histogram semantics: the last bin is
+    closed). A constant input puts everything in one bin and gives 0.
+
+    Parameters
+    ----------
+    values : real array (any shape)
+    n_bins : number of bins N >= 1 (the thesis uses 10, 100, 1000)
+    """
+    if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 1:
+        raise ConfigError("n_bins", f"must be an integer >= 1, got {n_bins!r}")
+    v = _pixels(values, "values")
+    if np.iscomplexobj(v):
+        raise InputDataError("values", "must be real; use entropy_magnitude or entropy_sum for complex images")
+    v = v.astype(np.float64, copy=False)
+    lo, hi = float(v.min()), float(v.max())
+    if lo == hi:
+        return 0.0
+    counts, _ = np.histogram(v, bins=int(n_bins), range=(lo, hi))
+    return entropy_bits(counts / v.size)
+
+
+def entropy_magnitude(image, n_bins: int = 1000) -> float:
+    """Histogram entropy of the pixel magnitudes |I| (Hathaway eq. 3.6, "entropy magnitude")."""
+    return histogram_entropy(np.abs(_pixels(image)), n_bins)
+
+
+def entropy_sum(image, n_bins: int = 1000) -> float:
+    """Histogram entropy of Re I + Im I (Hathaway eq. 3.6, "entropy sum", L489)."""
+    y = _pixels(image)
+    return histogram_entropy(y.real + (y.imag if np.iscomplexobj(y) else 0.0), n_bins)
+
+
+def normalised_variance(image, *, quantity: str = "intensity") -> float:
+    """Normalised-variance sharpness, spacecraft SAR-TRN eq. (3) (Groen et al.).
+
+    ``S = mean((g - mean g)^2) / mean(g)^2`` with ``g`` the pixel intensity. The source does not say
+    whether g is amplitude or power; ``quantity`` chooses ("intensity" = |I|^2, "amplitude" = |I|).
+    With g = |I|^2 this equals (D.11) minus 1.
+    """
+    y = _pixels(image)
+    if quantity == "intensity":
+        g = np.abs(y) ** 2
+    elif quantity == "amplitude":
+        g = np.abs(y)
+    else:
+        raise ConfigError("quantity", f"must be 'intensity' or 'amplitude', got {quantity!r}")
+    m = float(g.mean())
+    if m == 0.0:
+        raise InputDataError("image", "is identically zero; normalised variance undefined")
+    return float(np.mean((g - m) ** 2) / m**2)
+
+
+def intensity_contrast(image) -> float:
+    """Lindstrom (D.11): ``E[|I|^2] / E[|I|]^2`` (Cumming & Wong's intensity-to-power ratio)."""
+    a = np.abs(_pixels(image))
+    m = float(a.mean())
+    if m == 0.0:
+        raise InputDataError("image", "is identically zero; contrast undefined")
+    return float(np.mean(a * a) / m**2)
+
+
+def std_to_mean_contrast(image) -> float:
+    """Lindstrom (D.12) (Berizzi & Corsini): ``sqrt(E[|I|^2] - E[|I|]^2) / E[|I|]``."""
+    a = np.abs(_pixels(image))
+    m = float(a.mean())
+    if m == 0.0:
+        raise InputDataError("image", "is identically zero; contrast undefined")
+    return float(np.sqrt(max(np.mean(a * a) - m**2, 0.0)) / m)
