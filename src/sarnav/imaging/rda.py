@@ -1,0 +1,300 @@
+"""Range-Doppler Algorithm (RDA) for zero-squint, straight-line stripmap data.
+
+Steps (Lindstrom 2020 thesis §5.2, L1161–L1169; paper Lindstrom et al. 2022 §2.1, eqs. 4–13;
+notes/seed-000 §9, notes/seed-001 §2.1), on range-compressed pulses ``rc`` (rows = pulses):
+
+1. optional azimuth weighting of the pulses (window, see below);
+2. azimuth FFT (eq. 4): ``S_rc(f_eta, R0)``;
+3. range-variant RCMC (eq. 5/9): row ``f_eta`` is resampled at ``R0 + dR(f_eta, R0)`` with
+   ``dR = lambda^2 R0 f_eta^2 / (8 V^2)``, by an 8-tap Kaiser-windowed sinc (beta = 2.5, 1024
+   fractional positions, taps normalised to unit DC gain; the kernel Cumming & Wong 2005 §3.4
+   recommend, gap G9);
+4. azimuth matched filter per range bin (eqs. 10–12), by stationary phase
+   ``H(f_eta) = exp(-j pi f_eta^2 / K_a)``, ``K_a = 2 V^2 / (lambda R0)`` (eq. 7);
+5. inverse azimuth FFT (eq. 13).
+
+``azimuth_model="hyperbolic"`` replaces the parabolic forms of steps 3–4 by the exact zero-squint
+ones, ``dR = R0 (1/D - 1)`` and ``H = exp(j 4 pi R0 (D - 1) / lambda)`` with
+``D = sqrt(1 - (lambda f_eta / 2V)^2)`` (Cumming & Wong eqs. 6.25, 7.17); both reduce to the paper's
+forms to second order in ``f_eta``.
+
+Assumptions (documented limits)
+-------------------------------
+* Stop-and-hop, zero squint (Doppler centroid 0, thesis Tables 5.1/5.3), straight constant-speed
+  track: the speed ``V`` used for focusing is an **input** (navigation estimate or truth); the
+  antenna positions the data are referred to (``rc.positions``, replaceable with
+  ``PulseData.with_positions``) only label the image rows.
+* Baseband data with the carrier phase ``-4 pi R / lambda`` of docs/conventions.md, uniform pulse
+  times, uniform slant-range samples.
+* The azimuth FFT is circular over the pulses of the block: the whole Doppler band of the scene must
+  fit in the PRF, and a target must be inside the block to be focused in place.
+* The azimuth window weights the *pulses* (slow time). For a target seen by all pulses, ``f_eta =
+  -K_a (eta - eta_c)`` (eq. 8) maps that weighting onto its Doppler band, i.e. it is the spectral
+  window of ``sarnav.imaging.windows`` for every target, whatever its position in the block.
+
+Image axes
+----------
+Rows are azimuth times (one per pulse); row k is labelled with the along-track coordinate of the
+antenna at that time, ``y_k = u . (p(t_k) - origin)`` from a straight-line least-squares fit of the
+given positions (``u`` = unit track direction, first to last position; ``origin`` defaults to the
+first position). Zero squint puts a target at the row of its time of closest approach, i.e. at its
+own along-track coordinate. Columns are slant range of closest approach (the ``rc.slant_range`` axis).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+import scipy.fft as sfft
+from scipy.special import i0
+
+from sarnav.errors import ConfigError, InputDataError
+from sarnav.imaging.data import PulseData, SarImage
+from sarnav.imaging.windows import as_window
+from sarnav.units import C
+
+__all__ = ["range_doppler", "azimuth_compressed_spectrum", "rcmc_kernel_table", "radar_constants",
+           "along_track_axis", "RCMC_KERNELS"]
+
+#: RCMC interpolation kernels: name -> (taps, Kaiser beta); "none" skips RCMC.
+RCMC_KERNELS = {"sinc8": (8, 2.5), "sinc16": (16, 2.5), "none": (0, 0.0)}
+_TABLE_STEPS = 1024
+
+
+def rcmc_kernel_table(taps: int = 8, beta: float = 2.5, steps: int = _TABLE_STEPS) -> np.ndarray:
+    """Windowed-sinc interpolation weights, shape (steps + 1, taps).
+
+    Row q interpolates at fractional offset ``q / steps`` past sample ``base``; tap t multiplies sample
+    ``base - taps/2 + 1 + t``. Weight = sinc(d) * Kaiser(d; beta) over |d| <= taps/2, each row
+    normalised to sum 1 (unit gain at zero frequency).
+    """
+    half = taps // 2
+    frac = np.arange(steps + 1)[:, None] / steps
+    d = frac + (half - 1) - np.arange(taps)[None, :]  # distance from the sample to the target point
+    w = np.sinc(d) * i0(beta * np.sqrt(np.clip(1.0 - (d / half) ** 2, 0.0, None))) / i0(beta)
+    return w / w.sum(axis=1, keepdims=True)
+
+
+@numba.njit(cache=True, nogil=True)
+def _rcmc_and_filter(spec, shift_coef, phase_coef, r0, r_first, dr, table, steps, do_rcmc):
+    """out[i, j] = interp(spec[i, :], at R0_j (1 + a_i)) * exp(j b_i R0_j)."""
+    na, nr = spec.shape
+    out = np.empty_like(spec)
+    taps = table.shape[1]
+    lo_off = taps // 2 - 1
+    for i in range(na):
+        a = shift_coef[i]
+        b = phase_coef[i]
+        for j in range(nr):
+            ph = b * r0[j]
+            rot = complex(math.cos(ph), math.sin(ph))
+            if not do_rcmc:
+                out[i, j] = spec[i, j] * rot
+                continue
+            pos = (r0[j] * (1.0 + a) - r_first) / dr
+            base = int(math.floor(pos))
+            q = int((pos - base) * steps + 0.5)
+            acc = 0j
+            k0 = base - lo_off
+            if k0 >= 0 and k0 + taps <= nr:
+                for t in range(taps):
+                    acc += table[q, t] * spec[i, k0 + t]
+            else:
+                for t in range(taps):
+                    k = k0 + t
+                    if 0 <= k < nr:
+                        acc += table[q, t] * spec[i, k]
+            out[i, j] = acc * rot
+    return out
+
+
+def radar_constants(params) -> dict:
+    """Carrier frequency, wavelength and bandwidth from a ``RadarParams``-like object.
+
+    Accepts attribute names ``wavelength`` or ``carrier_frequency`` / ``center_frequency`` /
+    ``carrier`` / ``fc``, and ``bandwidth``. Raises ``InputDataError("params", ...)`` if no carrier.
+    """
+    lam = getattr(params, "wavelength", None)
+    fc = None
+    for name in ("carrier_frequency", "center_frequency", "carrier", "fc", "f_c"):
+        if getattr(params, name, None) is not None:
+            fc = float(getattr(params, name))
+            break
+    if lam is None and fc is None:
+        raise InputDataError("params", "needs a carrier: 'wavelength' or 'carrier_frequency' attribute")
+    lam = float(lam) if lam is not None else C / fc
+    fc = fc if fc is not None else C / lam
+    bw = getattr(params, "bandwidth", None)
+    return {"carrier_frequency": fc, "wavelength": lam, "bandwidth": None if bw is None else float(bw)}
+
+
+def _prf(pulse_times: np.ndarray) -> float:
+    t = np.asarray(pulse_times, dtype=np.float64)
+    if t.ndim != 1 or t.size < 2:
+        raise InputDataError("rc.pulse_times", f"must be 1-D with >= 2 pulses, got shape {t.shape}")
+    dt = np.diff(t)
+    if np.any(dt <= 0) or np.ptp(dt) > 1e-6 * dt.mean():
+        raise InputDataError("rc.pulse_times", "must be strictly increasing and uniform (constant PRF)")
+    return 1.0 / float(dt.mean())
+
+
+def along_track_axis(positions, pulse_times, origin=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Along-track coordinate of each pulse from a straight-line fit of the antenna positions.
+
+    Returns
+    -------
+    y : (P,) along-track coordinate [m] of the fitted antenna position at each pulse time.
+    direction : (3,) unit track direction (last minus first position).
+    origin : (3,) reference point of the along-track coordinate.
+    track_speed : slope of the fit [m/s].
+    """
+    p = np.asarray(positions, dtype=np.float64)
+    t = np.asarray(pulse_times, dtype=np.float64)
+    if p.ndim != 2 or p.shape != (t.size, 3) or not np.all(np.isfinite(p)):
+        raise InputDataError("rc.positions", f"must be finite with shape ({t.size}, 3), got {p.shape}")
+    d = p[-1] - p[0]
+    n = float(np.linalg.norm(d))
+    if n == 0.0:
+        raise InputDataError("rc.positions", "first and last antenna positions coincide: no track")
+    u = d / n
+    o = p[0] if origin is None else np.asarray(origin, dtype=np.float64).reshape(3)
+    s = (p - o) @ u
+    slope, icept = np.polyfit(t - t[0], s, 1)
+    return icept + slope * (t - t[0]), u, o, float(slope)
+
+
+def _check_inputs(rc: PulseData):
+    if not isinstance(rc, PulseData):
+        raise InputDataError("rc", f"must be a PulseData, got {type(rc).__name__}")
+    data = np.asarray(rc.data)
+    if data.ndim != 2 or data.shape[0] < 2 or data.shape[1] < 2:
+        raise InputDataError("rc.data", f"must be (pulses, range bins) with both >= 2, got {data.shape}")
+    if not rc.compressed:
+        raise InputDataError("rc.compressed", "RDA needs range-compressed pulses (range_compress first)")
+    r = np.asarray(rc.slant_range, dtype=np.float64)
+    if r.shape != (data.shape[1],):
+        raise InputDataError("rc.slant_range", f"must have {data.shape[1]} samples, got {r.shape}")
+    dr = np.diff(r)
+    if np.any(dr <= 0) or np.ptp(dr) > 1e-6 * dr.mean():
+        raise InputDataError("rc.slant_range", "must be strictly increasing and uniform")
+    if not np.all(np.isfinite(data)):
+        raise InputDataError("rc.data", "contains NaN or inf")
+    return data, r
+
+
+def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", rcmc_kernel: str = "sinc8",
+                                azimuth_model: str = "parabolic", fm_rate_scale: float = 1.0):
+    """Steps 1–4 of the RDA: the range-Doppler spectrum after RCMC and azimuth matched filtering.
+
+    Parameters
+    ----------
+    rc : range-compressed ``PulseData``.
+    speed : forward speed V used for focusing [m/s] (> 0).
+    window : azimuth window (``sarnav.imaging.windows.as_window`` spec), applied over the pulses.
+    rcmc_kernel : one of :data:`RCMC_KERNELS`.
+    azimuth_model : "parabolic" (paper eqs. 5, 11) or "hyperbolic" (exact zero-squint).
+    fm_rate_scale : multiplies K_a of the matched filter (autofocus: K_amf = s K_a(V), eq. 16);
+        RCMC keeps the speed's migration.
+
+    Returns
+    -------
+    spec : (P, N) complex, rows in FFT order of ``freqs``.
+    freqs : (P,) Doppler frequency of each row [Hz].
+    info : dict with wavelength, prf, etc.
+    """
+    data, r = _check_inputs(rc)
+    speed = float(speed)
+    if not math.isfinite(speed) or speed <= 0:
+        raise ConfigError("speed", f"must be finite and > 0 m/s, got {speed!r}")
+    if rcmc_kernel not in RCMC_KERNELS:
+        raise ConfigError("rcmc_kernel", f"must be one of {tuple(RCMC_KERNELS)}, got {rcmc_kernel!r}")
+    if azimuth_model not in ("parabolic", "hyperbolic"):
+        raise ConfigError("azimuth_model", f"must be 'parabolic' or 'hyperbolic', got {azimuth_model!r}")
+    if not (math.isfinite(fm_rate_scale) and fm_rate_scale > 0):
+        raise ConfigError("fm_rate_scale", f"must be finite and > 0, got {fm_rate_scale!r}")
+    win = as_window(window, "window")
+    consts = radar_constants(rc.params)
+    lam = consts["wavelength"]
+    prf = _prf(rc.pulse_times)
+    na = data.shape[0]
+    cdtype = np.complex64 if data.dtype == np.complex64 else np.complex128
+    x = data.astype(cdtype, copy=False)
+    if win.name != "none":
+        x = x * win.samples(na).astype(x.real.dtype)[:, None]
+    spec = sfft.fft(x, axis=0)  # eq. (4)
+    freqs = sfft.fftfreq(na, d=1.0 / prf)
+    if azimuth_model == "parabolic":
+        shift = lam**2 * freqs**2 / (8.0 * speed**2)                       # eq. (5)/(9): dR / R0
+        phase = -np.pi * lam * freqs**2 / (2.0 * speed**2) / fm_rate_scale  # -pi f^2 / K_a, per R0
+    else:
+        arg = 1.0 - (lam * freqs / (2.0 * speed)) ** 2
+        if np.any(arg <= 0):
+            raise InputDataError("rc.pulse_times", f"PRF {prf:g} Hz exceeds the maximum Doppler 4V/lambda "
+                                 f"= {4 * speed / lam:g} Hz for the hyperbolic model")
+        dfac = np.sqrt(arg)
+        shift = 1.0 / dfac - 1.0
+        phase = 4.0 * np.pi * (dfac - 1.0) / lam / fm_rate_scale
+    taps, beta = RCMC_KERNELS[rcmc_kernel]
+    table = rcmc_kernel_table(max(taps, 2), beta if taps else 0.0)
+    out = _rcmc_and_filter(np.ascontiguousarray(spec), shift.astype(np.float64), phase.astype(np.float64),
+                           r, float(r[0]), float(r[1] - r[0]), table, _TABLE_STEPS, taps > 0)
+    info = {"wavelength": lam, "carrier_frequency": consts["carrier_frequency"], "bandwidth": consts["bandwidth"],
+            "prf": prf, "window": win.label, "rcmc_kernel": rcmc_kernel, "azimuth_model": azimuth_model}
+    return out, freqs, info
+
+
+def range_doppler(rc: PulseData, speed: float | None = None, *, window="none", rcmc_kernel: str = "sinc8",
+                  azimuth_model: str = "parabolic", along_track_origin=None,
+                  fm_rate_scale: float = 1.0) -> SarImage:
+    """Focus range-compressed pulses with the Range-Doppler Algorithm (module docstring).
+
+    Parameters
+    ----------
+    rc : range-compressed ``PulseData`` (``rc.positions`` label the image rows; pass an estimated
+        trajectory with ``rc.with_positions``).
+    speed : forward speed for K_a and RCMC [m/s]; default the slope of the straight-line fit of
+        ``rc.positions`` (so an estimated trajectory forms the image).
+    window : azimuth window, e.g. "none", "hamming", ("taylor", 4, -35).
+    rcmc_kernel : "sinc8" (default), "sinc16" or "none".
+    azimuth_model : "parabolic" (paper) or "hyperbolic" (exact).
+    along_track_origin : (3,) origin of the along-track axis (default: first antenna position).
+    fm_rate_scale : K_amf / K_a(V) (used by autofocus).
+
+    Returns
+    -------
+    SarImage
+        ``data`` (P, N) complex; ``y`` along-track [m] per pulse, ``x`` slant range of closest
+        approach [m]; metadata: carrier_frequency, wavelength, bandwidth, prf, speed,
+        closest_approach_range (mid-swath), aperture_length (V P / PRF), fm_rate (K_a at mid-swath),
+        algorithm "rda", window, range_window, rcmc_kernel, azimuth_model, along_track_origin,
+        along_track_direction, pulse_time0.
+    """
+    data, r = _check_inputs(rc)
+    y, u, origin, track_speed = along_track_axis(rc.positions, rc.pulse_times, along_track_origin)
+    v = abs(track_speed) if speed is None else speed
+    spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,
+                                                azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale)
+    img = sfft.ifft(spec, axis=0, overwrite_x=True)  # eq. (13)
+    v = float(v)
+    r_mid = float(0.5 * (r[0] + r[-1]))
+    meta = {
+        "algorithm": "rda",
+        "carrier_frequency": info["carrier_frequency"],
+        "wavelength": info["wavelength"],
+        "bandwidth": info["bandwidth"],
+        "prf": info["prf"],
+        "speed": v,
+        "closest_approach_range": r_mid,
+        "aperture_length": v * data.shape[0] / info["prf"],
+        "fm_rate": fm_rate_scale * 2.0 * v**2 / (info["wavelength"] * r_mid),
+        "window": info["window"],
+        "range_window": str(rc.metadata.get("window", rc.metadata.get("range_window", "unknown"))),
+        "rcmc_kernel": rcmc_kernel,
+        "azimuth_model": azimuth_model,
+        "along_track_origin": [float(c) for c in origin],
+        "along_track_direction": [float(c) for c in u],
+        "pulse_time0": float(rc.pulse_times[0]),
+    }
+    return SarImage(data=img, y=y, x=r.copy(), y_name="along_track", x_name="slant_range", metadata=meta)
