@@ -1,0 +1,81 @@
+"""``sarnav run [SCENARIO|FILE.toml]``: a Monte Carlo campaign (or a study of several) with results
+and figures in ``--out`` (default ``./sarnav-out/<scenario>/``)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from sarnav.montecarlo.campaign import CampaignInterrupted, run_campaign
+from sarnav.montecarlo.executors import EXECUTORS
+from sarnav.montecarlo.store import stored_runs
+from sarnav.scenarios.config import load_scenario
+from sarnav.scenarios.registry import DEFAULT_SCENARIO
+
+NAME = "run"
+DEFAULT_OUT_ROOT = "sarnav-out"
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(NAME, help="run a scenario's Monte Carlo campaign", description=__doc__)
+    p.add_argument("scenario", metavar="SCENARIO", nargs="?", default=DEFAULT_SCENARIO,
+                   help=f"registered name or FILE.toml (default: {DEFAULT_SCENARIO})")
+    p.add_argument("--runs", type=int, help="number of Monte Carlo runs (campaign.runs)")
+    p.add_argument("--seed", type=int, help="campaign seed (campaign.seed)")
+    p.add_argument("--out", help=f"output directory (default: ./{DEFAULT_OUT_ROOT}/<scenario>)")
+    p.add_argument("--executor", choices=EXECUTORS, default=None,
+                   help="where runs execute (default: processes; dask when --scheduler is given)")
+    p.add_argument("--workers", type=int, help="worker processes (default: number of cores)")
+    p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--chunk-size", type=int, help="runs per task (default: about 4 tasks per worker, <= 25)")
+    p.add_argument("--resume", action="store_true", help="keep the runs already stored in --out and finish")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scenario value (dotted key, TOML value), repeatable")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary lines")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.set_defaults(handler=run)
+
+
+def _print_summary(summary: dict, out: Path) -> None:
+    print(f"{summary['scenario']}: {summary['runs']} runs -> {out}")
+    rows = list(summary["states"].items())[:9]
+    for name, s in rows:
+        print(f"  {name:>6}  final 3-sigma {s['final_3sigma']:.4g} {s['units']:<5}  inside 3-sigma {100 * s['fraction_inside_3sigma']:.2f} %")
+    n = summary["nees"]
+    print(f"  mean NEES (time average) {n['time_average']:.3g}, dof {n['dof']}, 95% band of the run mean [{n['band'][0]:.3g}, {n['band'][1]:.3g}]")
+
+
+def run(args) -> int:
+    from sarnav.errors import ConfigError
+
+    if args.chunk_size is not None and args.chunk_size < 1:
+        raise ConfigError("--chunk-size", f"must be an integer >= 1, got {args.chunk_size}")
+    cfg = load_scenario(args.scenario, args.overrides, runs=args.runs, seed=args.seed)
+    name = cfg["scenario"]["name"]
+    out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / name
+    executor = args.executor or ("dask" if args.scheduler else "processes")
+    if args.scheduler and executor != "dask":
+        raise ConfigError("--scheduler", f"needs --executor dask, got --executor {executor}")
+    opts = dict(executor=executor, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                quiet=args.quiet, chunk_size=args.chunk_size)
+    try:
+        if cfg["scenario"]["kind"] == "study":
+            from sarnav.scenarios.study import run_study
+
+            study = run_study(cfg, out, figures=not args.no_figures, **opts)
+            if not args.quiet:
+                print(f"{name}: {len(study['cases'])} cases -> {out} (study.json)")
+            return 0
+        res = run_campaign(cfg, out, **opts)
+    except CampaignInterrupted as exc:
+        done = len(stored_runs(out))
+        print(f"sarnav: interrupted by signal {exc.signum}: {done} of {cfg['campaign']['runs']} runs stored in "
+              f"{out}; finish with the same command and --resume", file=sys.stderr)
+        return 128 + exc.signum
+    if not args.no_figures:
+        from sarnav.report.figures import write_campaign_figures
+
+        write_campaign_figures(res.dataset, out)
+    if not args.quiet:
+        _print_summary(res.summary, out)
+    return 0

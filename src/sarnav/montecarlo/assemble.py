@@ -1,0 +1,98 @@
+"""Stored runs -> the ``results.nc`` Dataset (schema in docs/results.md)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import xarray as xr
+
+import sarnav
+from sarnav.errors import InputDataError
+from sarnav.montecarlo.record import RunRecord
+from sarnav.montecarlo.store import atomic_write_bytes
+
+__all__ = ["assemble_results", "write_results", "open_results"]
+
+
+def _stack(records: Sequence[RunRecord], name: str) -> np.ndarray:
+    return np.stack([np.asarray(getattr(r, name)) for r in records])
+
+
+def assemble_results(
+    records: Sequence[RunRecord],
+    state_names: Sequence[str],
+    meas_names: Sequence[str],
+    state_units: Sequence[str],
+    meas_units: Sequence[str],
+    attrs: dict,
+) -> xr.Dataset:
+    """Stack run records (sorted by run) into a Dataset with dims ``run, time, state, update, meas``.
+
+    ``time`` and ``update_time`` must be identical in every run (RunRecord contract); a mismatch is
+    an :class:`InputDataError`.
+    """
+    records = sorted(records, key=lambda r: r.run)
+    if not records:
+        raise InputDataError("records", "no runs to assemble")
+    t0, u0 = np.asarray(records[0].time), np.asarray(records[0].update_time)
+    for r in records[1:]:
+        if not np.array_equal(np.asarray(r.time), t0):
+            raise InputDataError("time", f"run {r.run} has different output epochs than run {records[0].run}")
+        if not np.array_equal(np.asarray(r.update_time), u0):
+            raise InputDataError("update_time", f"run {r.run} has different update epochs than run {records[0].run}")
+    data = {
+        "error": (("run", "time", "state"), _stack(records, "error").astype(np.float64)),
+        "sigma": (("run", "time", "state"), _stack(records, "sigma").astype(np.float64)),
+        "nees": (("run", "time"), _stack(records, "nees").astype(np.float64)),
+        "residual": (("run", "update", "meas"), _stack(records, "residual").astype(np.float64)),
+        "residual_sigma": (("run", "update", "meas"), _stack(records, "residual_sigma").astype(np.float64)),
+        "nis": (("run", "update"), _stack(records, "nis").astype(np.float64)),
+        "nis_dof": (("run", "update"), _stack(records, "nis_dof").astype(np.int64)),
+    }
+    for name in records[0].extras:
+        dims = tuple(records[0].extras[name][0])
+        if name in data:
+            raise InputDataError(f"extras.{name}", "clashes with a standard variable name")
+        try:
+            arr = np.stack([np.asarray(r.extras[name][1]) for r in records])
+        except (KeyError, ValueError) as err:
+            raise InputDataError(f"extras.{name}", f"missing or of different shape between runs ({err})") from None
+        data[name] = (("run",) + dims, arr)
+    coords = {
+        "run": ("run", np.array([r.run for r in records], dtype=np.int64)),
+        "time": ("time", t0.astype(np.float64), {"units": "s"}),
+        "update_time": ("update", u0.astype(np.float64), {"units": "s"}),
+        "state": ("state", np.array(list(state_names), dtype=str), {"units": list(state_units)}),
+        "meas": ("meas", np.array(list(meas_names), dtype=str), {"units": list(meas_units)}),
+        "state_units": ("state", np.array(list(state_units), dtype=str)),
+        "meas_units": ("meas", np.array(list(meas_units), dtype=str)),
+    }
+    ds = xr.Dataset(data, coords=coords, attrs=dict(attrs))
+    ds.attrs.setdefault("sarnav_version", sarnav.__version__)
+    ds["error"].attrs["description"] = "truth minus estimate (error-state coordinates)"
+    ds["sigma"].attrs["description"] = "filter 1-sigma, sqrt(diag P)"
+    ds["nees"].attrs["description"] = "normalised estimation error squared, dof = number of states"
+    ds["residual"].attrs["description"] = "measurement residual z - z_hat, NaN where absent"
+    ds["residual_sigma"].attrs["description"] = "sqrt(diag(H P- H^T + R)), NaN where absent"
+    ds["nis"].attrs["description"] = "normalised innovation squared over the measurements present"
+    ds["nis_dof"].attrs["description"] = "number of measurements in nis"
+    return ds
+
+
+def write_results(ds: xr.Dataset, path: str | os.PathLike) -> None:
+    """Write ``ds`` as netCDF4 atomically (temporary file + ``os.replace``)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    ds.to_netcdf(tmp, engine="netcdf4")
+    with open(tmp, "rb") as fh:
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def open_results(path: str | os.PathLike) -> xr.Dataset:
+    """Load a ``results.nc`` fully into memory (the file is closed on return)."""
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return ds.load()

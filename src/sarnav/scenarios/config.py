@@ -1,0 +1,311 @@
+"""Scenario files: TOML load and dump, ``--set key=value`` overrides, generic validation.
+
+A scenario is a nested dict (docs/architecture.md §Contracts) that round-trips through TOML. This
+module knows no kind: it checks what every scenario shares (``[scenario] name, kind``,
+``[campaign] runs, seed``), rejects NaN/inf anywhere, unknown keys and type mismatches against the
+kind's reference configuration (the registry entry named like the kind, when there is one), and then
+calls the kind's own ``validate``.
+
+Every failure is a :class:`sarnav.errors.ConfigError` naming the field (dotted path) or, for malformed
+TOML, the file and line.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+import tomllib
+from typing import Any, Iterable, Sequence
+
+import tomli_w
+
+from sarnav.errors import ConfigError
+
+__all__ = [
+    "parse_toml",
+    "load_toml_file",
+    "dump_toml",
+    "parse_override",
+    "apply_overrides",
+    "set_value",
+    "check_finite",
+    "merge_onto",
+    "validate_common",
+    "validate_scenario",
+    "load_scenario",
+]
+
+
+# ----------------------------------------------------------------------------- TOML text
+def parse_toml(text: str, origin: str = "<string>") -> dict:
+    """Parse TOML text; malformed text -> ConfigError naming ``origin`` and the line."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:  # message carries "(at line L, column C)"
+        raise ConfigError(origin, f"malformed TOML: {err}") from None
+
+
+def load_toml_file(path: str | os.PathLike) -> dict:
+    """Read a ``.toml`` scenario file (UTF-8)."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as err:
+        raise ConfigError(path, f"cannot read scenario file: {err.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(path, "scenario file is not UTF-8 text") from None
+    return parse_toml(text, origin=path)
+
+
+def dump_toml(cfg: dict) -> str:
+    """The scenario as TOML text (``parse_toml(dump_toml(cfg)) == cfg`` for finite configs)."""
+    check_finite(cfg)
+    return tomli_w.dumps(cfg)
+
+
+# ----------------------------------------------------------------------------- finiteness
+def check_finite(value: Any, field: str = "") -> None:
+    """Raise ConfigError naming the first NaN/inf number anywhere in ``value`` (nested dicts/lists)."""
+    if isinstance(value, dict):
+        for key, sub in value.items():
+            check_finite(sub, f"{field}.{key}" if field else str(key))
+    elif isinstance(value, list):
+        for i, sub in enumerate(value):
+            check_finite(sub, f"{field}[{i}]")
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(field or "<value>", f"must be a finite number, got {value!r}")
+
+
+# ----------------------------------------------------------------------------- overrides
+def _type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "number"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, list):
+        return "list"
+    if isinstance(value, dict):
+        return "table"
+    return type(value).__name__
+
+
+def _coerce(field: str, old: Any, new: Any) -> Any:
+    """Return ``new`` converted to the type of ``old`` or raise ConfigError (type mismatch)."""
+    if isinstance(old, bool):
+        if isinstance(new, bool):
+            return new
+    elif isinstance(old, int):
+        if isinstance(new, int) and not isinstance(new, bool):
+            return new
+    elif isinstance(old, float):
+        if isinstance(new, (int, float)) and not isinstance(new, bool):
+            return float(new)
+    elif isinstance(old, str):
+        if isinstance(new, str):
+            return new
+    elif isinstance(old, list):
+        if isinstance(new, list):
+            numeric = [isinstance(v, (int, float)) and not isinstance(v, bool) for v in old]
+            if old and all(numeric):
+                for i, v in enumerate(new):
+                    if isinstance(v, bool) or not isinstance(v, (int, float)):
+                        raise ConfigError(f"{field}[{i}]", f"must be a number, got {_type_name(v)} {v!r}")
+                return [float(v) if any(isinstance(o, float) for o in old) else v for v in new]
+            return new
+    elif isinstance(old, dict):
+        raise ConfigError(field, "is a table; set one of its keys instead, e.g. " + f"{field}.{next(iter(old), 'key')}")
+    else:
+        return new
+    raise ConfigError(field, f"must be a {_type_name(old)} (like the default {old!r}), got {_type_name(new)} {new!r}")
+
+
+def parse_override(item: str) -> tuple[str, str]:
+    """Split ``"a.b=value"`` into ``("a.b", "value")``; no ``=`` -> ConfigError."""
+    key, sep, value = item.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError("--set", f"expected key=value (e.g. imu.grade=tactical), got {item!r}")
+    return key, value.strip()
+
+
+def _parse_value(field: str, text: str, old: Any) -> Any:
+    """A ``--set`` value is a TOML value; a bare word is accepted as a string where one is expected."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        if isinstance(old, str) or old is None:
+            return text
+        raise ConfigError(field, f"cannot parse {text!r} as a TOML value (expected a {_type_name(old)})") from None
+
+
+def _split(field: str) -> list[str]:
+    parts = field.split(".")
+    if any(not p for p in parts):
+        raise ConfigError(field, "malformed key (empty component)")
+    return parts
+
+
+def set_value(cfg: dict, field: str, value: Any, optional: Iterable[str] = ()) -> None:
+    """Set ``cfg[a][b] = value`` for ``field = "a.b"``, in place.
+
+    The key must already exist (unknown keys are errors, except the dotted paths listed in
+    ``optional``) and ``value`` must have the type of the value it replaces (an integer is accepted
+    for a float). NaN/inf are rejected.
+    """
+    parts = _split(field)
+    node = cfg
+    for i, part in enumerate(parts[:-1]):
+        sub = node.get(part) if isinstance(node, dict) else None
+        if not isinstance(sub, dict):
+            here = ".".join(parts[: i + 1])
+            if sub is None and field in set(optional):
+                node[part] = sub = {}
+            elif sub is None:
+                raise ConfigError(field, f"unknown key ({here!r} is not a table of this scenario)")
+            else:
+                raise ConfigError(field, f"unknown key ({here!r} is a {_type_name(sub)}, not a table)")
+        node = sub
+    last = parts[-1]
+    check_finite(value, field)
+    if last in node:
+        node[last] = _coerce(field, node[last], value)
+    elif field in set(optional):
+        node[last] = value
+    else:
+        known = ", ".join(sorted(node)) or "none"
+        raise ConfigError(field, f"unknown key (known keys here: {known})")
+
+
+def apply_overrides(cfg: dict, overrides: Sequence[str], optional: Iterable[str] = ()) -> dict:
+    """Return a copy of ``cfg`` with each ``key=value`` string of ``overrides`` applied in order."""
+    out = copy.deepcopy(cfg)
+    optional = set(optional)
+    for item in overrides:
+        key, text = parse_override(item)
+        node: Any = out
+        for part in _split(key):
+            node = node.get(part) if isinstance(node, dict) else None
+        set_value(out, key, _parse_value(key, text, node), optional)
+    return out
+
+
+def merge_onto(template: dict, cfg: dict, optional: Iterable[str] = (), prefix: str = "") -> dict:
+    """Return ``template`` updated with every leaf of ``cfg`` (unknown keys / wrong types -> ConfigError).
+
+    Lists (including arrays of tables) replace the template's value as a whole.
+    """
+    out = copy.deepcopy(template)
+    optional = set(optional)
+
+    def walk(node: dict, path: str) -> None:
+        for key, value in node.items():
+            field = f"{path}.{key}" if path else str(key)
+            if isinstance(value, dict) and (field in optional or _lookup(out, field) is not None):
+                target = _lookup(out, field)
+                if target is not None and not isinstance(target, dict):
+                    raise ConfigError(field, f"must be a {_type_name(target)}, got a table")
+                if target is None:
+                    set_value(out, field, {}, optional | {field})
+                walk(value, field)
+            else:
+                set_value(out, field, value, optional)
+
+    walk(cfg, prefix)
+    return out
+
+
+def _lookup(cfg: dict, field: str) -> Any:
+    node: Any = cfg
+    for part in field.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return None
+        node = node[part]
+    return node
+
+
+# ----------------------------------------------------------------------------- validation
+def _require_table(cfg: dict, name: str) -> dict:
+    table = cfg.get(name)
+    if not isinstance(table, dict):
+        raise ConfigError(name, f"missing table [{name}]")
+    return table
+
+
+def validate_common(cfg: dict) -> None:
+    """Check the keys every scenario has: ``scenario.name``, ``scenario.kind``, ``campaign.runs/seed``."""
+    if not isinstance(cfg, dict):
+        raise ConfigError("<scenario>", "must be a table")
+    check_finite(cfg)
+    scen = _require_table(cfg, "scenario")
+    for key in ("name", "kind"):
+        if not isinstance(scen.get(key), str) or not scen.get(key):
+            raise ConfigError(f"scenario.{key}", f"must be a non-empty string, got {scen.get(key)!r}")
+    if not isinstance(scen.get("description", ""), str):
+        raise ConfigError("scenario.description", "must be a string")
+    camp = _require_table(cfg, "campaign")
+    runs = camp.get("runs")
+    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
+    seed = camp.get("seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
+
+
+def validate_scenario(cfg: dict, kind=None) -> None:
+    """Generic checks, then the kind's ``validate`` (kind resolved from ``scenario.kind`` if not given)."""
+    from sarnav.scenarios.registry import get_kind
+
+    validate_common(cfg)
+    kind = kind if kind is not None else get_kind(cfg["scenario"]["kind"])
+    kind.validate(cfg)
+
+
+def load_scenario(
+    source: str | os.PathLike,
+    overrides: Sequence[str] = (),
+    runs: int | None = None,
+    seed: int | None = None,
+    validate: bool = True,
+) -> dict:
+    """Resolve a registered scenario name or a ``.toml`` file into a validated scenario dict.
+
+    Parameters
+    ----------
+    source : a name from :func:`sarnav.scenarios.registry.list_scenarios` or a path to a TOML file.
+        A file is merged onto the reference configuration of its kind (if the registry has one),
+        so it may give only the keys it changes.
+    overrides : ``"dotted.key=value"`` strings, values parsed as TOML (bare words as strings).
+    runs, seed : shortcuts for ``campaign.runs`` / ``campaign.seed``.
+    validate : run :func:`validate_scenario` at the end.
+    """
+    from sarnav.scenarios import registry
+
+    src = os.fspath(source)
+    if src.endswith(".toml") or os.sep in src or os.path.isfile(src):
+        raw = load_toml_file(src)
+        check_finite(raw)
+        kind_name = raw.get("scenario", {}).get("kind") if isinstance(raw.get("scenario"), dict) else None
+        if not isinstance(kind_name, str) or not kind_name:
+            raise ConfigError("scenario.kind", f"missing in {src} (e.g. kind = \"telemetry\")")
+        template = registry.template_for_kind(kind_name)
+        cfg = merge_onto(template, raw, registry.optional_keys(kind_name)) if template is not None else raw
+    else:
+        cfg = registry.get_scenario(src)
+    kind_name = cfg.get("scenario", {}).get("kind", "") if isinstance(cfg.get("scenario"), dict) else ""
+    optional = registry.optional_keys(kind_name) if isinstance(kind_name, str) and kind_name else set()
+    cfg = apply_overrides(cfg, overrides, optional)
+    if runs is not None:
+        cfg.setdefault("campaign", {})["runs"] = runs
+    if seed is not None:
+        cfg.setdefault("campaign", {})["seed"] = seed
+    if validate:
+        validate_scenario(cfg)
+    return cfg

@@ -1,0 +1,148 @@
+"""The table of named scenarios and the table of scenario kinds.
+
+``SCENARIOS`` has one line per named scenario: name, kind, one-line description, and where its
+default configuration comes from (``"module:function"``, imported lazily, or ``"kind:"`` for the
+kind's own ``default_config()``). ``KINDS`` maps ``scenario.kind`` to the ``ScenarioKind`` class
+(``"module:Class"``, imported lazily). A kind name that itself looks like ``"package.module:Class"``
+is imported directly (plug-in kinds living outside sarnav, and the toy kinds of the tests).
+"""
+
+from __future__ import annotations
+
+import copy
+import importlib
+from dataclasses import dataclass
+
+from sarnav.errors import ConfigError
+from sarnav.scenarios.base import ScenarioKind
+
+__all__ = [
+    "ScenarioEntry",
+    "SCENARIOS",
+    "KINDS",
+    "list_scenarios",
+    "get_scenario",
+    "get_kind",
+    "template_for_kind",
+    "optional_keys",
+    "DEFAULT_SCENARIO",
+]
+
+
+@dataclass(frozen=True)
+class ScenarioEntry:
+    """One named scenario: ``factory`` is ``"module:function"`` or ``"kind:"`` (the kind's default)."""
+
+    name: str
+    kind: str
+    description: str
+    factory: str
+
+
+#: ``scenario.kind`` -> ``"module:Class"``
+KINDS: dict[str, str] = {
+    "telemetry": "sarnav.scenarios.telemetry:TelemetryKind",
+    "study": "sarnav.scenarios.study:StudyKind",
+}
+
+# fmt: off
+#: one line per scenario (name, kind, description, default-config factory)
+SCENARIOS: tuple[ScenarioEntry, ...] = (
+    ScenarioEntry("telemetry", "telemetry", "Thesis ch. 3: INS + altimeter/range/range-rate EKF, one known target, Monte Carlo (Figs 3.4-3.7)", "kind:"),
+    ScenarioEntry("telemetry-imu-grade", "study", "Thesis Table 3.2 / Fig 3.8: position 3-sigma for consumer, tactical, navigation IMUs", "sarnav.scenarios.study:imu_grade_study"),
+    ScenarioEntry("telemetry-noise", "study", "Thesis Table 3.3 / Fig 3.9: range, range-rate, altimeter noise x10 one at a time", "sarnav.scenarios.study:noise_study"),
+    ScenarioEntry("telemetry-geometry", "study", "Thesis Table 3.4 / Figs 3.10-3.11: eight target locations", "sarnav.scenarios.study:geometry_study"),
+)
+# fmt: on
+
+#: what ``sarnav run`` runs without a scenario argument
+DEFAULT_SCENARIO = "telemetry"
+
+_KIND_INSTANCES: dict[str, ScenarioKind] = {}
+
+
+def _import(path: str, field: str):
+    module_name, _, attr = path.partition(":")
+    try:
+        obj = importlib.import_module(module_name)
+    except ImportError as err:
+        raise ConfigError(field, f"cannot import {module_name!r} ({err})") from None
+    for part in attr.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise ConfigError(field, f"{module_name!r} has no {attr!r}") from None
+    return obj
+
+
+def list_scenarios() -> list[tuple[str, str]]:
+    """(name, one-line description) of every registered scenario, in table order."""
+    return [(e.name, e.description) for e in SCENARIOS]
+
+
+def _entry(name: str) -> ScenarioEntry:
+    for e in SCENARIOS:
+        if e.name == name:
+            return e
+    known = ", ".join(e.name for e in SCENARIOS)
+    raise ConfigError("scenario", f"unknown scenario {name!r} (known: {known}; or give a .toml file)")
+
+
+def get_kind(kind: str) -> ScenarioKind:
+    """The ``ScenarioKind`` instance handling ``scenario.kind == kind`` (imported on first use)."""
+    if kind in _KIND_INSTANCES:
+        return _KIND_INSTANCES[kind]
+    if kind in KINDS:
+        path = KINDS[kind]
+    elif ":" in kind:
+        path = kind
+    else:
+        known = ", ".join(sorted(KINDS))
+        raise ConfigError("scenario.kind", f"unknown kind {kind!r} (known: {known}, or 'package.module:Class')")
+    cls = _import(path, "scenario.kind")
+    if not (isinstance(cls, type) and issubclass(cls, ScenarioKind)):
+        raise ConfigError("scenario.kind", f"{path!r} is not a ScenarioKind subclass")
+    inst = cls()
+    _KIND_INSTANCES[kind] = inst
+    return inst
+
+
+def get_scenario(name: str) -> dict:
+    """A fresh copy of the default configuration of the registered scenario ``name``."""
+    e = _entry(name)
+    if e.factory == "kind:":
+        kind = get_kind(e.kind)
+        make = getattr(kind, "default_config", None)
+        if make is None:
+            raise ConfigError("scenario", f"kind {e.kind!r} has no default_config()")
+        cfg = make()
+    else:
+        cfg = _import(e.factory, "scenario")()
+    cfg = copy.deepcopy(cfg)
+    scen = cfg.setdefault("scenario", {})
+    scen["name"] = e.name
+    scen["kind"] = e.kind
+    scen.setdefault("description", e.description)
+    return cfg
+
+
+def template_for_kind(kind: str) -> dict | None:
+    """Reference configuration for files of this kind: the scenario named like the kind, if any."""
+    for e in SCENARIOS:
+        if e.name == kind and e.kind == kind:
+            return get_scenario(kind)
+    return None
+
+
+def optional_keys(kind: str) -> set[str]:
+    """Dotted keys a kind accepts although its reference configuration leaves them out.
+
+    Read from the kind's ``optional_keys()`` when it has one (an optional extension of the
+    ``ScenarioKind`` contract).
+    """
+    try:
+        inst = get_kind(kind)
+    except ConfigError:
+        return set()
+    fn = getattr(inst, "optional_keys", None)
+    return set(fn()) if callable(fn) else set()

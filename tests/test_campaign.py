@@ -1,0 +1,238 @@
+"""Campaign engine: seeding, executors (serial / processes / dask), incremental store, resume,
+interruption, results assembly.
+
+The engine is exercised with ``ToyKind`` (defined here; knows nothing of sarnav's navigation code):
+a scalar random walk x[k+1] = x[k] + w, w ~ N(0, q), observed by z1 = x + v1 at every step and by
+z2 = x + v2 at every second step, estimated by an exact scalar Kalman filter. Its NEES and NIS are
+exactly χ² distributed, so the summary statistics can be checked against theory.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from sarnav.errors import ConfigError
+from sarnav.montecarlo import store
+from sarnav.montecarlo.assemble import open_results
+from sarnav.montecarlo.campaign import run_campaign
+from sarnav.montecarlo.record import RunRecord
+from sarnav.montecarlo.seeding import make_chunks, run_seeds
+from sarnav.scenarios.base import ScenarioKind
+from sarnav.scenarios.config import dump_toml
+
+TESTS = Path(__file__).resolve().parent
+TOY_KIND = "test_campaign:ToyKind"
+
+
+class ToyKind(ScenarioKind):
+    """1-D random walk + scalar KF (see module docstring). Config table ``[toy] steps, q, r1, r2, p0, delay``."""
+
+    kind = TOY_KIND
+
+    def validate(self, cfg):
+        toy = cfg.get("toy", {})
+        for key in ("q", "r1", "r2", "p0"):
+            if not (isinstance(toy.get(key), (int, float)) and toy[key] > 0):
+                raise ConfigError(f"toy.{key}", f"must be > 0, got {toy.get(key)!r}")
+        if not (isinstance(toy.get("steps"), int) and toy["steps"] >= 2):
+            raise ConfigError("toy.steps", f"must be an integer >= 2, got {toy.get('steps')!r}")
+
+    def state_names(self, cfg):
+        return ["x"]
+
+    def state_units(self, cfg):
+        return ["m"]
+
+    def meas_names(self, cfg):
+        return ["z1", "z2"]
+
+    def meas_units(self, cfg):
+        return ["m", "m"]
+
+    def simulate(self, cfg, run_ids, seeds):
+        toy = cfg["toy"]
+        delay = float(toy.get("delay", 0.0))
+        return [self._one(toy, rid, ss, delay) for rid, ss in zip(run_ids, seeds)]
+
+    @staticmethod
+    def _one(toy, rid, ss, delay):
+        if delay:
+            time.sleep(delay)
+        rng = np.random.default_rng(ss)
+        n, q, r1, r2, p0 = toy["steps"], toy["q"], toy["r1"], toy["r2"], toy["p0"]
+        x = rng.normal(0.0, np.sqrt(p0))
+        xh, P = 0.0, p0
+        err, sig = np.empty((n + 1, 1)), np.empty((n + 1, 1))
+        err[0, 0], sig[0, 0] = x - xh, np.sqrt(P)
+        res = np.full((n, 2), np.nan)
+        rsig = np.full((n, 2), np.nan)
+        nis, dof = np.empty(n), np.empty(n, dtype=np.int64)
+        for k in range(n):
+            x += rng.normal(0.0, np.sqrt(q))
+            P += q
+            both = k % 2 == 1
+            H = np.ones((2, 1)) if both else np.ones((1, 1))
+            R = np.diag([r1, r2]) if both else np.array([[r1]])
+            z = x + rng.normal(0.0, np.sqrt(np.diag(R)))
+            r = z - xh
+            S = P * (H @ H.T) + R
+            K = P * H.T @ np.linalg.inv(S)
+            res[k, : len(r)] = r
+            rsig[k, : len(r)] = np.sqrt(np.diag(S))
+            nis[k] = r @ np.linalg.solve(S, r)
+            dof[k] = len(r)
+            xh = xh + (K @ r).item()
+            P = ((1.0 - (K @ H).item()) * P)
+            err[k + 1, 0], sig[k + 1, 0] = x - xh, np.sqrt(P)
+        t = np.arange(n + 1, dtype=float)
+        return RunRecord(
+            run=rid,
+            time=t,
+            error=err,
+            sigma=sig,
+            nees=(err[:, 0] / sig[:, 0]) ** 2,
+            update_time=t[1:],
+            residual=res,
+            residual_sigma=rsig,
+            nis=nis,
+            nis_dof=dof,
+            extras={"truth_x_final": ((), np.float64(x))},
+        )
+
+
+def toy_cfg(runs=12, seed=7, steps=40, delay=0.0):
+    return {
+        "scenario": {"name": "toy", "kind": TOY_KIND, "description": "1-D random walk"},
+        "campaign": {"runs": runs, "seed": seed},
+        "toy": {"steps": steps, "q": 0.5, "r1": 1.0, "r2": 4.0, "p0": 10.0, "delay": delay},
+    }
+
+
+VARS = ("error", "sigma", "nees", "residual", "residual_sigma", "nis", "nis_dof", "truth_x_final")
+
+
+def assert_same_results(a: Path, b: Path):
+    da, db = open_results(a / "results.nc"), open_results(b / "results.nc")
+    for v in VARS:
+        assert np.array_equal(da[v].values, db[v].values, equal_nan=True), v
+    assert da.attrs["scenario"] == db.attrs["scenario"]
+
+
+# --------------------------------------------------------------------------- seeding
+def test_run_seeds_are_spawn_children_independent_of_n():
+    a, b = run_seeds(3, 5), run_seeds(3, 50)
+    for i in range(5):
+        assert a[i].spawn_key == (i,)
+        assert np.array_equal(a[i].generate_state(4), b[i].generate_state(4))
+    assert make_chunks(range(7), 3) == [[0, 1, 2], [3, 4, 5], [6]]
+
+
+# --------------------------------------------------------------------------- engine
+def test_serial_campaign_writes_schema_and_summary(tmp_path):
+    cfg = toy_cfg(runs=40, steps=60)
+    res = run_campaign(cfg, tmp_path, executor="serial", quiet=True, chunk_size=7)
+    ds = open_results(tmp_path / "results.nc")
+    assert dict(ds.sizes) == {"run": 40, "time": 61, "state": 1, "update": 60, "meas": 2}
+    assert list(ds["state"].values) == ["x"] and list(ds["state"].attrs["units"]) == ["m"]
+    assert list(ds["meas"].values) == ["z1", "z2"]
+    assert ds.attrs["complete"] == 1 and ds.attrs["seed"] == 7
+    assert ds.attrs["scenario"] == dump_toml(cfg)
+    # z2 present at odd updates only -> nis_dof 1, 2, 1, 2, ...
+    assert np.array_equal(ds["nis_dof"].values[0, :4], [1, 2, 1, 2])
+    assert np.isnan(ds["residual"].values[:, 0::2, 1]).all()
+    # run i comes from SeedSequence(7).spawn(40)[i]: recompute run 13 directly
+    one = ToyKind().simulate(cfg, [13], [run_seeds(7, 40)[13]])[0]
+    assert np.array_equal(ds["error"].values[13], one.error)
+    # summary numbers equal an independent computation from the arrays
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["complete"] is True and s["runs"] == 40
+    fin = ds["sigma"].values[:, -1, 0].mean()
+    assert s["states"]["x"]["final_3sigma"] == pytest.approx(3 * fin, rel=1e-12)
+    lo, hi = chi2.ppf([0.025, 0.975], 40 * 1) / 40
+    assert s["nees"]["band"] == pytest.approx([lo, hi], rel=1e-12)
+    # exact KF: pooled NIS per dof is chi2(D)/D -> inside its 99.9% band with this seed-independent margin
+    D = ds["nis_dof"].values.sum()
+    assert s["nis"]["total_dof"] == D
+    assert chi2.ppf(0.0005, D) / D < s["nis"]["per_dof"] < chi2.ppf(0.9995, D) / D
+    assert not (tmp_path / store.MARKER).exists()
+    assert json.loads((tmp_path / "campaign.json").read_text())["complete"] is True
+    assert res.n_simulated == 40
+
+
+def test_same_seed_bit_identical_serial_processes_dask(tmp_path):
+    cfg = toy_cfg(runs=10)
+    run_campaign(cfg, tmp_path / "serial", executor="serial", quiet=True, chunk_size=10)
+    run_campaign(cfg, tmp_path / "proc", executor="processes", workers=2, quiet=True, chunk_size=3)
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        run_campaign(cfg, tmp_path / "dask", executor="dask", scheduler=cluster.scheduler_address, quiet=True, chunk_size=4)
+    assert_same_results(tmp_path / "serial", tmp_path / "proc")
+    assert_same_results(tmp_path / "serial", tmp_path / "dask")
+    other = run_campaign(toy_cfg(runs=10, seed=8), tmp_path / "seed8", executor="serial", quiet=True)
+    assert not np.array_equal(other.dataset["error"].values, open_results(tmp_path / "serial/results.nc")["error"].values)
+
+
+def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
+    cfg = toy_cfg(runs=9)
+    full = tmp_path / "full"
+    run_campaign(cfg, full, executor="serial", quiet=True)
+    part = tmp_path / "part"
+    run_campaign(cfg, part, executor="serial", quiet=True)
+    # simulate an interruption: drop results, some runs, mark incomplete
+    for i in (2, 5, 8):
+        store.run_path(part, i).unlink()
+    (part / "results.nc").unlink()
+    m = store.read_manifest(part)
+    m["complete"] = False
+    store.write_manifest(part, m)
+    res = run_campaign(cfg, part, executor="serial", quiet=True, resume=True)
+    assert res.n_simulated == 3
+    assert_same_results(full, part)
+    with pytest.raises(ConfigError, match=r"--resume: .*first difference at toy\.q"):
+        bad = toy_cfg(runs=9)
+        bad["toy"]["q"] = 0.6
+        run_campaign(bad, part, executor="serial", quiet=True, resume=True)
+
+
+def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_path):
+    """A real ``sarnav run`` subprocess, killed with SIGTERM once some runs are stored."""
+    cfg = toy_cfg(runs=16, delay=0.15)
+    scen = tmp_path / "toy.toml"
+    scen.write_text(dump_toml(cfg))
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=str(TESTS) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    cmd = [sys.executable, "-m", "sarnav.cli.main", "run", str(scen), "--out", str(out), "--executor", "processes",
+           "--workers", "2", "--quiet", "--no-figures"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.time() + 60
+    while time.time() < deadline and len(store.stored_runs(out)) < 3:
+        time.sleep(0.05)
+    assert len(store.stored_runs(out)) >= 3, proc.stderr.read() if proc.poll() is not None else "no runs stored"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode != 0, err
+    n_stored = len(store.stored_runs(out))
+    assert n_stored < 16
+    assert not (out / "results.nc").exists() and not (out / "summary.json").exists()
+    assert (out / store.MARKER).exists()
+    assert json.loads((out / "campaign.json").read_text())["complete"] is False
+    assert b"--resume" in err
+    # resume through the same command line
+    r = subprocess.run(cmd + ["--resume"], env=env, capture_output=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    ref = tmp_path / "ref"
+    run_campaign(cfg, ref, executor="processes", workers=2, quiet=True)
+    assert_same_results(ref, out)
+    assert json.loads((out / "campaign.json").read_text())["complete"] is True
+    assert not (out / store.MARKER).exists()
