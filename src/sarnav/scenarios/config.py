@@ -124,7 +124,9 @@ def _coerce(field: str, old: Any, new: Any) -> Any:
         raise ConfigError(field, "is a table; set one of its keys instead, e.g. " + f"{field}.{next(iter(old), 'key')}")
     else:
         return new
-    raise ConfigError(field, f"must be a {_type_name(old)} (like the default {old!r}), got {_type_name(new)} {new!r}")
+    want = _type_name(old)
+    article = "an" if want[0] in "aeiou" else "a"
+    raise ConfigError(field, f"must be {article} {want} (like the default {old!r}), got {_type_name(new)} {new!r}")
 
 
 def parse_override(item: str) -> tuple[str, str]:
@@ -143,7 +145,7 @@ def _parse_value(field: str, text: str, old: Any) -> Any:
     except tomllib.TOMLDecodeError:
         if isinstance(old, str) or old is None:
             return text
-        raise ConfigError(field, f"cannot parse {text!r} as a TOML value (expected a {_type_name(old)})") from None
+        raise ConfigError(field, f"cannot parse {text!r} as a TOML value (expected like {old!r})") from None
 
 
 def _split(field: str) -> list[str]:
