@@ -1,0 +1,214 @@
+"""Radar description: :class:`RadarParams` (frozen, SI) and its validation.
+
+Signal model (architecture §3, Cumming & Wong 2005 eq. 4.38, stop-and-hop): the complex baseband
+echo of a point of amplitude A at slant range R is
+
+    s(t) = A G(theta) rect((t - tau)/T) exp(-j 4 pi f_c R / c) exp(j pi K (t - tau)^2),  tau = 2R/c,
+
+with the chirp *centred* on tau (instantaneous frequency -B/2 .. +B/2 around f_c). Fast time t is
+measured from the transmit instant of the pulse centre; the receive window samples
+t_i = 2 near_range / c + i / fs, i = 0 .. n_range_samples-1, i.e. slant ranges
+near_range + i c / (2 fs).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sarnav.errors import ConfigError, require_positive
+from sarnav.imaging.windows import Window, as_window
+from sarnav.units import C
+
+LOOK_SIDES = ("left", "right")
+#: one-way -3 dB beamwidth of a uniformly illuminated aperture of length L: 0.886 lambda / L
+BEAMWIDTH_FACTOR = 0.886
+
+
+@dataclass(frozen=True)
+class RadarParams:
+    """Pulsed LFM radar with complex baseband sampling (all SI).
+
+    Parameters
+    ----------
+    carrier_frequency : centre (carrier) frequency f_c [Hz] (paper gap G8: 9.75 GHz is the centre).
+    bandwidth : chirp bandwidth B = K T [Hz].
+    pulse_length : chirp duration T [s].
+    sample_rate : complex sampling rate fs [Hz], >= B.
+    prf : pulse repetition frequency [Hz].
+    near_range : slant range of the first fast-time sample [m].
+    n_range_samples : number of fast-time samples in the receive window.
+    antenna_length : azimuth antenna length L [m]; one-way -3 dB beamwidth 0.886 lambda / L.
+    azimuth_beamwidth : alternatively the one-way -3 dB azimuth beamwidth [rad]; give exactly one
+        of ``antenna_length`` and ``azimuth_beamwidth``.
+    look_side : "left" or "right" of the velocity vector.
+    range_window, azimuth_window : spectral weighting (name, tuple, dict or
+        :class:`~sarnav.imaging.windows.Window`; normalised to a ``Window``).
+
+    Raises
+    ------
+    ConfigError
+        at construction for values that are bad on their own (non-positive, NaN, fs < B, pulse
+        longer than the receive window, unknown look side or window); :meth:`validate` adds the
+        checks that need the platform speed and the scene.
+    """
+
+    carrier_frequency: float
+    bandwidth: float
+    pulse_length: float
+    sample_rate: float
+    prf: float
+    near_range: float
+    n_range_samples: int
+    antenna_length: float | None = None
+    azimuth_beamwidth: float | None = None
+    look_side: str = "right"
+    range_window: Window = field(default_factory=Window)
+    azimuth_window: Window = field(default_factory=Window)
+
+    def __post_init__(self):
+        for name in ("carrier_frequency", "bandwidth", "pulse_length", "sample_rate", "prf", "near_range"):
+            object.__setattr__(self, name, require_positive(f"radar.{name}", getattr(self, name)))
+        n = self.n_range_samples
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+            raise ConfigError("radar.n_range_samples", f"must be an integer >= 2, got {n!r}")
+        object.__setattr__(self, "n_range_samples", int(n))
+        if (self.antenna_length is None) == (self.azimuth_beamwidth is None):
+            raise ConfigError("radar.antenna_length",
+                              "give exactly one of antenna_length [m] and azimuth_beamwidth [rad]")
+        if self.antenna_length is not None:
+            object.__setattr__(self, "antenna_length",
+                               require_positive("radar.antenna_length", self.antenna_length, "m"))
+        else:
+            bw = require_positive("radar.azimuth_beamwidth", self.azimuth_beamwidth, "rad")
+            if bw >= math.pi:
+                raise ConfigError("radar.azimuth_beamwidth", f"must be in (0, pi) rad, got {bw!r}")
+            object.__setattr__(self, "azimuth_beamwidth", bw)
+        if self.look_side not in LOOK_SIDES:
+            raise ConfigError("radar.look_side", f"must be one of {LOOK_SIDES}, got {self.look_side!r}")
+        object.__setattr__(self, "range_window", as_window(self.range_window, "radar.range_window"))
+        object.__setattr__(self, "azimuth_window", as_window(self.azimuth_window, "radar.azimuth_window"))
+        # complex sampling: fs >= B (equality allowed, FlexSAR oversample 1)
+        if self.sample_rate < self.bandwidth * (1 - 1e-12):
+            raise ConfigError("radar.sample_rate",
+                              f"must be >= bandwidth {self.bandwidth:g} Hz (complex Nyquist), got {self.sample_rate:g} Hz")
+        if self.pulse_length >= self.window_duration:
+            raise ConfigError("radar.pulse_length",
+                              f"must be shorter than the receive window {self.window_duration:g} s "
+                              f"(n_range_samples / sample_rate), got {self.pulse_length:g} s")
+
+    # ---- derived quantities -------------------------------------------------------------------
+    @property
+    def wavelength(self) -> float:
+        """lambda = c / f_c [m]."""
+        return C / self.carrier_frequency
+
+    @property
+    def chirp_rate(self) -> float:
+        """K = B / T [Hz/s] (thesis (2.1))."""
+        return self.bandwidth / self.pulse_length
+
+    @property
+    def range_resolution(self) -> float:
+        """Unweighted slant-range IRW 0.886 c / (2B) [m] (thesis (2.2) with the sinc -3 dB factor)."""
+        return BEAMWIDTH_FACTOR * C / (2.0 * self.bandwidth)
+
+    @property
+    def range_bin_spacing(self) -> float:
+        """c / (2 fs) [m]."""
+        return C / (2.0 * self.sample_rate)
+
+    @property
+    def slant_range_axis(self) -> np.ndarray:
+        """(n_range_samples,) near_range + i c / (2 fs) [m], float64."""
+        return self.near_range + np.arange(self.n_range_samples, dtype=np.float64) * self.range_bin_spacing
+
+    @property
+    def far_range(self) -> float:
+        """Slant range of the last fast-time sample [m]."""
+        return self.near_range + (self.n_range_samples - 1) * self.range_bin_spacing
+
+    @property
+    def window_duration(self) -> float:
+        """Receive window length n_range_samples / fs [s]."""
+        return self.n_range_samples / self.sample_rate
+
+    @property
+    def pulse_half_extent(self) -> float:
+        """Half the pulse's extent in slant range, c T / 4 [m] (the chirp is centred on tau = 2R/c)."""
+        return C * self.pulse_length / 4.0
+
+    @property
+    def target_range_limits(self) -> tuple[float, float]:
+        """(min, max) slant range of a target whose whole echo lies in the receive window [m]."""
+        return self.near_range + self.pulse_half_extent, self.far_range - self.pulse_half_extent
+
+    @property
+    def beamwidth(self) -> float:
+        """One-way -3 dB azimuth beamwidth [rad]: 0.886 lambda / L, or ``azimuth_beamwidth``."""
+        if self.azimuth_beamwidth is not None:
+            return self.azimuth_beamwidth
+        return BEAMWIDTH_FACTOR * self.wavelength / self.antenna_length
+
+    @property
+    def effective_antenna_length(self) -> float:
+        """Antenna length giving ``beamwidth``: L = 0.886 lambda / theta_bw [m]."""
+        if self.antenna_length is not None:
+            return self.antenna_length
+        return BEAMWIDTH_FACTOR * self.wavelength / self.azimuth_beamwidth
+
+    def doppler_bandwidth(self, speed: float, squint: float = 0.0) -> float:
+        """Doppler bandwidth of the -3 dB azimuth beam [Hz].
+
+        B_D = (2V/lambda) [sin(theta_sq + theta_bw/2) - sin(theta_sq - theta_bw/2)]
+            = (4V/lambda) cos(theta_sq) sin(theta_bw/2)  ~=  0.886 * 2V/L * cos(theta_sq)
+
+        (Cumming & Wong 2005 eq. 4.36 with the -3 dB beamwidth 0.886 lambda/L). The simulator
+        uses zero squint.
+        """
+        v = require_positive("speed", speed, "m/s")
+        return 4.0 * v / self.wavelength * math.cos(squint) * math.sin(0.5 * self.beamwidth)
+
+    # ---- validation ---------------------------------------------------------------------------
+    def validate(self, speed: float | None = None, scene_ranges=None) -> "RadarParams":
+        """Check the parameters against a platform speed and a scene; return self.
+
+        Parameters
+        ----------
+        speed : platform speed [m/s]; checks ``prf >= doppler_bandwidth(speed)`` (azimuth Nyquist
+            for the -3 dB beam, complex sampling, zero squint).
+        scene_ranges : array of target slant ranges [m] (any shape, e.g. over all pulses); each
+            must satisfy ``near_range + cT/4 <= R <= far_range - cT/4`` so that the whole chirp
+            lies in the receive window.
+
+        Raises
+        ------
+        ConfigError naming the field and the bound.
+        """
+        # construction-time checks already ran (frozen dataclass); repeat the cheap ones for
+        # objects built with object.__new__ or replace()
+        if speed is not None:
+            bd = self.doppler_bandwidth(speed)
+            if self.prf < bd:
+                raise ConfigError(
+                    "radar.prf",
+                    f"must be >= the Doppler bandwidth 0.886*2V/L = {bd:.6g} Hz at speed {float(speed):g} m/s "
+                    f"(beamwidth {self.beamwidth:.4g} rad), got {self.prf:g} Hz",
+                )
+        if scene_ranges is not None:
+            r = np.asarray(scene_ranges, dtype=np.float64)
+            if r.size:
+                if not np.all(np.isfinite(r)):
+                    raise ConfigError("scene", "target slant ranges contain NaN or inf")
+                lo, hi = self.target_range_limits
+                rmin, rmax = float(r.min()), float(r.max())
+                if rmin < lo or rmax > hi:
+                    raise ConfigError(
+                        "radar.near_range",
+                        f"receive window {self.near_range:.3f}-{self.far_range:.3f} m holds whole echoes "
+                        f"only for targets in [{lo:.3f}, {hi:.3f}] m (pulse half-extent cT/4 = "
+                        f"{self.pulse_half_extent:.3f} m); scene spans [{rmin:.3f}, {rmax:.3f}] m",
+                    )
+        return self

@@ -1,0 +1,147 @@
+"""Scenes of point scatterers (NED positions, complex amplitudes).
+
+The complex amplitude of a scatterer multiplies its echo directly (no range spreading loss, no
+elevation pattern): ``|a|^2`` is the scatterer's power as seen in one raw sample on boresight.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sarnav.errors import ConfigError, InputDataError
+
+AMPLITUDE_LAWS = ("constant", "rayleigh")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """K point scatterers.
+
+    Attributes
+    ----------
+    positions : (K,3) float64 NED positions [m].
+    amplitudes : (K,) complex128 amplitudes.
+    """
+
+    positions: np.ndarray
+    amplitudes: np.ndarray
+
+    def __post_init__(self):
+        pos = np.asarray(self.positions, dtype=np.float64)
+        if pos.ndim == 1 and pos.size == 3:
+            pos = pos[None, :]
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise InputDataError("scene.positions", f"must have shape (K, 3), got {np.shape(self.positions)}")
+        amp = np.asarray(self.amplitudes, dtype=np.complex128)
+        if amp.ndim == 0:
+            amp = np.full(pos.shape[0], complex(amp))
+        if amp.shape != (pos.shape[0],):
+            raise InputDataError("scene.amplitudes", f"must have shape ({pos.shape[0]},), got {amp.shape}")
+        if not np.all(np.isfinite(pos)):
+            raise InputDataError("scene.positions", "contains NaN or inf")
+        if not np.all(np.isfinite(amp)):
+            raise InputDataError("scene.amplitudes", "contains NaN or inf")
+        pos.setflags(write=False)
+        amp.setflags(write=False)
+        object.__setattr__(self, "positions", pos)
+        object.__setattr__(self, "amplitudes", amp)
+
+    def __len__(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def n_targets(self) -> int:
+        return self.positions.shape[0]
+
+    def slant_ranges(self, antenna_positions: np.ndarray) -> np.ndarray:
+        """(P,K) distances from P antenna positions to the scatterers [m] (float64)."""
+        a = np.asarray(antenna_positions, dtype=np.float64).reshape(-1, 3)
+        return np.linalg.norm(self.positions[None, :, :] - a[:, None, :], axis=-1)
+
+    def __add__(self, other: "Scene") -> "Scene":
+        return Scene(np.vstack([self.positions, other.positions]),
+                     np.concatenate([self.amplitudes, other.amplitudes]))
+
+
+def point_targets(positions, amplitudes=1.0) -> Scene:
+    """Scene of explicit point targets: ``positions`` (K,3) or (3,), ``amplitudes`` scalar or (K,)."""
+    return Scene(positions, amplitudes)
+
+
+def _draw_amplitudes(rng: np.random.Generator, n: int, law: str, mean_power) -> np.ndarray:
+    mean_power = np.asarray(mean_power, dtype=np.float64)
+    if law == "constant":
+        # |a|^2 = mean power, phase uniform on [0, 2 pi)
+        return np.sqrt(mean_power) * np.exp(2j * np.pi * rng.random(n))
+    # circular complex Gaussian: E|a|^2 = mean power, |a| Rayleigh
+    z = rng.standard_normal((n, 2))
+    return np.sqrt(mean_power / 2.0) * (z[:, 0] + 1j * z[:, 1])
+
+
+def random_scatterers(rng: np.random.Generator, extent, density: float, amplitude_law: str = "rayleigh",
+                      mean_power: float = 1.0, down: float = 0.0) -> Scene:
+    """Scatterers scattered uniformly over a horizontal rectangle (homogeneous Poisson process).
+
+    Parameters
+    ----------
+    rng : numpy Generator (from a SeedSequence).
+    extent : ((north_min, north_max), (east_min, east_max)) [m].
+    density : mean number of scatterers per m^2 (>= 0); the count is Poisson(density * area).
+    amplitude_law : "rayleigh" (circular complex Gaussian, E|a|^2 = mean_power) or "constant"
+        (|a|^2 = mean_power, uniform phase).
+    mean_power : mean |a|^2 (> 0).
+    down : D coordinate of all scatterers [m] (flat ground).
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise ConfigError("rng", f"must be a numpy.random.Generator, got {type(rng).__name__}")
+    ext = np.asarray(extent, dtype=np.float64)
+    if ext.shape != (2, 2) or not np.all(np.isfinite(ext)) or np.any(ext[:, 1] <= ext[:, 0]):
+        raise ConfigError("extent", f"must be ((n_min, n_max), (e_min, e_max)) with max > min, got {extent!r}")
+    if not np.isfinite(density) or density < 0:
+        raise ConfigError("density", f"must be finite and >= 0 per m^2, got {density!r}")
+    if amplitude_law not in AMPLITUDE_LAWS:
+        raise ConfigError("amplitude_law", f"must be one of {AMPLITUDE_LAWS}, got {amplitude_law!r}")
+    if not np.isfinite(mean_power) or mean_power <= 0:
+        raise ConfigError("mean_power", f"must be finite and > 0, got {mean_power!r}")
+    area = float(np.prod(ext[:, 1] - ext[:, 0]))
+    n = int(rng.poisson(density * area))
+    u = rng.random((n, 2))
+    north = ext[0, 0] + u[:, 0] * (ext[0, 1] - ext[0, 0])
+    east = ext[1, 0] + u[:, 1] * (ext[1, 1] - ext[1, 0])
+    pos = np.column_stack([north, east, np.full(n, float(down))])
+    return Scene(pos, _draw_amplitudes(rng, n, amplitude_law, mean_power))
+
+
+def speckle_scene(reflectivity, north_axis, east_axis, rng: np.random.Generator, down: float = 0.0) -> Scene:
+    """Distributed scene: one circular-Gaussian scatterer at every cell centre of a grid.
+
+    Parameters
+    ----------
+    reflectivity : (Ny, Nx) mean power per cell, E|a|^2 (>= 0); cells with 0 are omitted.
+    north_axis : (Ny,) north coordinates of the cell centres [m].
+    east_axis : (Nx,) east coordinates of the cell centres [m].
+    rng : numpy Generator.
+    down : D coordinate of the grid [m].
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise ConfigError("rng", f"must be a numpy.random.Generator, got {type(rng).__name__}")
+    refl = np.asarray(reflectivity, dtype=np.float64)
+    n_ax = np.asarray(north_axis, dtype=np.float64)
+    e_ax = np.asarray(east_axis, dtype=np.float64)
+    if refl.ndim != 2:
+        raise InputDataError("reflectivity", f"must be 2-D (Ny, Nx), got shape {refl.shape}")
+    if n_ax.shape != (refl.shape[0],) or e_ax.shape != (refl.shape[1],):
+        raise InputDataError("north_axis/east_axis",
+                             f"must have shapes ({refl.shape[0]},) and ({refl.shape[1]},), got {n_ax.shape}, {e_ax.shape}")
+    if not (np.all(np.isfinite(refl)) and np.all(refl >= 0)):
+        raise InputDataError("reflectivity", "must be finite and >= 0")
+    if not (np.all(np.isfinite(n_ax)) and np.all(np.isfinite(e_ax))):
+        raise InputDataError("north_axis/east_axis", "contain NaN or inf")
+    nn, ee = np.meshgrid(n_ax, e_ax, indexing="ij")
+    keep = refl.ravel() > 0
+    pos = np.column_stack([nn.ravel(), ee.ravel(), np.full(nn.size, float(down))])[keep]
+    z = rng.standard_normal((refl.size, 2))[keep]
+    amp = np.sqrt(refl.ravel()[keep] / 2.0) * (z[:, 0] + 1j * z[:, 1])
+    return Scene(pos, amp)
