@@ -1,0 +1,217 @@
+"""Azimuth autofocus for the RDA: mapdrift (two-look misregistration) and contrast maximisation.
+
+Both estimate the azimuth FM-rate error that a forward-speed error causes (K_a = 2V^2/(lambda R0),
+paper eq. 7, so K_a / K_amf = (V / V_hat)^2 at every range) and refocus the image.
+
+* :func:`mapdrift` — paper §2.2 eqs. 14–16, thesis §5.6.1 / App. D.2 (notes/seed-001 §2.2,
+  notes/seed-000 §10.1). The azimuth-compressed spectrum (filter rate K_amf) is split into two
+  disjoint halves of the processed Doppler band; each half is inverse-transformed into a look image.
+  The look-to-look azimuth offset Delta_eta (sub-pixel registration of the look magnitudes,
+  :func:`sarnav.imaging.registration.register`) gives, by eq. (14) inverted exactly,
+  ``1/K_a = 1/K_amf - Delta_eta / Delta_f_a`` (eq. 15 is its first-order form
+  ``Delta_K ~ -K_amf^2 Delta_eta / Delta_f_a``). Gap G12 choices: Delta_f_a is the measured difference
+  of the two looks' energy-weighted Doppler centroids (equal to half the band for a target in the
+  middle of the block, smaller for off-centre targets, so the estimate is iterated until the
+  looks align; the fixed point Delta_eta = 0 is exactly K_amf = K_a); the correlation is 2-D on
+  magnitude images. The refocused image uses the corrected filter rate (eq. 16).
+* :func:`contrast_autofocus` — thesis App. D.2 (contrast maximisation) with the spacecraft source's
+  normalised-variance sharpness (notes/seed-002 §2.9, eq. 3) as default metric: the image is formed
+  for candidate speeds; a coarse scan over ±``search`` (relative) picks the best bracket, then
+  ``scipy.optimize.minimize_scalar`` (bounded Brent) refines the maximum (instead of the sources'
+  fixed-step hill climb, whose resolution equals its step).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.fft as sfft
+from scipy.optimize import minimize_scalar
+
+from sarnav.errors import ConfigError
+from sarnav.imaging import quality
+from sarnav.imaging.data import PulseData, SarImage
+from sarnav.imaging.rda import along_track_axis, azimuth_compressed_spectrum, range_doppler
+from sarnav.imaging.registration import register
+
+__all__ = ["MapdriftResult", "ContrastResult", "mapdrift", "contrast_autofocus", "CONTRAST_METRICS"]
+
+#: contrast / sharpness metrics (maximised)
+CONTRAST_METRICS = {
+    "normalised_variance": quality.normalised_variance,
+    "intensity_contrast": quality.intensity_contrast,          # thesis (D.11)
+    "std_to_mean_contrast": quality.std_to_mean_contrast,      # thesis (D.12)
+    "kurtosis": quality.normalised_complex_kurtosis,           # Hathaway (3.5), normalised
+}
+
+
+@dataclass
+class MapdriftResult:
+    """Result of :func:`mapdrift`.
+
+    Attributes
+    ----------
+    fm_rate_error : Delta_K = K_amf - K_a at mid-swath for the input speed [Hz/s] (paper eq. 15 sign).
+    fm_rate_scale : estimated K_a / K_amf (= (V / V_hat)^2), range independent.
+    speed : speed consistent with the estimated FM rate, V_hat * sqrt(fm_rate_scale) [m/s].
+    image : refocused image (corrected filter, eq. 16).
+    misregistration : look-to-look offset Delta_eta of each iteration [s] (last one ~ 0).
+    look_separation : Delta_f_a of each iteration [Hz].
+    iterations : number of look correlations performed.
+    """
+
+    fm_rate_error: float
+    fm_rate_scale: float
+    speed: float
+    image: SarImage
+    misregistration: list = field(default_factory=list)
+    look_separation: list = field(default_factory=list)
+    iterations: int = 0
+
+
+@dataclass
+class ContrastResult:
+    """Result of :func:`contrast_autofocus`.
+
+    Attributes
+    ----------
+    speed : speed maximising the metric [m/s].
+    fm_rate_error : K_a(V_hat) - K_a(speed) at mid-swath [Hz/s] (same sign as mapdrift's).
+    image : image formed with ``speed``.
+    metric : metric value at ``speed``.
+    evaluations : (speeds, values) of every image formed, in order.
+    """
+
+    speed: float
+    fm_rate_error: float
+    image: SarImage
+    metric: float
+    evaluations: tuple = ()
+
+
+def _mid_fm_rate(rc: PulseData, speed: float, lam: float) -> float:
+    r = np.asarray(rc.slant_range, dtype=np.float64)
+    return 2.0 * speed**2 / (lam * 0.5 * (r[0] + r[-1]))
+
+
+def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int = 4, tolerance_px: float = 0.02,
+             look_bandwidth: float | None = None, rcmc_kernel: str = "sinc8", azimuth_model: str = "parabolic",
+             window="none", along_track_origin=None, upsample: int = 100) -> MapdriftResult:
+    """Mapdrift autofocus of range-compressed pulses (paper eqs. 14–16, module docstring).
+
+    Parameters
+    ----------
+    rc : range-compressed ``PulseData``.
+    speed : forward speed estimate V_hat that sets K_amf and RCMC [m/s]; default from ``rc.positions``.
+    max_iterations : at most this many look correlations (>= 1); 1 = the paper's single pass.
+    tolerance_px : stop once the look offset is below this many azimuth samples (> 0).
+    look_bandwidth : processed Doppler band split into the two looks [Hz]; default
+        min(PRF, K_amf T) at mid-swath (T = block duration).
+    rcmc_kernel, azimuth_model, window, along_track_origin : as in :func:`~sarnav.imaging.rda.range_doppler`
+        (the looks are formed without window; ``window`` applies to the returned image).
+    upsample : sub-pixel factor of the look registration.
+
+    Returns
+    -------
+    MapdriftResult
+    """
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
+        raise ConfigError("max_iterations", f"must be an integer >= 1, got {max_iterations!r}")
+    if not (math.isfinite(tolerance_px) and tolerance_px > 0):
+        raise ConfigError("tolerance_px", f"must be finite and > 0 samples, got {tolerance_px!r}")
+    if speed is None:
+        speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
+    speed = float(speed)
+    scale = 1.0
+    dets, dfs = [], []
+    it = 0
+    for it in range(1, int(max_iterations) + 1):
+        spec, freqs, info = azimuth_compressed_spectrum(rc, speed, rcmc_kernel=rcmc_kernel,
+                                                        azimuth_model=azimuth_model, fm_rate_scale=scale)
+        prf, lam = info["prf"], info["wavelength"]
+        k_mf = scale * _mid_fm_rate(rc, speed, lam)
+        band = min(prf, k_mf * rc.n_pulses / prf) if look_bandwidth is None else float(look_bandwidth)
+        if not (math.isfinite(band) and 0 < band <= prf):
+            raise ConfigError("look_bandwidth", f"must be in (0, PRF = {prf:g}] Hz, got {band!r}")
+        lo = (freqs >= -band / 2) & (freqs < 0)
+        hi = (freqs >= 0) & (freqs <= band / 2)
+        power = np.sum(np.abs(spec) ** 2, axis=1)
+        f1 = float(np.sum(freqs[lo] * power[lo]) / np.sum(power[lo]))
+        f2 = float(np.sum(freqs[hi] * power[hi]) / np.sum(power[hi]))
+        look1 = sfft.ifft(spec * lo[:, None], axis=0)
+        look2 = sfft.ifft(spec * hi[:, None], axis=0)
+        reg = register(look1, look2, use_magnitude=True, subpixel="dft", upsample=upsample)
+        d_eta = reg.shift_pixels[0] / prf          # eta_2 - eta_1 [s]
+        d_f = f2 - f1                              # Delta_f_a [Hz]
+        dets.append(d_eta)
+        dfs.append(d_f)
+        # eq. (14) inverted exactly: 1/K_a = 1/K_amf - Delta_eta / Delta_f_a
+        k_a = 1.0 / (1.0 / k_mf - d_eta / d_f)
+        scale = scale * k_a / k_mf
+        if abs(reg.shift_pixels[0]) < tolerance_px:
+            break
+    k0 = _mid_fm_rate(rc, speed, info["wavelength"])
+    img = range_doppler(rc, speed, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
+                        along_track_origin=along_track_origin, fm_rate_scale=scale)  # eq. (16)
+    img.metadata["autofocus"] = "mapdrift"
+    img.metadata["fm_rate_scale"] = scale
+    return MapdriftResult(fm_rate_error=k0 * (1.0 - scale), fm_rate_scale=scale, speed=speed * math.sqrt(scale),
+                          image=img, misregistration=dets, look_separation=dfs, iterations=it)
+
+
+def contrast_autofocus(rc: PulseData, speed: float | None = None, *, metric: str = "normalised_variance",
+                       search: float = 0.1, grid: int = 11, xtol: float = 1e-4, rcmc_kernel: str = "sinc8",
+                       azimuth_model: str = "parabolic", window="none", along_track_origin=None) -> ContrastResult:
+    """Contrast-maximisation autofocus over the forward speed (thesis App. D.2; spacecraft eq. 3).
+
+    Parameters
+    ----------
+    rc : range-compressed ``PulseData``.
+    speed : initial speed estimate V_hat [m/s]; default from ``rc.positions``.
+    metric : one of :data:`CONTRAST_METRICS` (maximised).
+    search : half-width of the relative speed interval searched, V_hat (1 ± search), in (0, 0.5].
+    grid : points of the coarse scan (>= 3, odd keeps V_hat on the grid).
+    xtol : relative tolerance of the Brent refinement on the speed (> 0).
+    rcmc_kernel, azimuth_model, window, along_track_origin : as in ``range_doppler``.
+
+    Returns
+    -------
+    ContrastResult
+    """
+    if metric not in CONTRAST_METRICS:
+        raise ConfigError("metric", f"must be one of {tuple(CONTRAST_METRICS)}, got {metric!r}")
+    if not (math.isfinite(search) and 0 < search <= 0.5):
+        raise ConfigError("search", f"must be in (0, 0.5], got {search!r}")
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 3:
+        raise ConfigError("grid", f"must be an integer >= 3, got {grid!r}")
+    if not (math.isfinite(xtol) and xtol > 0):
+        raise ConfigError("xtol", f"must be finite and > 0, got {xtol!r}")
+    if speed is None:
+        speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
+    v0 = float(speed)
+    score = CONTRAST_METRICS[metric]
+    seen_v, seen_s = [], []
+
+    def form(v):
+        return range_doppler(rc, v, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
+                             along_track_origin=along_track_origin)
+
+    def neg(v):
+        s = score(form(v).data)
+        seen_v.append(float(v))
+        seen_s.append(float(s))
+        return -s
+
+    vs = v0 * (1.0 + np.linspace(-search, search, int(grid)))
+    vals = [-neg(v) for v in vs]
+    i = int(np.argmax(vals))
+    lo, hi = vs[max(i - 1, 0)], vs[min(i + 1, len(vs) - 1)]
+    res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": xtol * v0})
+    best = float(res.x) if -res.fun >= vals[i] else float(vs[i])
+    img = form(best)
+    img.metadata["autofocus"] = f"contrast({metric})"
+    lam = img.metadata["wavelength"]
+    return ContrastResult(speed=best, fm_rate_error=_mid_fm_rate(rc, v0, lam) - _mid_fm_rate(rc, best, lam),
+                          image=img, metric=float(score(img.data)), evaluations=(seen_v, seen_s))
