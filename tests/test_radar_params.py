@@ -1,0 +1,115 @@
+"""RadarParams: derived quantities against the sources and one-line errors for bad values."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from sarnav.errors import ConfigError
+from sarnav.imaging.windows import Window
+from sarnav.radar.params import RadarParams
+from sarnav.radar.presets import FLEXSAR_RANGES, NAV_PAPER_SIM_RANGES, flexsar, nav_paper_sim
+
+C = 299_792_458.0
+
+
+def _base(**kw):
+    d = dict(carrier_frequency=9.75e9, bandwidth=500e6, pulse_length=1e-6, sample_rate=1e9, prf=100.0,
+             near_range=2000.0, n_range_samples=2048, antenna_length=0.2)
+    d.update(kw)
+    return RadarParams(**d)
+
+
+def test_derived_quantities():
+    p = _base()
+    assert p.wavelength == pytest.approx(0.030748, abs=1e-6)  # thesis §9.4
+    assert p.chirp_rate == pytest.approx(5e14)
+    assert p.range_resolution == pytest.approx(0.886 * C / 1e9)
+    assert p.range_bin_spacing == pytest.approx(0.1499, abs=1e-4)  # Table 5.1 "0.15 m"
+    ax = p.slant_range_axis
+    assert ax.dtype == np.float64 and ax.shape == (2048,)
+    assert ax[0] == 2000.0 and ax[-1] == pytest.approx(p.far_range)
+    assert np.diff(ax) == pytest.approx(C / 2e9)
+    assert p.beamwidth == pytest.approx(0.886 * p.wavelength / 0.2)
+    # Doppler bandwidth (4V/lambda) sin(theta/2) ~ 0.886 * 2V/L for a narrow beam
+    assert p.doppler_bandwidth(10.0) == pytest.approx(0.886 * 2 * 10 / 0.2, rel=1e-3)
+    q = _base(antenna_length=None, azimuth_beamwidth=p.beamwidth)
+    assert q.effective_antenna_length == pytest.approx(0.2)
+
+
+def test_presets_match_source_tables():
+    s = nav_paper_sim()
+    assert (s.carrier_frequency, s.bandwidth, s.sample_rate, s.prf) == (9.75e9, 500e6, 1e9, 100.0)
+    lo, hi = s.target_range_limits
+    assert lo <= NAV_PAPER_SIM_RANGES[0] + 1e-9 and hi >= NAV_PAPER_SIM_RANGES[1]
+    assert hi - NAV_PAPER_SIM_RANGES[1] < s.range_bin_spacing
+    f = flexsar()
+    assert f.sample_rate == f.bandwidth == 500e6  # over-sample 1 allowed with equality
+    assert f.range_bin_spacing == pytest.approx(0.2998, abs=1e-4)  # Table 5.3
+    assert f.prf == pytest.approx(1667, abs=0.5)
+    lo, hi = f.target_range_limits
+    assert lo <= FLEXSAR_RANGES[0] + 1e-9 and hi >= FLEXSAR_RANGES[1]
+    s.validate(speed=10.0)
+    f.validate(speed=60.0)
+    assert nav_paper_sim(prf=200.0).prf == 200.0
+
+
+@pytest.mark.parametrize("field,value", [
+    ("carrier_frequency", -1.0), ("bandwidth", 0.0), ("pulse_length", float("nan")),
+    ("sample_rate", float("inf")), ("prf", -5.0), ("near_range", 0.0),
+])
+def test_non_positive_values(field, value):
+    with pytest.raises(ConfigError, match=f"^radar.{field}: must be finite and > 0"):
+        _base(**{field: value})
+
+
+def test_other_bad_values():
+    with pytest.raises(ConfigError, match="^radar.sample_rate: must be >= bandwidth"):
+        _base(sample_rate=400e6)
+    with pytest.raises(ConfigError, match="^radar.pulse_length: must be shorter than the receive window"):
+        _base(n_range_samples=900)
+    with pytest.raises(ConfigError, match="^radar.n_range_samples"):
+        _base(n_range_samples=10.5)
+    with pytest.raises(ConfigError, match="^radar.antenna_length: give exactly one"):
+        _base(azimuth_beamwidth=0.1)
+    with pytest.raises(ConfigError, match="^radar.look_side"):
+        _base(look_side="up")
+    with pytest.raises(ConfigError, match="^radar.range_window"):
+        _base(range_window="blackman")
+    with pytest.raises(ConfigError, match="^radar.azimuth_window.sll_db"):
+        _base(azimuth_window=("taylor", 4, 35))
+    with pytest.raises(ConfigError, match="^radar.azimuth_beamwidth"):
+        _base(antenna_length=None, azimuth_beamwidth=4.0)
+    # error message is one line and names the bound
+    try:
+        _base(sample_rate=400e6)
+    except ConfigError as err:
+        assert "\n" not in str(err) and "5e+08" in str(err)
+
+
+def test_validate_prf_and_scene():
+    p = _base()
+    p.validate(speed=11.0)  # 97.5 Hz <= 100 Hz
+    with pytest.raises(ConfigError, match=r"^radar.prf: must be >= the Doppler bandwidth"):
+        p.validate(speed=12.0)
+    lo, hi = p.target_range_limits
+    assert lo == pytest.approx(2000.0 + C * 1e-6 / 4)
+    p.validate(scene_ranges=[lo, hi])
+    with pytest.raises(ConfigError, match="^radar.near_range"):
+        p.validate(scene_ranges=[lo - 0.01, hi])
+    with pytest.raises(ConfigError, match="^radar.near_range"):
+        p.validate(scene_ranges=np.array([[lo, hi + 0.01]]))
+    with pytest.raises(ConfigError, match="^scene"):
+        p.validate(scene_ranges=[np.nan])
+    with pytest.raises(ConfigError, match="^speed"):
+        p.validate(speed=-1.0)
+
+
+def test_windows_normalised_and_frozen():
+    p = _base(range_window="hamming", azimuth_window=("taylor", 5, -40))
+    assert p.range_window == Window("hamming")
+    assert p.azimuth_window == Window("taylor", nbar=5, sll_db=-40.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.prf = 1.0
+    assert math.isclose(dataclasses.replace(p, prf=50.0).prf, 50.0)
