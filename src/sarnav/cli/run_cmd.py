@@ -75,7 +75,9 @@ def run(args) -> int:
     if not args.no_figures:
         from sarnav.report.figures import write_campaign_figures
 
-        write_campaign_figures(res.dataset, out)
+        from sarnav.scenarios.registry import get_kind
+
+        write_campaign_figures(res.dataset, out, kind=get_kind(cfg["scenario"]["kind"]))
     if not args.quiet:
         _print_summary(res.summary, out)
     return 0

@@ -1,0 +1,39 @@
+"""Study comparison figure: the filter 3σ of each case on one set of panels (thesis Figs 3.8-3.11,
+where line styles tell the cases apart)."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from sarnav.report.figures import save_png
+
+__all__ = ["plot_study_comparison"]
+
+
+def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], states: Sequence[str], title: str, path) -> str:
+    """Panels (one per state in ``states``) with one 3σ curve per case.
+
+    Parameters
+    ----------
+    cases : (label, time (T,), sigma3 (T, S), line style) per case; sigma3 is 3 × mean filter 1σ.
+    state_names : the S state names (columns of sigma3).
+    states : which states to draw, e.g. ("pN", "pE", "pD").
+    """
+    names = list(state_names)
+    fig = Figure(figsize=(8, 2.4 * len(states)), constrained_layout=True)
+    axes = fig.subplots(len(states), 1, sharex=True, squeeze=False)[:, 0]
+    for k, (label, t, sig3, style) in enumerate(cases):
+        color = f"C{k % 10}"
+        for ax, s in zip(axes, states):
+            ax.plot(np.asarray(t), np.asarray(sig3)[:, names.index(s)], style, color=color, lw=1.3, label=label)
+    for ax, s in zip(axes, states):
+        ax.set_ylabel(f"{s} 3σ")
+        ax.set_yscale("log")
+        ax.grid(True, which="both", lw=0.3)
+    axes[0].legend(fontsize=8, ncol=min(4, len(cases)))
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(title)
+    return save_png(fig, path)

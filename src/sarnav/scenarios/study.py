@@ -1,0 +1,277 @@
+"""Studies: one base scenario run as several Monte Carlo campaigns that differ in a few values.
+
+A study scenario (kind ``"study"``)::
+
+    [scenario]  name, kind = "study", description
+    [campaign]  runs, seed          # used by every case (same seed: common random numbers)
+    [study]     states = ["pN", "pE", "pD"]    # states compared in the default figure
+    [base]      a complete scenario of another kind (its own [base.scenario], [base.imu], ...)
+    [[cases]]   label = "consumer", style = "--", set = { "imu.grade" = "consumer" }
+    [[figures]] name, title, cases = [labels], states = [...]   # optional; default one with all
+
+Running it (:func:`run_study`) runs each case as a campaign into ``OUT/<label>/`` (resumable like
+any campaign), draws the 3σ comparison figure(s) ``OUT/study_<name>.png`` (thesis Figs 3.8-3.11:
+filter 3σ of each case, mean over runs) and writes ``OUT/study.json`` with each case's final 1σ/3σ
+and time-averaged 3σ per state. The three chapter 3 studies of Lindstrom (2020) are defined here.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from sarnav.errors import ConfigError
+from sarnav.scenarios.base import ScenarioKind
+from sarnav.scenarios.config import set_value, validate_scenario
+
+__all__ = [
+    "StudyKind",
+    "case_config",
+    "run_study",
+    "imu_grade_study",
+    "noise_study",
+    "geometry_study",
+    "STYLES",
+]
+
+STYLES = ("-", "--", "-.", ":")
+_LABEL_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+def _base_kind(cfg: dict) -> ScenarioKind:
+    from sarnav.scenarios.registry import get_kind
+
+    base = cfg.get("base")
+    if not isinstance(base, dict) or not isinstance(base.get("scenario"), dict):
+        raise ConfigError("base", "missing table [base] with a complete scenario ([base.scenario] kind, ...)")
+    kind = base["scenario"].get("kind")
+    if not isinstance(kind, str) or not kind or kind == "study":
+        raise ConfigError("base.scenario.kind", f"must name a kind other than 'study', got {kind!r}")
+    return get_kind(kind)
+
+
+def case_config(cfg: dict, index: int) -> dict:
+    """The complete scenario of case ``index``: base + the case's ``set`` + the study's campaign.
+
+    Errors name the case's field, e.g. ``cases[2].set.imu.grade``.
+    """
+    from sarnav.scenarios.registry import optional_keys
+
+    case = cfg["cases"][index]
+    out = copy.deepcopy(cfg["base"])
+    out["campaign"] = copy.deepcopy(cfg["campaign"])
+    out["scenario"]["name"] = f"{cfg['scenario']['name']}/{case['label']}"
+    opt = optional_keys(out["scenario"]["kind"])
+    for key, value in case.get("set", {}).items():
+        try:
+            set_value(out, key, value, opt)
+        except ConfigError as err:
+            raise ConfigError(f"cases[{index}].set.{err.field}", err.message) from None
+    return out
+
+
+class StudyKind(ScenarioKind):
+    """Kind ``"study"``: validated here, run by :func:`run_study` (not through ``simulate``)."""
+
+    kind = "study"
+
+    def validate(self, cfg: dict) -> None:
+        kind = _base_kind(cfg)
+        study = cfg.get("study", {})
+        if not isinstance(study, dict):
+            raise ConfigError("study", "must be a table")
+        cases = cfg.get("cases")
+        if not isinstance(cases, list) or not cases:
+            raise ConfigError("cases", "must be a non-empty array of tables [[cases]] (label, set)")
+        state_names = kind.state_names(case_config_shallow(cfg))
+        labels = []
+        for i, case in enumerate(cases):
+            if not isinstance(case, dict):
+                raise ConfigError(f"cases[{i}]", "must be a table with label and set")
+            unknown = set(case) - {"label", "set", "style"}
+            if unknown:
+                raise ConfigError(f"cases[{i}].{sorted(unknown)[0]}", "unknown key (known: label, set, style)")
+            label = case.get("label")
+            if not isinstance(label, str) or not _LABEL_RE.match(label):
+                raise ConfigError(f"cases[{i}].label", f"must be a name of letters, digits, '_.-', got {label!r}")
+            if label in labels:
+                raise ConfigError(f"cases[{i}].label", f"duplicate label {label!r}")
+            labels.append(label)
+            if not isinstance(case.get("set", {}), dict):
+                raise ConfigError(f"cases[{i}].set", "must be a table of dotted keys, e.g. {\"imu.grade\" = \"consumer\"}")
+            if case.get("style", "-") not in STYLES:
+                raise ConfigError(f"cases[{i}].style", f"must be one of {STYLES}, got {case.get('style')!r}")
+            sub = case_config(cfg, i)
+            try:
+                validate_scenario(sub, kind)
+            except ConfigError as err:
+                field = err.field if err.field.startswith("cases[") else f"cases[{i}] ({label}): {err.field}"
+                raise ConfigError(field, err.message) from None
+        for name in study.get("states", []):
+            if name not in state_names:
+                raise ConfigError("study.states", f"unknown state {name!r} (states: {', '.join(state_names)})")
+        for j, fig in enumerate(cfg.get("figures", [])):
+            if not isinstance(fig, dict) or not isinstance(fig.get("name"), str) or not _LABEL_RE.match(fig["name"]):
+                raise ConfigError(f"figures[{j}].name", "must be a name of letters, digits, '_.-'")
+            for lab in fig.get("cases", labels):
+                if lab not in labels:
+                    raise ConfigError(f"figures[{j}].cases", f"unknown case {lab!r} (cases: {', '.join(labels)})")
+            for name in fig.get("states", []):
+                if name not in state_names:
+                    raise ConfigError(f"figures[{j}].states", f"unknown state {name!r}")
+
+    def state_names(self, cfg: dict) -> list[str]:
+        return _base_kind(cfg).state_names(case_config_shallow(cfg))
+
+    def state_units(self, cfg: dict) -> list[str]:
+        return _base_kind(cfg).state_units(case_config_shallow(cfg))
+
+    def meas_names(self, cfg: dict) -> list[str]:
+        return _base_kind(cfg).meas_names(case_config_shallow(cfg))
+
+    def meas_units(self, cfg: dict) -> list[str]:
+        return _base_kind(cfg).meas_units(case_config_shallow(cfg))
+
+    def simulate(self, cfg, run_ids, seeds):
+        raise ConfigError("scenario.kind", "a study runs as one campaign per case: use run_study / `sarnav run`")
+
+
+def case_config_shallow(cfg: dict) -> dict:
+    """The base scenario with the study's campaign (no case applied)."""
+    out = copy.deepcopy(cfg["base"])
+    out["campaign"] = copy.deepcopy(cfg["campaign"])
+    return out
+
+
+def _figure_specs(cfg: dict) -> list[dict]:
+    labels = [c["label"] for c in cfg["cases"]]
+    states = cfg.get("study", {}).get("states", ["pN", "pE", "pD"])
+    figs = cfg.get("figures") or [{"name": "3sigma", "title": cfg["scenario"].get("description", ""), "cases": labels, "states": states}]
+    return [{"name": f["name"], "title": f.get("title", ""), "cases": f.get("cases", labels), "states": f.get("states", states)} for f in figs]
+
+
+def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
+    """Run every case of the study ``cfg`` into ``out/<label>/`` and write ``out/study.json``.
+
+    ``campaign_options`` go to :func:`sarnav.montecarlo.campaign.run_campaign` (executor, workers,
+    scheduler, resume, quiet, chunk_size). Returns the ``study.json`` content.
+    """
+    from sarnav.montecarlo.campaign import run_campaign
+    from sarnav.montecarlo.store import atomic_write_text
+    from sarnav.report.figures import write_campaign_figures
+    from sarnav.report.study_figure import plot_study_comparison
+    from sarnav.scenarios.config import dump_toml
+
+    validate_scenario(cfg)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "study.json").unlink(missing_ok=True)
+    kind = _base_kind(cfg)
+    curves = {}
+    cases_out = []
+    for i, case in enumerate(cfg["cases"]):
+        sub = case_config(cfg, i)
+        res = run_campaign(sub, out / case["label"], kind=kind, **campaign_options)
+        ds = res.dataset
+        states = [str(s) for s in ds["state"].values]
+        sig3 = 3.0 * ds["sigma"].values.mean(axis=0)  # (T, S), mean over runs
+        curves[case["label"]] = (ds["time"].values, sig3, states)
+        per_state = {
+            s: {
+                "final_sigma": res.summary["states"][s]["final_sigma"],
+                "final_3sigma": res.summary["states"][s]["final_3sigma"],
+                "mean_3sigma": float(np.mean(sig3[:, j])),
+                "fraction_inside_3sigma": res.summary["states"][s]["fraction_inside_3sigma"],
+            }
+            for j, s in enumerate(states)
+        }
+        cases_out.append({"label": case["label"], "set": case.get("set", {}), "dir": case["label"], "states": per_state})
+        if figures:
+            write_campaign_figures(ds, out / case["label"], kind=kind)
+    fig_paths = []
+    if figures:
+        for spec in _figure_specs(cfg):
+            style = {c["label"]: c.get("style", STYLES[k % len(STYLES)]) for k, c in enumerate(cfg["cases"])}
+            sel = [(lab, *curves[lab][:2], style[lab]) for lab in spec["cases"]]
+            path = out / f"study_{spec['name']}.png"
+            fig_paths.append(plot_study_comparison(sel, curves[spec["cases"][0]][2], spec["states"], spec["title"], path))
+    result = {
+        "study": cfg["scenario"]["name"],
+        "runs": cfg["campaign"]["runs"],
+        "seed": cfg["campaign"]["seed"],
+        "complete": True,
+        "cases": cases_out,
+        "figures": [Path(p).name for p in fig_paths],
+        "scenario_toml": dump_toml(cfg),
+    }
+    atomic_write_text(out / "study.json", json.dumps(result, indent=2) + "\n")
+    return result
+
+
+# ----------------------------------------------------------------------------- chapter 3 studies
+def _study(name: str, description: str, runs: int, cases: list[dict], states=("pN", "pE", "pD"), figures=None) -> dict:
+    from sarnav.scenarios.registry import get_scenario
+
+    base = get_scenario("telemetry")
+    seed = base.pop("campaign")["seed"]
+    cfg = {
+        "scenario": {"name": name, "kind": "study", "description": description},
+        "campaign": {"runs": runs, "seed": seed},
+        "study": {"states": list(states)},
+        "base": base,
+        "cases": cases,
+    }
+    if figures:
+        cfg["figures"] = figures
+    return cfg
+
+
+#: runs per case of the chapter 3 studies: the thesis plots the filter 3σ of "a single iteration"
+#: (L666); a few runs add hairlines and a consistency check at little cost.
+STUDY_RUNS = 10
+
+
+def imu_grade_study() -> dict:
+    """Thesis Table 3.2 / Fig 3.8: consumer (dashed), tactical (solid), navigation (dot-dash)."""
+    cases = [
+        {"label": "consumer", "style": "--", "set": {"imu.grade": "consumer"}},
+        {"label": "tactical", "style": "-", "set": {"imu.grade": "tactical"}},
+        {"label": "navigation", "style": "-.", "set": {"imu.grade": "navigation"}},
+    ]
+    return _study("telemetry-imu-grade", "Position 3-sigma for three IMU grades (thesis Table 3.2, Fig 3.8)", STUDY_RUNS, cases)
+
+
+def noise_study() -> dict:
+    """Thesis Table 3.3 / Fig 3.9: each measurement's 3σ noise ×10 in turn (0.2 -> 2 m, m/s, m)."""
+    base = {"measurements.range_3sigma": 0.2, "measurements.rate_3sigma": 0.2, "measurements.alt_3sigma": 0.2}
+    cases = [
+        {"label": "test1-baseline", "style": "-", "set": dict(base)},
+        {"label": "test2-range", "style": "--", "set": base | {"measurements.range_3sigma": 2.0}},
+        {"label": "test3-rate", "style": "-.", "set": base | {"measurements.rate_3sigma": 2.0}},
+        {"label": "test4-alt", "style": ":", "set": base | {"measurements.alt_3sigma": 2.0}},
+    ]
+    return _study("telemetry-noise", "Position 3-sigma with range, range-rate or altimeter noise x10 (thesis Table 3.3, Fig 3.9)", STUDY_RUNS, cases)
+
+
+#: thesis Table 3.4: target (N, E, D) [m]; the track starts at E = -200 m and flies north (L701)
+GEOMETRY_TARGETS = (
+    (500.0, 0.0, 0.0), (500.0, 500.0, 0.0), (500.0, 1000.0, 0.0), (500.0, 1500.0, 0.0),
+    (1000.0, 0.0, 0.0), (1000.0, 500.0, 0.0), (1000.0, 1000.0, 0.0), (1000.0, 1500.0, 0.0),
+)
+
+
+def geometry_study() -> dict:
+    """Thesis Table 3.4 / Figs 3.10 (north 500 m) and 3.11 (north 1000 m): N and E 3σ per target."""
+    cases = [
+        {"label": f"test{k + 1}", "style": STYLES[k % 4], "set": {"target.position_ned": list(p)}}
+        for k, p in enumerate(GEOMETRY_TARGETS)
+    ]
+    figures = [
+        {"name": "north500", "title": "Targets at north 500 m, east 0/500/1000/1500 m (Fig 3.10)", "cases": ["test1", "test2", "test3", "test4"], "states": ["pN", "pE"]},
+        {"name": "north1000", "title": "Targets at north 1000 m, east 0/500/1000/1500 m (Fig 3.11)", "cases": ["test5", "test6", "test7", "test8"], "states": ["pN", "pE"]},
+    ]
+    return _study("telemetry-geometry", "Position 3-sigma for eight target locations (thesis Table 3.4, Figs 3.10-3.11)", STUDY_RUNS, cases, figures=figures)

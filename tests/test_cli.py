@@ -1,0 +1,96 @@
+"""The ``sarnav`` command: subcommands, outputs, and one-line errors with exit status 2."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from sarnav.cli.main import COMMANDS, main
+from sarnav.scenarios.config import dump_toml, parse_toml
+from sarnav.scenarios.registry import list_scenarios
+from test_campaign import TESTS, toy_cfg
+
+
+@pytest.fixture
+def toy_file(tmp_path):
+    p = tmp_path / "toy.toml"
+    p.write_text(dump_toml(toy_cfg(runs=6, steps=20)))
+    return p
+
+
+def one_error_line(capsys, code, pattern):
+    err = capsys.readouterr().err
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("sarnav: error: "), err
+    assert pattern in lines[0], lines[0]
+    assert "Traceback" not in err
+
+
+def test_commands_are_modules_with_parser_and_run():
+    for mod in COMMANDS:
+        assert callable(mod.add_parser) and callable(mod.run) and mod.NAME
+
+
+def test_scenarios_lists_every_registered_name(capsys):
+    assert main(["scenarios"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in out] == [n for n, _ in list_scenarios()]
+
+
+def test_show_prints_toml_that_round_trips(capsys, toy_file):
+    assert main(["show", str(toy_file), "--set", "toy.q=0.25"]) == 0
+    cfg = parse_toml(capsys.readouterr().out)
+    assert cfg["toy"]["q"] == 0.25 and cfg["campaign"]["runs"] == 6
+
+
+def test_run_writes_results_summary_figures(capsys, toy_file, tmp_path):
+    out = tmp_path / "out"
+    code = main(["run", str(toy_file), "--out", str(out), "--executor", "serial", "--runs", "5", "--seed", "3", "--quiet"])
+    assert code == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["runs"] == 5 and s["seed"] == 3 and s["complete"] is True
+    assert (out / "results.nc").is_file()
+    figs = sorted(p.name for p in (out / "figures").glob("*.png"))
+    assert figs == ["residuals.png", "states_1.png"]
+
+
+@pytest.mark.parametrize(
+    "extra, pattern",
+    [
+        (["--runs", "-3"], "campaign.runs: must be an integer >= 1, got -3"),
+        (["--set", "toy.nope=1"], "toy.nope: unknown key"),
+        (["--set", "toy.q=-1"], "toy.q: must be > 0"),
+        (["--set", "toy.q=nan"], "toy.q: must be a finite number"),
+        (["--set", "toy.q"], "--set: expected key=value"),
+        (["--workers", "0"], "--workers: must be an integer >= 1"),
+        (["--chunk-size", "0"], "--chunk-size: must be an integer >= 1"),
+    ],
+)
+def test_bad_input_one_line_exit_2(capsys, toy_file, tmp_path, extra, pattern):
+    code = main(["run", str(toy_file), "--out", str(tmp_path / "o"), "--quiet"] + extra)
+    one_error_line(capsys, code, pattern)
+
+
+def test_unknown_scenario_and_malformed_toml(capsys, tmp_path):
+    one_error_line(capsys, main(["run", "no-such-scenario"]), "scenario: unknown scenario 'no-such-scenario'")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[scenario]\nname = \n")
+    one_error_line(capsys, main(["show", str(bad)]), f"{bad}: malformed TOML")
+    one_error_line(capsys, main(["run", str(tmp_path / "missing.toml")]), "cannot read scenario file")
+
+
+def test_real_subprocess_bad_input_and_help(tmp_path, toy_file):
+    exe = Path(sys.executable).with_name("sarnav")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "sarnav.cli.main"]
+    env = dict(os.environ, PYTHONPATH=str(TESTS) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    r = subprocess.run(cmd + ["run", str(toy_file), "--runs", "-3", "--out", str(tmp_path / "o")], capture_output=True, text=True, env=env, timeout=60)
+    assert r.returncode == 2
+    assert r.stderr.strip() == "sarnav: error: campaign.runs: must be an integer >= 1, got -3"
+    r = subprocess.run(cmd + ["scenarios"], capture_output=True, text=True, env=env, timeout=60)
+    assert r.returncode == 0 and "telemetry" in r.stdout
