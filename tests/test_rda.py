@@ -148,3 +148,68 @@ def test_bad_inputs_are_named():
     still = rc.with_positions(np.zeros_like(rc.positions))
     with pytest.raises(InputDataError, match="rc.positions"):
         range_doppler(still, V)
+
+
+# ---------------------------------------------------------------- end to end with the radar package
+def _e2e_setup(scene_fn, pattern=False):
+    from sarnav.imaging.range_compression import range_compress
+    from sarnav.radar.echoes import simulate_echoes
+    from sarnav.radar.params import RadarParams
+
+    h = 1000.0
+    p = RadarParams(carrier_frequency=FC, bandwidth=B, pulse_length=1e-6, sample_rate=FS, prf=PRF,
+                    near_range=1900.0, n_range_samples=1400, antenna_length=0.5)
+    n = int(T * PRF)
+    t = (np.arange(n) - n // 2) / PRF
+    pos = np.zeros((n, 3))
+    pos[:, 0] = V * t
+    pos[:, 2] = -h
+    scene = scene_fn(h)
+    rc = range_compress(simulate_echoes(p, pos, t, scene, pattern=pattern))
+    return rc, pos[n // 2], scene, h
+
+
+def test_end_to_end_point_target_with_simulated_echoes():
+    from sarnav.radar.scene import point_targets
+
+    r0 = 2000.0
+    rc, centre, scene, h = _e2e_setup(lambda h: point_targets([4.0, np.sqrt(r0**2 - h**2), 0.0]))
+    img = range_doppler(rc, V, along_track_origin=centre)
+    m = metrics.point_target_metrics(img, near=(4.0, r0))
+    assert m["x"]["irw_m"] == pytest.approx(0.886 * C / (2 * B), rel=0.03)
+    assert m["y"]["irw_m"] == pytest.approx(0.886 * LAM * r0 / (2 * V * T), rel=0.05)
+    for ax in ("x", "y"):
+        assert m[ax]["pslr_db"] == pytest.approx(-13.26, abs=0.3)
+    assert abs(m["peak_position"][0] - 4.0) < img.dy / 20
+    assert abs(m["peak_position"][1] - r0) < img.dx / 20
+
+
+def test_rda_and_bpa_place_a_scatterer_field_at_the_same_positions():
+    from sarnav.imaging.backprojection import backproject
+    from sarnav.imaging.grid import SlantGrid
+    from sarnav.radar.scene import Scene, random_scatterers
+
+    def field(h):
+        rng = np.random.default_rng(np.random.SeedSequence(77))
+        e0, e1 = np.sqrt(1985.0**2 - h**2), np.sqrt(2020.0**2 - h**2)
+        s = random_scatterers(rng, ((-20.0, 20.0), (e0, e1)), density=0.012, amplitude_law="constant")
+        keep = []  # a sparse field: drop scatterers within 5 m of one already kept
+        for i, q in enumerate(s.positions):
+            if all(np.linalg.norm(q - s.positions[j]) > 5.0 for j in keep):
+                keep.append(i)
+        return Scene(s.positions[keep], s.amplitudes[keep])
+
+    rc, centre, scene, h = _e2e_setup(field, pattern=True)
+    assert scene.n_targets >= 5
+    rda = range_doppler(rc, V, along_track_origin=centre)
+    grid = SlantGrid(origin=centre, direction=[1.0, 0.0, 0.0], look_point=scene.positions.mean(axis=0),
+                     along_track=rda.y, slant_range=rda.x[450:950])
+    bpa = backproject(rc, grid, interpolation="upsample")
+    for q in scene.positions:
+        y, r0 = q[0], float(np.hypot(q[1], h))
+        a = metrics.peak_location(rda, near=((y - rda.y[0]) / rda.dy, (r0 - rda.x[0]) / rda.dx), search_radius=3, half_width=6)
+        b = metrics.peak_location(bpa, near=((y - bpa.y[0]) / bpa.dy, (r0 - bpa.x[0]) / bpa.dx), search_radius=3, half_width=6)
+        ya, xa = metrics.index_to_coordinate(rda.y, a[0]), metrics.index_to_coordinate(rda.x, a[1])
+        yb, xb = metrics.index_to_coordinate(bpa.y, b[0]), metrics.index_to_coordinate(bpa.x, b[1])
+        assert abs(ya - yb) < rda.dy / 10 and abs(xa - xb) < rda.dx / 10
+        assert abs(ya - y) < rda.dy / 10 and abs(xa - r0) < rda.dx / 10

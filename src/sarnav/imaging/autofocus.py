@@ -98,7 +98,7 @@ def _mid_fm_rate(rc: PulseData, speed: float, lam: float) -> float:
 
 def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int = 4, tolerance_px: float = 0.02,
              look_bandwidth: float | None = None, rcmc_kernel: str = "sinc8", azimuth_model: str = "parabolic",
-             window="none", along_track_origin=None, upsample: int = 100) -> MapdriftResult:
+             window=None, along_track_origin=None, upsample: int = 100) -> MapdriftResult:
     """Mapdrift autofocus of range-compressed pulses (paper eqs. 14–16, module docstring).
 
     Parameters
@@ -163,7 +163,7 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int =
 
 def contrast_autofocus(rc: PulseData, speed: float | None = None, *, metric: str = "normalised_variance",
                        search: float = 0.1, grid: int = 11, xtol: float = 1e-4, rcmc_kernel: str = "sinc8",
-                       azimuth_model: str = "parabolic", window="none", along_track_origin=None) -> ContrastResult:
+                       azimuth_model: str = "parabolic", window=None, along_track_origin=None) -> ContrastResult:
     """Contrast-maximisation autofocus over the forward speed (thesis App. D.2; spacecraft eq. 3).
 
     Parameters

@@ -245,7 +245,7 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     return out, freqs, info
 
 
-def range_doppler(rc: PulseData, speed: float | None = None, *, window="none", rcmc_kernel: str = "sinc8",
+def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcmc_kernel: str = "sinc8",
                   azimuth_model: str = "parabolic", along_track_origin=None,
                   fm_rate_scale: float = 1.0) -> SarImage:
     """Focus range-compressed pulses with the Range-Doppler Algorithm (module docstring).
@@ -256,7 +256,8 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window="none", r
         trajectory with ``rc.with_positions``).
     speed : forward speed for K_a and RCMC [m/s]; default the slope of the straight-line fit of
         ``rc.positions`` (so an estimated trajectory forms the image).
-    window : azimuth window, e.g. "none", "hamming", ("taylor", 4, -35).
+    window : azimuth window, e.g. "none", "hamming", ("taylor", 4, -35); None (default) uses
+        ``rc.params.azimuth_window`` when the params have one, else "none".
     rcmc_kernel : "sinc8" (default), "sinc16" or "none".
     azimuth_model : "parabolic" (paper) or "hyperbolic" (exact).
     along_track_origin : (3,) origin of the along-track axis (default: first antenna position).
@@ -274,6 +275,8 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window="none", r
     data, r = _check_inputs(rc)
     y, u, origin, track_speed = along_track_axis(rc.positions, rc.pulse_times, along_track_origin)
     v = abs(track_speed) if speed is None else speed
+    if window is None:
+        window = getattr(rc.params, "azimuth_window", None) or "none"
     spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,
                                                 azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale)
     img = sfft.ifft(spec, axis=0, overwrite_x=True)  # eq. (13)
@@ -290,7 +293,7 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window="none", r
         "aperture_length": v * data.shape[0] / info["prf"],
         "fm_rate": fm_rate_scale * 2.0 * v**2 / (info["wavelength"] * r_mid),
         "window": info["window"],
-        "range_window": str(rc.metadata.get("window", rc.metadata.get("range_window", "unknown"))),
+        "range_window": str(rc.metadata.get("range_window", rc.metadata.get("window", "unknown"))),
         "rcmc_kernel": rcmc_kernel,
         "azimuth_model": azimuth_model,
         "along_track_origin": [float(c) for c in origin],
