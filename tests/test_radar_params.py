@@ -34,6 +34,12 @@ def test_derived_quantities():
     assert p.beamwidth == pytest.approx(0.886 * p.wavelength / 0.2)
     # Doppler bandwidth (4V/lambda) sin(theta/2) ~ 0.886 * 2V/L for a narrow beam
     assert p.doppler_bandwidth(10.0) == pytest.approx(0.886 * 2 * 10 / 0.2, rel=1e-3)
+    # with squint: (2V/lambda) [sin(sq + bw/2) - sin(sq - bw/2)] (Cumming & Wong eq. 4.36)
+    sq, bw = 0.3, p.beamwidth
+    expected = 2 * 10.0 / p.wavelength * (np.sin(sq + bw / 2) - np.sin(sq - bw / 2))
+    assert p.doppler_bandwidth(10.0, squint=sq) == pytest.approx(expected, rel=1e-12)
+    with pytest.raises(ConfigError, match="^squint"):
+        p.validate(speed=1.0, squint=2.0)
     q = _base(antenna_length=None, azimuth_beamwidth=p.beamwidth)
     assert q.effective_antenna_length == pytest.approx(0.2)
 

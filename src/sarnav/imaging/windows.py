@@ -136,7 +136,8 @@ def frequency_weights(window, freqs: np.ndarray, bandwidth: float) -> np.ndarray
 class IrfFigures(NamedTuple):
     """Impulse-response figures of a weighted uniform spectrum of width B.
 
-    irw_factor : -3 dB width in units of 1/B (multiply by c/(2B)... i.e. IRW = irw_factor / B).
+    irw_factor : -3 dB width in units of 1/B: IRW = irw_factor / B in time, irw_factor * c/(2B) in
+        slant range, irw_factor * V / B_a along track.
     pslr_db : peak sidelobe ratio [dB].
     islr_db : integrated sidelobe ratio [dB] (convention of :mod:`sarnav.imaging.metrics`).
     """

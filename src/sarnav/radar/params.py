@@ -172,7 +172,7 @@ class RadarParams:
         return 4.0 * v / self.wavelength * math.cos(squint) * math.sin(0.5 * self.beamwidth)
 
     # ---- validation ---------------------------------------------------------------------------
-    def validate(self, speed: float | None = None, scene_ranges=None) -> "RadarParams":
+    def validate(self, speed: float | None = None, scene_ranges=None, squint: float = 0.0) -> "RadarParams":
         """Check the parameters against a platform speed and a scene; return self.
 
         Parameters
@@ -182,19 +182,22 @@ class RadarParams:
         scene_ranges : array of target slant ranges [m] (any shape, e.g. over all pulses); each
             must satisfy ``near_range + cT/4 <= R <= far_range - cT/4`` so that the whole chirp
             lies in the receive window.
+        squint : beam squint [rad] for the Doppler bandwidth (the simulator uses 0).
 
         Raises
         ------
         ConfigError naming the field and the bound.
         """
-        # construction-time checks already ran (frozen dataclass); repeat the cheap ones for
-        # objects built with object.__new__ or replace()
+        # construction-time checks already ran in __post_init__ (also on dataclasses.replace)
         if speed is not None:
-            bd = self.doppler_bandwidth(speed)
+            if not math.isfinite(squint) or abs(squint) >= 0.5 * math.pi:
+                raise ConfigError("squint", f"must be in (-pi/2, pi/2) rad, got {squint!r}")
+            bd = self.doppler_bandwidth(speed, squint)
             if self.prf < bd:
                 raise ConfigError(
                     "radar.prf",
-                    f"must be >= the Doppler bandwidth 0.886*2V/L = {bd:.6g} Hz at speed {float(speed):g} m/s "
+                    f"must be >= the Doppler bandwidth (4V/lambda) cos(squint) sin(beamwidth/2) = {bd:.6g} Hz "
+                    f"at speed {float(speed):g} m/s "
                     f"(beamwidth {self.beamwidth:.4g} rad), got {self.prf:g} Hz",
                 )
         if scene_ranges is not None:
