@@ -1,0 +1,114 @@
+"""bpa-sensitivity study (thesis ch. 4, Figs 4.11-4.13): every assertion compares an image measured from
+simulated echoes with a prediction of analysis.sensitivity (eq. 4.41, Fresnel) or with theory."""
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from sarnav.errors import ConfigError
+from sarnav.scenarios import bpa_sensitivity as bpa
+from sarnav.units import C
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bpa")
+    path = bpa.run_sensitivity(bpa.default_config(), out)
+    with open(path) as fh:
+        rows = {r["name"]: {k: (v if k in ("name", "unit") else float(v)) for k, v in r.items()}
+                for r in csv.DictReader(fh)}
+    return rows, out
+
+
+def _offset_error(r):
+    meas = np.hypot(r["meas_offset_range"], r["meas_offset_along"])
+    pred = np.hypot(r["pred_offset_range"], r["pred_offset_along"])
+    diff = np.hypot(r["meas_offset_range"] - r["pred_offset_range"], r["meas_offset_along"] - r["pred_offset_along"])
+    return diff, pred, meas
+
+
+def test_writes_csv_with_every_thesis_error_and_a_figure(study):
+    rows, out = study
+    assert set(rows) == set(bpa.THESIS_SIM_ERRORS)
+    assert (out / "sensitivity.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("name", ["position_along", "position_cross", "position_elevation"])
+def test_position_errors_shift_by_the_prediction_without_blur(study, name):
+    r = study[0][name]
+    diff, pred, _ = _offset_error(r)
+    assert pred > 1.0
+    assert diff < 0.05 * pred
+    assert abs(r["meas_peak_loss"]) < 0.01
+    assert r["irw_along"] == pytest.approx(r["irw_along_ref"], rel=0.02)
+
+
+@pytest.mark.parametrize("name,shift", [("velocity_cross", 9.0), ("velocity_elevation", 5.0)])
+def test_cross_and_elevation_velocity_errors_shift_along_track(study, name, shift):
+    r = study[0][name]
+    # y_t dv/V and h dv/V (extraction §11.5): 1800 * 0.05/10, 1000 * 0.05/10
+    assert r["pred_offset_along"] == pytest.approx(shift, rel=1e-3)
+    assert r["meas_offset_along"] == pytest.approx(r["pred_offset_along"], rel=0.05)
+    assert abs(r["meas_peak_loss"]) < 0.01
+
+
+def test_yaw_changes_nothing(study):
+    r = study[0]["yaw"]
+    assert abs(r["meas_peak_loss"]) < 0.01
+    assert math.hypot(r["meas_offset_range"], r["meas_offset_along"]) < 0.02
+
+
+@pytest.mark.parametrize("name", ["velocity_along", "roll", "pitch"])
+def test_along_velocity_roll_and_pitch_blur(study, name):
+    assert study[0][name]["meas_peak_loss"] > 0.10
+
+
+def test_roll_blurs_more_than_pitch_at_the_thesis_magnitudes(study):
+    rows = study[0]
+    assert rows["roll"]["meas_peak_loss"] > rows["pitch"]["meas_peak_loss"]
+
+
+def test_along_velocity_blur_matches_fresnel_prediction(study):
+    r = study[0]["velocity_along"]
+    # pure quadratic phase error (FM-rate error -2 dv/V): the Fresnel loss is the theory
+    assert r["meas_peak_loss"] == pytest.approx(r["pred_peak_loss"], abs=0.02)
+    assert r["irw_along"] > r["irw_along_ref"]
+
+
+def test_reference_azimuth_irw_matches_theory(study):
+    cfg = bpa.default_config()
+    g = cfg["geometry"]
+    lam = C / 9.75e9
+    r0 = math.hypot(g["target_ground_range"], g["altitude"])
+    # uniform aperture of length V T: 3-dB IRW 0.886 lambda R0 / (2 V T)
+    want = 0.886 * lam * r0 / (2 * g["speed"] * g["aperture"])
+    assert study[0]["yaw"]["irw_along_ref"] == pytest.approx(want, rel=0.03)
+
+
+def test_exact_kinematics_agree_with_the_linear_model_for_small_errors():
+    geo = bpa.make_geometry(bpa.default_config())
+    from sarnav.analysis.sensitivity import propagate_nav_error
+
+    for name in ("velocity_cross", "pitch", "roll"):
+        dx0 = bpa.injected_error(name, bpa.THESIS_SIM_ERRORS[name][2])
+        p_hat, _ = bpa.estimated_trajectory(geo, dx0)
+        lin = geo.truth_positions - propagate_nav_error(dx0, geo.times)[:, :3]
+        # second-order attitude terms: g (1 - cos dth) t^2 / 2 <= 9.81 * 2e-4 * 18 = 0.036 m for pitch
+        assert np.max(np.abs(p_hat - lin)) < 0.04
+
+
+def test_bad_config_names_the_field():
+    cfg = bpa.default_config()
+    cfg["errors"]["heave"] = 1.0
+    with pytest.raises(ConfigError, match="errors.heave"):
+        bpa.validate(cfg)
+    cfg = bpa.default_config()
+    cfg["geometry"]["aperture"] = -1.0
+    with pytest.raises(ConfigError, match="geometry.aperture"):
+        bpa.validate(cfg)
+    cfg = bpa.default_config()
+    cfg["image"]["interpolation"] = "sinc"
+    with pytest.raises(ConfigError, match="image.interpolation"):
+        bpa.validate(cfg)
