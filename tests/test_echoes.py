@@ -81,6 +81,12 @@ def test_look_side():
     assert np.abs(simulate_echoes(p_right, pos, t, left).data).max() == 0.0
     assert np.abs(simulate_echoes(p_left, pos, t, left).data).max() > 0.99
     assert np.abs(simulate_echoes(p_left, pos, t, right).data).max() == 0.0
+    # flying east: the right side is south (look direction from the trajectory, not fixed axes)
+    east_track = pos[:, [1, 0, 2]]
+    south = point_targets([[-1800.0, 0.0, 0.0]])
+    north = point_targets([[1800.0, 0.0, 0.0]])
+    assert np.abs(simulate_echoes(p_right, east_track, t, south).data).max() > 0.99
+    assert np.abs(simulate_echoes(p_right, east_track, t, north).data).max() == 0.0
 
 
 def test_noise_power_and_reproducibility():

@@ -119,3 +119,17 @@ def test_windows_normalised_and_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.prf = 1.0
     assert math.isclose(dataclasses.replace(p, prf=50.0).prf, 50.0)
+
+
+def test_dict_round_trip_and_errors():
+    import json
+
+    p = nav_paper_sim(range_window=("taylor", 5, -40))
+    d = p.to_dict()
+    json.dumps(d)
+    assert RadarParams.from_dict(d) == p
+    with pytest.raises(ConfigError, match="^radar.carrier: unknown radar parameter"):
+        RadarParams.from_dict({**d, "carrier": 1.0})
+    d.pop("prf")
+    with pytest.raises(ConfigError, match="^radar.prf: missing"):
+        RadarParams.from_dict(d)

@@ -124,6 +124,9 @@ def test_window_from_params_and_metadata():
     rc = range_compress(raw)
     assert rc.compressed and rc.metadata["range_window"] == "hamming"
     np.testing.assert_array_equal(rc.slant_range, raw.slant_range)
+    rc64 = range_compress(simulate_echoes(p, raw.positions, raw.pulse_times,
+                                          point_targets([[0.0, 1800.0, 0.0]]), dtype=np.complex64))
+    assert rc64.data.dtype == np.complex64
     with pytest.raises(InputDataError, match="raw.compressed"):
         range_compress(rc)
     with pytest.raises(ConfigError, match="mode"):

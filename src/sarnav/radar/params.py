@@ -14,7 +14,7 @@ near_range + i c / (2 fs).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import MISSING, asdict, dataclass, field, fields
 
 import numpy as np
 
@@ -98,6 +98,32 @@ class RadarParams:
             raise ConfigError("radar.pulse_length",
                               f"must be shorter than the receive window {self.window_duration:g} s "
                               f"(n_range_samples / sample_rate), got {self.pulse_length:g} s")
+
+    # ---- (de)serialisation --------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """JSON/TOML-serialisable dict of the fields (windows as dicts; absent optional fields omitted)."""
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None:
+                continue
+            out[f.name] = asdict(v) if isinstance(v, Window) else v
+        return out
+
+    @classmethod
+    def from_dict(cls, d: dict, prefix: str = "radar") -> "RadarParams":
+        """Build from a dict such as a scenario's ``[radar]`` table; unknown keys raise ConfigError."""
+        if not isinstance(d, dict):
+            raise ConfigError(prefix, f"must be a table of radar parameters, got {type(d).__name__}")
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ConfigError(f"{prefix}.{unknown[0]}", f"unknown radar parameter; valid: {sorted(names)}")
+        missing = sorted(n for n in names - set(d) if _FIELDS[n].default is MISSING
+                         and _FIELDS[n].default_factory is MISSING)
+        if missing:
+            raise ConfigError(f"{prefix}.{missing[0]}", "missing required radar parameter")
+        return cls(**d)
 
     # ---- derived quantities -------------------------------------------------------------------
     @property
@@ -215,3 +241,6 @@ class RadarParams:
                         f"{self.pulse_half_extent:.3f} m); scene spans [{rmin:.3f}, {rmax:.3f}] m",
                     )
         return self
+
+
+_FIELDS = {f.name: f for f in fields(RadarParams)}
