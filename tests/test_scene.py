@@ -17,6 +17,10 @@ def test_point_targets_shapes():
     s2 = point_targets(np.zeros((4, 3)), 2.0)
     np.testing.assert_array_equal(s2.amplitudes, 2.0)
     assert len(s + s2) == 5
+    src = np.zeros((2, 3))
+    s3 = point_targets(src)
+    src[0, 0] = 5.0  # the scene holds a read-only copy; the caller's array stays writable
+    assert s3.positions[0, 0] == 0.0 and not s3.positions.flags.writeable
     r = point_targets([[3.0, 4.0, 0.0]]).slant_ranges(np.zeros((2, 3)))
     np.testing.assert_allclose(r, 5.0)
     with pytest.raises(InputDataError, match="^scene.amplitudes"):

@@ -15,7 +15,7 @@ from sarnav.errors import ConfigError, InputDataError
 AMPLITUDE_LAWS = ("constant", "rayleigh")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Scene:
     """K point scatterers.
 
@@ -23,18 +23,20 @@ class Scene:
     ----------
     positions : (K,3) float64 NED positions [m].
     amplitudes : (K,) complex128 amplitudes.
+
+    Both arrays are copied and made read-only; equality is identity (compare arrays explicitly).
     """
 
     positions: np.ndarray
     amplitudes: np.ndarray
 
     def __post_init__(self):
-        pos = np.asarray(self.positions, dtype=np.float64)
+        pos = np.array(self.positions, dtype=np.float64)  # copy: the caller's array stays writable
         if pos.ndim == 1 and pos.size == 3:
             pos = pos[None, :]
         if pos.ndim != 2 or pos.shape[1] != 3:
             raise InputDataError("scene.positions", f"must have shape (K, 3), got {np.shape(self.positions)}")
-        amp = np.asarray(self.amplitudes, dtype=np.complex128)
+        amp = np.array(self.amplitudes, dtype=np.complex128)
         if amp.ndim == 0:
             amp = np.full(pos.shape[0], complex(amp))
         if amp.shape != (pos.shape[0],):
