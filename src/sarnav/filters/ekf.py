@@ -1,0 +1,61 @@
+"""Error-state EKF steps, batched over runs (thesis eqs. 3.18, 3.20-3.22).
+
+All functions take stacks with a leading run axis and never mix runs, so a run's numbers do not
+depend on which other runs share the batch (tests/test_ekf.py checks bit-identity).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sarnav.errors import InputDataError
+
+
+def _t(a):
+    return np.swapaxes(a, -1, -2)
+
+
+def symmetrize(P):
+    """(P + P^T)/2."""
+    return 0.5 * (P + _t(P))
+
+
+def propagate_covariance(P, Phi, Qd):
+    """P <- Phi P Phi^T + Q_d (discrete form of eq. 3.18), symmetrised. Shapes (R, n, n)."""
+    return symmetrize(Phi @ P @ _t(Phi) + Qd)
+
+
+def joseph_update(P, H, R, residual):
+    """Kalman gain, Joseph-form covariance update and error-state estimate (eqs. 3.20-3.22).
+
+    Parameters
+    ----------
+    P : (R, n, n) prior covariance; H : (R, m, n); R : (R, m, m) or (m, m) measurement noise
+    (G = I, extraction seed-000 §16 item 19); residual : (R, m) z - z_hat.
+
+    Returns
+    -------
+    dx : (R, n) error-state estimate K r; P_post : (R, n, n) symmetrised
+    ``(I - K H) P (I - K H)^T + K R K^T``; S : (R, m, m) innovation covariance H P H^T + R.
+    """
+    P = np.asarray(P, dtype=float)
+    H = np.asarray(H, dtype=float)
+    residual = np.asarray(residual, dtype=float)
+    if not np.all(np.isfinite(residual)):
+        raise InputDataError("residual", "measurement residuals must be finite")
+    Rm = np.broadcast_to(np.asarray(R, dtype=float), H.shape[:-1] + H.shape[-2:-1])
+    PHt = P @ _t(H)
+    S = symmetrize(H @ PHt + Rm)
+    # K = P H^T S^-1  <=>  S K^T = H P  (S symmetric)
+    K = _t(np.linalg.solve(S, _t(PHt)))
+    n = P.shape[-1]
+    IKH = np.eye(n) - K @ H
+    P_post = symmetrize(IKH @ P @ _t(IKH) + K @ Rm @ _t(K))
+    dx = (K @ residual[..., None])[..., 0]
+    return dx, P_post, S
+
+
+def normalized_squared(e, C):
+    """e^T C^-1 e for stacks (NEES with C = P, NIS with C = S): (R, n), (R, n, n) -> (R,)."""
+    e = np.asarray(e, dtype=float)
+    return np.sum(e * np.linalg.solve(C, e[..., None])[..., 0], axis=-1)

@@ -1,0 +1,48 @@
+"""Straight-and-level flight at constant speed and heading (the sources' baseline trajectory)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sarnav.errors import ConfigError, require_finite, require_positive
+from sarnav.trajectory.base import Trajectory, TrajectoryState
+from sarnav.trajectory.flight_path import path_kinematics
+
+
+class StraightLevel(Trajectory):
+    """Constant-velocity level flight, body x along the velocity, wings level.
+
+    Parameters
+    ----------
+    start : (3,) initial position p^n [m] (NED; altitude = -start[2]).
+    speed : ground speed [m/s], > 0.
+    heading : heading [rad] from north towards east.
+    duration : length [s], > 0.
+    """
+
+    def __init__(self, start, speed: float, heading: float, duration: float):
+        start = np.asarray(start, dtype=float)
+        if start.shape != (3,) or not np.all(np.isfinite(start)):
+            raise ConfigError("trajectory.start_ned", f"must be 3 finite numbers [m], got {start.tolist()}")
+        self.start = start
+        self.speed = require_positive("trajectory.speed", speed, "m/s")
+        self.heading = require_finite("trajectory.heading", heading, lo=-2 * np.pi, hi=2 * np.pi, unit="rad")
+        self.duration = require_positive("trajectory.duration", duration, "s")
+
+    def _kin(self, t):
+        z = np.zeros_like(t)
+        return path_kinematics(self.speed, self.heading + z, z, z, z, z)
+
+    def state(self, t) -> TrajectoryState:
+        t = self._times(t)
+        vel, q, _, _, _ = self._kin(t)
+        return TrajectoryState(self.start + vel * t[..., None], vel, q)
+
+    def acceleration(self, t):
+        return self._kin(self._times(t))[2]
+
+    def specific_force(self, t):
+        return self._kin(self._times(t))[3]
+
+    def angular_rate(self, t):
+        return self._kin(self._times(t))[4]
