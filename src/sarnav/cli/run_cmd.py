@@ -27,7 +27,7 @@ def add_parser(subparsers) -> None:
                    help="where runs execute (default: processes; dask when --scheduler is given)")
     p.add_argument("--workers", type=int, help="worker processes (default: number of cores)")
     p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--chunk-size", type=int, help="runs per task (default: about 4 tasks per worker, <= 25)")
+    p.add_argument("--chunk-size", type=int, help="runs per task (default: about 2 tasks per worker, <= 50)")
     p.add_argument("--resume", action="store_true", help="keep the runs already stored in --out and finish")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, TOML value), repeatable")

@@ -131,7 +131,7 @@ def run_campaign(
         only the missing ones; a different stored scenario is a :class:`ConfigError`.
         Without ``resume`` an earlier campaign's files in ``out`` are replaced.
     quiet : no progress bar (it is also off when stderr is not a terminal).
-    chunk_size : runs per task (default about four tasks per worker, at most 25).
+    chunk_size : runs per task (default about two tasks per worker, at most 50).
     kind : the ScenarioKind instance (default: resolved from ``scenario.kind``).
 
     Returns
