@@ -44,6 +44,7 @@ own along-track coordinate. Columns are slant range of closest approach (the ``r
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numba
 import numpy as np
@@ -63,23 +64,36 @@ RCMC_KERNELS = {"sinc8": (8, 2.5), "sinc16": (16, 2.5), "none": (0, 0.0)}
 _TABLE_STEPS = 1024
 
 
+@lru_cache(maxsize=8)
 def rcmc_kernel_table(taps: int = 8, beta: float = 2.5, steps: int = _TABLE_STEPS) -> np.ndarray:
     """Windowed-sinc interpolation weights, shape (steps + 1, taps).
 
     Row q interpolates at fractional offset ``q / steps`` past sample ``base``; tap t multiplies sample
     ``base - taps/2 + 1 + t``. Weight = sinc(d) * Kaiser(d; beta) over |d| <= taps/2, each row
-    normalised to sum 1 (unit gain at zero frequency).
+    normalised to sum 1 (unit gain at zero frequency); rows 0 and ``steps`` are exact unit impulses.
+    The returned array is read-only (cached).
     """
     half = taps // 2
     frac = np.arange(steps + 1)[:, None] / steps
     d = frac + (half - 1) - np.arange(taps)[None, :]  # distance from the sample to the target point
     w = np.sinc(d) * i0(beta * np.sqrt(np.clip(1.0 - (d / half) ** 2, 0.0, None))) / i0(beta)
-    return w / w.sum(axis=1, keepdims=True)
+    w /= w.sum(axis=1, keepdims=True)
+    w[0] = 0.0
+    w[0, half - 1] = 1.0
+    w[-1] = 0.0
+    w[-1, half] = 1.0
+    w.setflags(write=False)
+    return w
 
 
 @numba.njit(cache=True, nogil=True)
-def _rcmc_and_filter(spec, shift_coef, phase_coef, r0, r_first, dr, table, steps, do_rcmc):
-    """out[i, j] = interp(spec[i, :], at R0_j (1 + a_i)) * exp(j b_i R0_j)."""
+def _rcmc_and_filter(spec, shift_coef, phase_coef, r_first, dr, table, steps, do_rcmc):
+    """out[i, j] = interp(spec[i, :], at R0_j (1 + a_i)) * exp(j b_i R0_j), R0_j = r_first + j dr.
+
+    The input position is linear in j (pos_j = j (1 + a_i) + a_i r_first / dr) and the phase factor
+    is a geometric sequence in j; both are advanced incrementally and re-anchored every 64 samples
+    (rounding drift < 1e-13).
+    """
     na, nr = spec.shape
     out = np.empty_like(spec)
     taps = table.shape[1]
@@ -87,26 +101,38 @@ def _rcmc_and_filter(spec, shift_coef, phase_coef, r0, r_first, dr, table, steps
     for i in range(na):
         a = shift_coef[i]
         b = phase_coef[i]
+        step = complex(math.cos(b * dr), math.sin(b * dr))
+        slope = 1.0 + a
+        off = a * r_first / dr
+        rot = 0j
         for j in range(nr):
-            ph = b * r0[j]
-            rot = complex(math.cos(ph), math.sin(ph))
+            if j % 64 == 0:
+                ph = b * (r_first + j * dr)
+                rot = complex(math.cos(ph), math.sin(ph))
             if not do_rcmc:
                 out[i, j] = spec[i, j] * rot
-                continue
-            pos = (r0[j] * (1.0 + a) - r_first) / dr
-            base = int(math.floor(pos))
-            q = int((pos - base) * steps + 0.5)
-            acc = 0j
-            k0 = base - lo_off
-            if k0 >= 0 and k0 + taps <= nr:
-                for t in range(taps):
-                    acc += table[q, t] * spec[i, k0 + t]
             else:
-                for t in range(taps):
-                    k = k0 + t
-                    if 0 <= k < nr:
-                        acc += table[q, t] * spec[i, k]
-            out[i, j] = acc * rot
+                pos = j * slope + off
+                base = int(math.floor(pos))
+                q = int((pos - base) * steps + 0.5)
+                if q == steps:
+                    q = 0
+                    base += 1
+                k0 = base - lo_off
+                if q == 0 and 0 <= base < nr:
+                    acc = spec[i, base]  # table row 0 is the identity
+                elif k0 >= 0 and k0 + taps <= nr:
+                    acc = 0j
+                    for t in range(taps):
+                        acc += table[q, t] * spec[i, k0 + t]
+                else:
+                    acc = 0j
+                    for t in range(taps):
+                        k = k0 + t
+                        if 0 <= k < nr:
+                            acc += table[q, t] * spec[i, k]
+                out[i, j] = acc * rot
+            rot *= step
     return out
 
 
@@ -185,7 +211,7 @@ def _check_inputs(rc: PulseData):
 
 
 def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", rcmc_kernel: str = "sinc8",
-                                azimuth_model: str = "parabolic", fm_rate_scale: float = 1.0):
+                                azimuth_model: str = "parabolic", fm_rate_scale: float = 1.0, _checked=None):
     """Steps 1–4 of the RDA: the range-Doppler spectrum after RCMC and azimuth matched filtering.
 
     Parameters
@@ -204,7 +230,7 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     freqs : (P,) Doppler frequency of each row [Hz].
     info : dict with wavelength, prf, etc.
     """
-    data, r = _check_inputs(rc)
+    data, r = _check_inputs(rc) if _checked is None else _checked
     speed = float(speed)
     if not math.isfinite(speed) or speed <= 0:
         raise ConfigError("speed", f"must be finite and > 0 m/s, got {speed!r}")
@@ -238,8 +264,9 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
         phase = 4.0 * np.pi * (dfac - 1.0) / lam / fm_rate_scale
     taps, beta = RCMC_KERNELS[rcmc_kernel]
     table = rcmc_kernel_table(max(taps, 2), beta if taps else 0.0)
+    dr = float(r[-1] - r[0]) / (r.size - 1)
     out = _rcmc_and_filter(np.ascontiguousarray(spec), shift.astype(np.float64), phase.astype(np.float64),
-                           r, float(r[0]), float(r[1] - r[0]), table, _TABLE_STEPS, taps > 0)
+                           float(r[0]), dr, table, _TABLE_STEPS, taps > 0)
     info = {"wavelength": lam, "carrier_frequency": consts["carrier_frequency"], "bandwidth": consts["bandwidth"],
             "prf": prf, "window": win.label, "rcmc_kernel": rcmc_kernel, "azimuth_model": azimuth_model}
     return out, freqs, info
@@ -278,7 +305,8 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
     if window is None:
         window = getattr(rc.params, "azimuth_window", None) or "none"
     spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,
-                                                azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale)
+                                                azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale,
+                                                _checked=(data, r))
     img = sfft.ifft(spec, axis=0, overwrite_x=True)  # eq. (13)
     v = float(v)
     r_mid = float(0.5 * (r[0] + r[-1]))
