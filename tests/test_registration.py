@@ -5,7 +5,7 @@ import pytest
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.data import SarImage
-from sarnav.imaging.registration import register
+from sarnav.imaging.registration import register, register_axis
 
 N, CROP = 160, 16
 
@@ -69,6 +69,18 @@ def test_integer_shift_sign_and_metres_from_sar_image():
     assert (r.lags_y[ky], r.lags_x[kx]) == (3, -4)
 
 
+@pytest.mark.parametrize("axis", [0, 1])
+def test_single_axis_registration(axis):
+    rng = np.random.default_rng(np.random.SeedSequence(99 + axis))
+    for trial in range(4):
+        d = rng.uniform(-4.0, 4.0)
+        ref = _speckle(300 + trial)
+        img = _fourier_shift(ref, d, 0.0) if axis == 0 else _fourier_shift(ref, 0.0, d)
+        shift, peak = register_axis(_crop(ref), _crop(img), axis=axis)
+        assert shift == pytest.approx(d, abs=0.05)
+        assert 0.5 < peak <= 1.0 + 1e-9
+
+
 def test_bad_input_named():
     a = np.ones((8, 8))
     with pytest.raises(InputDataError, match="image"):
@@ -79,3 +91,5 @@ def test_bad_input_named():
         register(a, a, upsample=0)
     with pytest.raises(InputDataError, match="reference"):
         register(np.ones(8), a)
+    with pytest.raises(ConfigError, match="axis"):
+        register_axis(a, a, axis=2)

@@ -12,8 +12,10 @@ paper eq. 7, so K_a / K_amf = (V / V_hat)^2 at every range) and refocus the imag
   ``Delta_K ~ -K_amf^2 Delta_eta / Delta_f_a``). Gap G12 choices: Delta_f_a is the measured difference
   of the two looks' energy-weighted Doppler centroids (equal to half the band for a target in the
   middle of the block, smaller for off-centre targets, so the estimate is iterated until the
-  looks align; the fixed point Delta_eta = 0 is exactly K_amf = K_a); the correlation is 2-D on
-  magnitude images. The refocused image uses the corrected filter rate (eq. 16).
+  looks align; the fixed point Delta_eta = 0 is exactly K_amf = K_a); the correlation is on
+  magnitude images, along azimuth only (1-D correlations summed over range bins,
+  :func:`sarnav.imaging.registration.register_axis`: the looks are aligned in range). The refocused
+  image uses the corrected filter rate (eq. 16).
 * :func:`contrast_autofocus` — thesis App. D.2 (contrast maximisation) with the spacecraft source's
   normalised-variance sharpness (notes/seed-002 §2.9, eq. 3) as default metric: the image is formed
   for candidate speeds; a coarse scan over ±``search`` (relative) picks the best bracket, then
@@ -34,7 +36,7 @@ from sarnav.errors import ConfigError
 from sarnav.imaging import quality
 from sarnav.imaging.data import PulseData, SarImage
 from sarnav.imaging.rda import along_track_axis, azimuth_compressed_spectrum, range_doppler
-from sarnav.imaging.registration import register
+from sarnav.imaging.registration import register_axis
 
 __all__ = ["MapdriftResult", "ContrastResult", "mapdrift", "contrast_autofocus", "CONTRAST_METRICS"]
 
@@ -142,15 +144,15 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int =
         f2 = float(np.sum(freqs[hi] * power[hi]) / np.sum(power[hi]))
         look1 = sfft.ifft(spec * lo[:, None], axis=0)
         look2 = sfft.ifft(spec * hi[:, None], axis=0)
-        reg = register(look1, look2, use_magnitude=True, subpixel="dft", upsample=upsample)
-        d_eta = reg.shift_pixels[0] / prf          # eta_2 - eta_1 [s]
+        shift, _ = register_axis(look1, look2, axis=0, use_magnitude=True, upsample=upsample)
+        d_eta = shift / prf                        # eta_2 - eta_1 [s]
         d_f = f2 - f1                              # Delta_f_a [Hz]
         dets.append(d_eta)
         dfs.append(d_f)
         # eq. (14) inverted exactly: 1/K_a = 1/K_amf - Delta_eta / Delta_f_a
         k_a = 1.0 / (1.0 / k_mf - d_eta / d_f)
         scale = scale * k_a / k_mf
-        if abs(reg.shift_pixels[0]) < tolerance_px:
+        if abs(shift) < tolerance_px:
             break
     k0 = _mid_fm_rate(rc, speed, info["wavelength"])
     img = range_doppler(rc, speed, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
