@@ -37,7 +37,7 @@ from sarnav.ins import NavState, mechanize
 from sarnav.measurements.base import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.montecarlo.record import RunRecord
-from sarnav.rotations import quat_to_dcm
+from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.scenarios.base import ScenarioKind
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.imu import IMU_GRADES, ImuGrade, ImuModel
@@ -351,12 +351,13 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
         nu_k, om_k, ba_k, bg_k, ba, bg = nu_blk, om_blk, ba_blk, bg_blk, new[4], new[5]
         for s in range(steps):
             a, b = s * c, (s + 1) * c
-            T_hat = quat_to_dcm(nav.q)
+            q_start = nav.q
             nav, f_mean, history = mechanize(
                 nav, t_imu[k0 + a:k0 + b + 1], nu_blk[:, a:b + 1], om_blk[:, a:b + 1],
                 prm.tau_accel, prm.tau_gyro, prm.bias_tau, history,
             )
-            Phi, Qd = model.discretize(T_hat, f_mean, dt_cov)
+            T_mid = quat_to_dcm(quat_normalize(q_start + nav.q))  # F at mid-step attitude, mean f^n
+            Phi, Qd = model.discretize(T_mid, f_mean, dt_cov)
             P = propagate_covariance(P, Phi, Qd)
             j = u * steps + s + 1
             truth = truth_at(j, ba_blk[:, b], bg_blk[:, b])
