@@ -35,8 +35,10 @@ from scipy.optimize import minimize_scalar
 from sarnav.errors import ConfigError
 from sarnav.imaging import quality
 from sarnav.imaging.data import PulseData, SarImage
-from sarnav.imaging.rda import along_track_axis, azimuth_compressed_spectrum, range_doppler
+from sarnav.imaging.rda import (along_track_axis, apply_azimuth_filter, azimuth_compressed_spectrum,
+                                image_from_focused, range_doppler)
 from sarnav.imaging.registration import register_axis
+from sarnav.imaging.windows import as_window
 
 __all__ = ["MapdriftResult", "ContrastResult", "mapdrift", "contrast_autofocus", "CONTRAST_METRICS"]
 
@@ -126,14 +128,22 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int =
     if speed is None:
         speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
     speed = float(speed)
+    # RCMC once (it depends on V_hat only); the matched filter is re-applied per iteration
+    spec0, freqs, info = azimuth_compressed_spectrum(rc, speed, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
+                                                     apply_filter=False)
+    prf, lam = info["prf"], info["wavelength"]
+    r = np.asarray(rc.slant_range, dtype=np.float64)
+    k0 = _mid_fm_rate(rc, speed, lam)
+
+    def compressed(s):  # eqs. (11)-(12) with K_amf = s K_a: spec0 * exp(1j * outer(filter_phase / s, R0))
+        return apply_azimuth_filter(spec0, info["filter_phase"] / s, r)
+
     scale = 1.0
     dets, dfs = [], []
     it = 0
     for it in range(1, int(max_iterations) + 1):
-        spec, freqs, info = azimuth_compressed_spectrum(rc, speed, rcmc_kernel=rcmc_kernel,
-                                                        azimuth_model=azimuth_model, fm_rate_scale=scale)
-        prf, lam = info["prf"], info["wavelength"]
-        k_mf = scale * _mid_fm_rate(rc, speed, lam)
+        spec = compressed(scale)
+        k_mf = scale * k0
         band = min(prf, k_mf * rc.n_pulses / prf) if look_bandwidth is None else float(look_bandwidth)
         if not (math.isfinite(band) and 0 < band <= prf):
             raise ConfigError("look_bandwidth", f"must be in (0, PRF = {prf:g}] Hz, got {band!r}")
@@ -154,9 +164,14 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int =
         scale = scale * k_a / k_mf
         if abs(shift) < tolerance_px:
             break
-    k0 = _mid_fm_rate(rc, speed, info["wavelength"])
-    img = range_doppler(rc, speed, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
-                        along_track_origin=along_track_origin, fm_rate_scale=scale)  # eq. (16)
+    if window is None:
+        window = getattr(rc.params, "azimuth_window", None) or "none"
+    if as_window(window, "window").name == "none":  # eq. (16): corrected filter on the same spectrum
+        img = image_from_focused(rc, sfft.ifft(compressed(scale), axis=0), info, speed, fm_rate_scale=scale,
+                                 along_track_origin=along_track_origin)
+    else:
+        img = range_doppler(rc, speed, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
+                            along_track_origin=along_track_origin, fm_rate_scale=scale)
     img.metadata["autofocus"] = "mapdrift"
     img.metadata["fm_rate_scale"] = scale
     return MapdriftResult(fm_rate_error=k0 * (1.0 - scale), fm_rate_scale=scale, speed=speed * math.sqrt(scale),

@@ -56,7 +56,7 @@ from sarnav.imaging.data import PulseData, SarImage
 from sarnav.imaging.windows import as_window
 from sarnav.units import C
 
-__all__ = ["range_doppler", "azimuth_compressed_spectrum", "rcmc_kernel_table", "radar_constants",
+__all__ = ["range_doppler", "azimuth_compressed_spectrum", "image_from_focused", "apply_azimuth_filter", "rcmc_kernel_table", "radar_constants",
            "along_track_axis", "RCMC_KERNELS"]
 
 #: RCMC interpolation kernels: name -> (taps, Kaiser beta); "none" skips RCMC.
@@ -136,6 +136,16 @@ def _rcmc_and_filter(spec, shift_coef, phase_coef, r_first, dr, table, steps, do
     return out
 
 
+def apply_azimuth_filter(spec: np.ndarray, phase_per_metre: np.ndarray, slant_range: np.ndarray) -> np.ndarray:
+    """``spec * exp(1j * outer(phase_per_metre, slant_range))`` (the per-range-bin matched filter of
+    eq. 12 on an RCMC'd spectrum), computed by the compiled kernel without RCMC."""
+    r = np.asarray(slant_range, dtype=np.float64)
+    dr = float(r[-1] - r[0]) / (r.size - 1)
+    return _rcmc_and_filter(np.ascontiguousarray(spec), np.zeros(spec.shape[0]),
+                            np.asarray(phase_per_metre, dtype=np.float64), float(r[0]), dr,
+                            rcmc_kernel_table(2, 0.0), _TABLE_STEPS, False)
+
+
 def radar_constants(params) -> dict:
     """Carrier frequency, wavelength and bandwidth from a ``RadarParams``-like object.
 
@@ -211,7 +221,8 @@ def _check_inputs(rc: PulseData):
 
 
 def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", rcmc_kernel: str = "sinc8",
-                                azimuth_model: str = "parabolic", fm_rate_scale: float = 1.0, _checked=None):
+                                azimuth_model: str = "parabolic", fm_rate_scale: float = 1.0,
+                                apply_filter: bool = True, _checked=None):
     """Steps 1–4 of the RDA: the range-Doppler spectrum after RCMC and azimuth matched filtering.
 
     Parameters
@@ -223,12 +234,15 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     azimuth_model : "parabolic" (paper eqs. 5, 11) or "hyperbolic" (exact zero-squint).
     fm_rate_scale : multiplies K_a of the matched filter (autofocus: K_amf = s K_a(V), eq. 16);
         RCMC keeps the speed's migration.
+    apply_filter : False stops after RCMC (step 3); the filter is then
+        ``exp(1j * info["filter_phase"][:, None] / fm_rate_scale * slant_range[None, :])``.
 
     Returns
     -------
     spec : (P, N) complex, rows in FFT order of ``freqs``.
     freqs : (P,) Doppler frequency of each row [Hz].
-    info : dict with wavelength, prf, etc.
+    info : dict with wavelength, carrier_frequency, bandwidth, prf, window, rcmc_kernel,
+        azimuth_model, filter_phase ((P,) matched-filter phase per metre of R0 at fm_rate_scale 1).
     """
     data, r = _check_inputs(rc) if _checked is None else _checked
     speed = float(speed)
@@ -252,8 +266,8 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     spec = sfft.fft(x, axis=0)  # eq. (4)
     freqs = sfft.fftfreq(na, d=1.0 / prf)
     if azimuth_model == "parabolic":
-        shift = lam**2 * freqs**2 / (8.0 * speed**2)                       # eq. (5)/(9): dR / R0
-        phase = -np.pi * lam * freqs**2 / (2.0 * speed**2) / fm_rate_scale  # -pi f^2 / K_a, per R0
+        shift = lam**2 * freqs**2 / (8.0 * speed**2)      # eq. (5)/(9): dR / R0
+        phase1 = -np.pi * lam * freqs**2 / (2.0 * speed**2)  # -pi f^2 / K_a (eq. 11), per metre of R0
     else:
         arg = 1.0 - (lam * freqs / (2.0 * speed)) ** 2
         if np.any(arg <= 0):
@@ -261,14 +275,16 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
                                  f"= {4 * speed / lam:g} Hz for the hyperbolic model")
         dfac = np.sqrt(arg)
         shift = 1.0 / dfac - 1.0
-        phase = 4.0 * np.pi * (dfac - 1.0) / lam / fm_rate_scale
+        phase1 = 4.0 * np.pi * (dfac - 1.0) / lam
     taps, beta = RCMC_KERNELS[rcmc_kernel]
     table = rcmc_kernel_table(max(taps, 2), beta if taps else 0.0)
     dr = float(r[-1] - r[0]) / (r.size - 1)
+    phase = phase1 / fm_rate_scale if apply_filter else np.zeros_like(phase1)
     out = _rcmc_and_filter(np.ascontiguousarray(spec), shift.astype(np.float64), phase.astype(np.float64),
                            float(r[0]), dr, table, _TABLE_STEPS, taps > 0)
     info = {"wavelength": lam, "carrier_frequency": consts["carrier_frequency"], "bandwidth": consts["bandwidth"],
-            "prf": prf, "window": win.label, "rcmc_kernel": rcmc_kernel, "azimuth_model": azimuth_model}
+            "prf": prf, "window": win.label, "rcmc_kernel": rcmc_kernel, "azimuth_model": azimuth_model,
+            "filter_phase": phase1}
     return out, freqs, info
 
 
@@ -300,15 +316,26 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
         along_track_direction, pulse_time0.
     """
     data, r = _check_inputs(rc)
-    y, u, origin, track_speed = along_track_axis(rc.positions, rc.pulse_times, along_track_origin)
-    v = abs(track_speed) if speed is None else speed
+    v = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3]) if speed is None else speed
     if window is None:
         window = getattr(rc.params, "azimuth_window", None) or "none"
     spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,
                                                 azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale,
                                                 _checked=(data, r))
     img = sfft.ifft(spec, axis=0, overwrite_x=True)  # eq. (13)
-    v = float(v)
+    return image_from_focused(rc, img, info, v, fm_rate_scale=fm_rate_scale, along_track_origin=along_track_origin)
+
+
+def image_from_focused(rc: PulseData, img: np.ndarray, info: dict, speed: float, *, fm_rate_scale: float = 1.0,
+                       along_track_origin=None) -> SarImage:
+    """Wrap focused RDA data (after step 5) in a :class:`SarImage` with axes and metadata.
+
+    ``info`` is the dict returned by :func:`azimuth_compressed_spectrum`.
+    """
+    r = np.asarray(rc.slant_range, dtype=np.float64)
+    y, u, origin, _ = along_track_axis(rc.positions, rc.pulse_times, along_track_origin)
+    rcmc_kernel, azimuth_model = info["rcmc_kernel"], info["azimuth_model"]
+    v = float(speed)
     r_mid = float(0.5 * (r[0] + r[-1]))
     meta = {
         "algorithm": "rda",
@@ -318,7 +345,7 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
         "prf": info["prf"],
         "speed": v,
         "closest_approach_range": r_mid,
-        "aperture_length": v * data.shape[0] / info["prf"],
+        "aperture_length": v * img.shape[0] / info["prf"],
         "fm_rate": fm_rate_scale * 2.0 * v**2 / (info["wavelength"] * r_mid),
         "window": info["window"],
         "range_window": str(rc.metadata.get("range_window", rc.metadata.get("window", "unknown"))),
