@@ -1,0 +1,177 @@
+"""Image mode of ``rda-nav``: from echoes to the measured time and range of closest approach of the
+reference target in each 1-s sub-aperture (docs/scenarios/rda-nav.md §1-§2).
+
+Per aperture (cached, the same for every run: truth and scene do not depend on the run):
+  scene = reference reflector + clutter scatterers whose TOC lies in the aperture (drawn from
+  ``scene.seed``); echoes along the *true* antenna positions; range compression; the *reference
+  product*: an RDA image focused with the true track, of which a chip around the reflector is kept
+  together with the reflector's position inside the chip (its geolocation). Only the chip's pattern and
+  that internal anchor are used: the in-flight time axis is never taken from the reference.
+Per run:
+  RDA + mapdrift (paper eqs. 14-16) on the range-compressed data with the *estimated* speed, restricted to a
+  slant-range window around the range R0_hat the estimate predicts (thesis eq. 4.41); the chip is searched
+  in that image by 2-D correlation (paper eq. 46, magnitudes, sub-pixel); the anchor lands at the measured
+  TOC eta0 (row -> pulse time) and range R0 (column -> slant range). Both come from radar timing only.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from sarnav.errors import InputDataError
+from sarnav.imaging.autofocus import mapdrift
+from sarnav.imaging.range_compression import range_compress
+from sarnav.imaging.rda import range_doppler
+from sarnav.imaging.registration import register
+from sarnav.measurements.image_shift import closest_approach
+from sarnav.radar.echoes import simulate_echoes
+from sarnav.radar.presets import flexsar, nav_paper_sim
+from sarnav.radar.scene import Scene
+
+#: chip half-sizes: azimuth in resolution cells (lambda R / (2 V T)), range in metres
+CHIP_HALF_AZ_CELLS = 1.5
+CHIP_HALF_RANGE_M = 4.0
+#: slant-range half-window of the in-flight image around the predicted R0_hat [m]
+SEARCH_HALF_RANGE_M = 12.0
+#: sub-pixel method of the chip registration: "parabola" (the upsampled-DFT refinement costs 25-60 ms per
+#: call on 2 cores when OpenBLAS runs multi-threaded small complex matmuls; 3 ms single-threaded)
+REGISTRATION_SUBPIXEL = "parabola"
+STAGE_INDEX = {"echoes": 0, "rda": 1, "autofocus": 2, "registration": 3}
+
+
+def radar_for(preset: str):
+    return nav_paper_sim() if preset == "nav-paper-sim" else flexsar()
+
+
+def _crop_range(rc, r_lo, r_hi):
+    r = rc.slant_range
+    a = max(int(np.searchsorted(r, r_lo)), 0)
+    b = min(int(np.searchsorted(r, r_hi)), r.size)
+    if b - a < 16:
+        raise InputDataError("sar", f"predicted range window [{r_lo:.1f}, {r_hi:.1f}] m lies outside the receive window")
+    return replace(rc, data=rc.data[:, a:b], slant_range=r[a:b])
+
+
+class ApertureImager:
+    """Makes the image-derived TOC and range of each sub-aperture's reference target for a batch of runs.
+
+    Parameters
+    ----------
+    prm : :class:`sarnav.scenarios.rda_nav.RdaNavParams`.
+    targets : (U, 3) reference targets (``rda_nav.reference_targets``).
+    """
+
+    def __init__(self, prm, targets):
+        self.prm = prm
+        self.targets = np.asarray(targets, dtype=np.float64)
+        self.params = radar_for(prm.radar_preset)
+        self.n_pulses = int(round(self.params.prf))
+        self._cache: dict[int, dict] = {}
+
+    # --- per aperture, shared by every run ---------------------------------------------------
+    def _scene(self, u: int) -> Scene:
+        prm = self.prm
+        rng = np.random.default_rng(np.random.SeedSequence([prm.scene["seed"], 1, u]))
+        n = prm.scene["clutter"]
+        traj = prm.trajectory
+        uvec = np.array([math.cos(traj.heading), math.sin(traj.heading), 0.0])
+        w = np.array([-math.sin(traj.heading), math.cos(traj.heading), 0.0])
+        start = traj.state(np.array([0.0])).position[0]
+        ground = np.array([start[0], start[1], 0.0])
+        toc = u + rng.uniform(0.1, 0.9, n)
+        gr = rng.uniform(*prm.scene["ground_range"], n)
+        clutter = ground + (traj.speed * toc)[:, None] * uvec + gr[:, None] * w
+        amp = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2.0)  # Rayleigh, unit mean power
+        refl = prm.scene["reflector_amplitude"]
+        return Scene(np.vstack([self.targets[u][None, :], clutter]), np.concatenate([[refl], amp]))
+
+    def aperture(self, u: int) -> dict:
+        """Range-compressed echoes of aperture u and its reference chip (cached)."""
+        if u in self._cache:
+            return self._cache[u]
+        t0 = time.perf_counter()
+        prm = self.prm
+        times = u + np.arange(self.n_pulses) / self.params.prf
+        truth = prm.trajectory.state(times)
+        raw = simulate_echoes(self.params, truth.position, times, self._scene(u))
+        rc = range_compress(raw)
+        # reference product: focused with the true track; keep a chip around the reflector + its anchor
+        targ = self.targets[u]
+        eta_ref, r_ref, _ = closest_approach(targ, times, truth.position)
+        ref = range_doppler(_crop_range(rc, r_ref - SEARCH_HALF_RANGE_M, r_ref + SEARCH_HALF_RANGE_M),
+                            prm.trajectory.speed)
+        prf = self.params.prf
+        fi = (eta_ref - times[0]) * prf
+        fj = (r_ref - ref.x[0]) / ref.dx
+        i0, j0 = int(round(fi)), int(round(fj))
+        res_az = self.params.wavelength * r_ref / (2 * prm.trajectory.speed * self.n_pulses / prf)
+        hi = min(self.n_pulses // 4, max(4, int(math.ceil(CHIP_HALF_AZ_CELLS * res_az / (prm.trajectory.speed / prf)))))
+        hj = int(math.ceil(CHIP_HALF_RANGE_M / ref.dx))
+        rows = np.arange(i0 - hi, i0 + hi + 1) % self.n_pulses  # RDA blocks are circular in azimuth
+        cols = np.arange(j0 - hj, j0 + hj + 1)
+        if cols[0] < 0 or cols[-1] >= ref.shape[1]:
+            raise InputDataError("scene.ground_range_max", "reference chip leaves the reference image")
+        chip = np.abs(ref.data[np.ix_(rows, cols)])
+        entry = {"times": times, "rc": rc, "chip": chip, "anchor": (fi - i0, fj - j0),
+                 "seconds": time.perf_counter() - t0}
+        self._cache[u] = entry
+        return entry
+
+    # --- per run -------------------------------------------------------------------------------
+    def measure(self, u: int, ap_t, ap_p, ap_v, stage_seconds) -> dict:
+        """Measured TOC (R,), range of closest approach (R,) and mapdrift Delta_K (R,) for aperture u.
+
+        ``ap_t`` (K,), ``ap_p``/``ap_v`` (R, K, 3): the estimated trajectory over the aperture (INS output);
+        ``stage_seconds`` (R, n_stages) is incremented with the time per stage.
+        """
+        ap = self.aperture(u)
+        times, rc, chip = ap["times"], ap["rc"], ap["chip"]
+        R = ap_p.shape[0]
+        stage_seconds[:, STAGE_INDEX["echoes"]] += ap["seconds"] / R if not ap.get("charged") else 0.0
+        ap["charged"] = True
+        prf = self.params.prf
+        out = {"toc": np.empty(R), "range": np.empty(R), "autofocus_dk": np.empty(R)}
+        targ = self.targets[u]
+        hi, hj = chip.shape[0] // 2, chip.shape[1] // 2
+        for r in range(R):
+            t0 = time.perf_counter()
+            p_hat = np.stack([np.interp(times, ap_t, ap_p[r, :, i]) for i in range(3)], axis=1)
+            v_mean = np.mean(ap_v[r], axis=0)
+            speed_hat = float(np.linalg.norm(v_mean))
+            eta_hat, r_hat, _ = closest_approach(targ, times, p_hat) if _inside(targ, times, p_hat) else \
+                (None, float(np.linalg.norm(targ - p_hat[len(times) // 2])), None)
+            sub = _crop_range(rc, r_hat - SEARCH_HALF_RANGE_M, r_hat + SEARCH_HALF_RANGE_M).with_positions(p_hat)
+            t1 = time.perf_counter()
+            af = mapdrift(sub, speed_hat, max_iterations=2)
+            t2 = time.perf_counter()
+            img = np.abs(af.image.data)
+            # coarse: the chip at the centre of a canvas the size of the image, integer correlation peak;
+            # fine: the chip against the image cut (circularly in azimuth) around that peak, sub-pixel
+            canvas = np.zeros_like(img)
+            ci, cj = img.shape[0] // 2, img.shape[1] // 2
+            canvas[ci - hi:ci + hi + 1, cj - hj:cj + hj + 1] = chip
+            coarse = register(canvas, img, use_magnitude=True, subpixel="none")
+            i1 = ci + int(coarse.shift_pixels[0])
+            j1 = min(max(cj + int(coarse.shift_pixels[1]), hj), img.shape[1] - hj - 1)
+            cut = img[np.ix_(np.arange(i1 - hi, i1 + hi + 1) % img.shape[0], np.arange(j1 - hj, j1 + hj + 1))]
+            fine = register(chip, cut, use_magnitude=True, subpixel=REGISTRATION_SUBPIXEL)
+            row = i1 + fine.shift_pixels[0] + ap["anchor"][0]
+            col = j1 + fine.shift_pixels[1] + ap["anchor"][1]
+            out["toc"][r] = times[0] + (row % self.n_pulses) / prf
+            out["range"][r] = af.image.x[0] + col * af.image.dx
+            out["autofocus_dk"][r] = af.fm_rate_error
+            t3 = time.perf_counter()
+            stage_seconds[r, STAGE_INDEX["rda"]] += t1 - t0
+            stage_seconds[r, STAGE_INDEX["autofocus"]] += t2 - t1
+            stage_seconds[r, STAGE_INDEX["registration"]] += t3 - t2
+        return out
+
+
+def _inside(targ, times, positions) -> bool:
+    d = np.sum((positions - targ) ** 2, axis=1)
+    k = int(np.argmin(d))
+    return 0 < k < len(times) - 1
