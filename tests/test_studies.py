@@ -106,14 +106,23 @@ def _horizontal_3sigma(path):
 
 @pytest.mark.slow
 def test_imu_grade_ordering_thesis_fig_3_8(tmp_path):
-    """T21: consumer >> tactical >= navigation in N/E; the tactical-navigation gap is the smaller one."""
+    """T21 (thesis L664-L681): consumer > tactical >= navigation in N and E, and the improvement from
+    tactical to navigation "much smaller" than from consumer to tactical; down less affected.
+
+    "Much smaller" in numbers, on the final horizontal 3σ h = 3·sqrt(σ_N² + σ_E²): the
+    consumer-tactical gap is at least 5 times the tactical-navigation gap. (The thesis gives no values,
+    so the absolute consumer/tactical ratio is reported, not asserted.)
+    """
     pytest.importorskip("sarnav.scenarios.telemetry")
     st = _run("telemetry-imu-grade", tmp_path, runs=4)
+    grades = ("consumer", "tactical", "navigation")
     for s in ("pN", "pE"):
-        c, t, n = (_final3(st, g, s) for g in ("consumer", "tactical", "navigation"))
-        assert c > 2.0 * t, (s, c, t)  # "much larger": at least a factor 2
-        assert t >= n, (s, t, n)
-        assert c - t > t - n, (s, c, t, n)
+        c, t, n = (_final3(st, g, s) for g in grades)
+        assert c > t >= n, (s, c, t, n)
+    c, t, n = (math.hypot(_final3(st, g, "pN"), _final3(st, g, "pE")) for g in grades)
+    assert c - t > 5.0 * (t - n), (c, t, n)
+    d_c, d_t = _final3(st, "consumer", "pD"), _final3(st, "tactical", "pD")
+    assert d_c / d_t < c / t, (d_c / d_t, c / t)
 
 
 @pytest.mark.slow
@@ -150,3 +159,7 @@ def test_target_geometry_thesis_figs_3_10_3_11(tmp_path):
     # east 0 (200 m off track) < 500 < 1000 < 1500, for both north rows
     assert mean_h[1] < mean_h[2] < mean_h[3] < mean_h[4], mean_h
     assert mean_h[5] < mean_h[6] < mean_h[7] < mean_h[8], mean_h
+    # T24: the down 3σ does not depend on the target (altimeter): time-averaged pD 3σ within 2 %
+    st = json.loads((tmp_path / "telemetry-geometry" / "study.json").read_text())
+    d = [c["states"]["pD"]["mean_3sigma"] for c in st["cases"]]
+    assert max(d) < 1.02 * min(d), d
