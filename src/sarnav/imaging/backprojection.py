@@ -52,6 +52,8 @@ _MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1}
 _PAD = 2
 #: pixels per parallel work item (a block of contiguous pixels: the row stays in L1 cache)
 DEFAULT_BLOCK = 512
+#: pulses per pass over the image (their samples stay in the L2 cache)
+DEFAULT_PULSE_BLOCK = 128
 #: Keys (1981) cubic-convolution parameter
 _KEYS_A = -0.5
 
@@ -82,97 +84,103 @@ _S0, _S1, _S2, _S3, _S4, _S5 = (float(c) for c in _SIN)
 _C0, _C1, _C2, _C3, _C4, _C5, _C6 = (float(c) for c in _COS)
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
-def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lambda, mode, block,
-                out_re, out_im):  # pragma: no cover - compiled
-    """Accumulate sum_k s_k(R) exp(j 4 pi R / lambda) into out_re/out_im (float64).
-
-    dre/dim: (P, N + 2 PAD) float32 zero-padded real/imag samples; u = R * inv_dr - u_offset is the
-    unpadded fractional sample index, valid in [0, u_max].
-    """
-    m_total = px.size
-    n_pulses = ant.shape[0]
-    n_blocks = (m_total + block - 1) // block
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max, two_over_lambda, mode,
+                 acc_r, acc_i, idx, wgt, cph, sph, w4):  # pragma: no cover - compiled
+    """Accumulate pulses k_start..k_stop-1 into one block of pixels (acc_r, acc_i: float64)."""
+    n = x_.size
     shift = 0.5 if mode == 0 else 0.0
     a = _KEYS_A
     one = np.uint64(1)
     two = np.uint64(2)
-    for blk in numba.prange(n_blocks):
-        i_start = blk * block
-        n = min(m_total, i_start + block) - i_start
-        x_ = px[i_start:i_start + n]
-        y_ = py[i_start:i_start + n]
-        z_ = pz[i_start:i_start + n]
-        acc_r = np.zeros(n)
-        acc_i = np.zeros(n)
-        idx = np.empty(n, np.uint64)
-        wgt = np.empty(n)
-        cph = np.empty(n)
-        sph = np.empty(n)
-        for k in range(n_pulses):
-            ax = ant[k, 0]
-            ay = ant[k, 1]
-            az = ant[k, 2]
-            d_re = dre[k]
-            d_im = dim[k]
-            # pass 1 (vectorised): float64 range, sample index and weight, phase factor
-            for i in range(n):
-                dx = x_[i] - ax
-                dy = y_[i] - ay
-                dz = z_[i] - az
-                r = math.sqrt(dx * dx + dy * dy + dz * dz)
-                u = r * inv_dr - u_offset
-                valid = (u >= 0.0) & (u <= u_max)
-                uc = min(max(u, 0.0), u_max) + (_PAD + shift)
-                fl = math.floor(uc)
-                idx[i] = np.uint64(fl)
-                wgt[i] = uc - fl
-                cyc = r * two_over_lambda          # 4 pi R / lambda = 2 pi cyc
-                f = cyc - math.floor(cyc + 0.5)    # in [-1/2, 1/2)
-                xh = math.pi * f                   # half angle in [-pi/2, pi/2]
-                t = xh * xh
-                sn = xh * (_S0 + t * (_S1 + t * (_S2 + t * (_S3 + t * (_S4 + t * _S5)))))
-                cs = _C0 + t * (_C1 + t * (_C2 + t * (_C3 + t * (_C4 + t * (_C5 + t * _C6)))))
-                m = 1.0 if valid else 0.0
-                cph[i] = (cs * cs - sn * sn) * m
-                sph[i] = 2.0 * sn * cs * m
-            # pass 2: gather the samples, rotate, accumulate
-            if mode == 0:
-                for i in range(n):
-                    j = idx[i]
-                    sr = d_re[j]
-                    si = d_im[j]
-                    acc_r[i] += sr * cph[i] - si * sph[i]
-                    acc_i[i] += sr * sph[i] + si * cph[i]
-            elif mode == 1:
-                for i in range(n):
-                    j = idx[i]
-                    w = wgt[i]
-                    r0 = d_re[j]
-                    i0 = d_im[j]
-                    sr = r0 + w * (d_re[j + one] - r0)
-                    si = i0 + w * (d_im[j + one] - i0)
-                    acc_r[i] += sr * cph[i] - si * sph[i]
-                    acc_i[i] += sr * sph[i] + si * cph[i]
-            else:
-                for i in range(n):
-                    j = idx[i]
-                    w = wgt[i]
-                    # Keys kernel at distances 1+w, w, 1-w, 2-w
-                    x1 = 1.0 + w
-                    x2 = 1.0 - w
-                    x3 = 2.0 - w
-                    wm1 = a * x1 * x1 * x1 - 5.0 * a * x1 * x1 + 8.0 * a * x1 - 4.0 * a
-                    w0 = (a + 2.0) * w * w * w - (a + 3.0) * w * w + 1.0
-                    w1 = (a + 2.0) * x2 * x2 * x2 - (a + 3.0) * x2 * x2 + 1.0
-                    w2 = a * x3 * x3 * x3 - 5.0 * a * x3 * x3 + 8.0 * a * x3 - 4.0 * a
-                    sr = wm1 * d_re[j - one] + w0 * d_re[j] + w1 * d_re[j + one] + w2 * d_re[j + two]
-                    si = wm1 * d_im[j - one] + w0 * d_im[j] + w1 * d_im[j + one] + w2 * d_im[j + two]
-                    acc_r[i] += sr * cph[i] - si * sph[i]
-                    acc_i[i] += sr * sph[i] + si * cph[i]
+    for k in range(k_start, k_stop):
+        ax = ant[k, 0]
+        ay = ant[k, 1]
+        az = ant[k, 2]
+        d_re = dre[k]
+        d_im = dim[k]
+        # pass 1 (vectorised): float64 range, sample index and weight, phase factor exp(j 4 pi R / lambda)
         for i in range(n):
-            out_re[i_start + i] += acc_r[i]
-            out_im[i_start + i] += acc_i[i]
+            dx = x_[i] - ax
+            dy = y_[i] - ay
+            dz = z_[i] - az
+            r = math.sqrt(dx * dx + dy * dy + dz * dz)
+            u = r * inv_dr - u_offset
+            valid = (u >= 0.0) & (u <= u_max)
+            uc = min(max(u, 0.0), u_max) + (_PAD + shift)
+            fl = math.floor(uc)
+            idx[i] = np.uint64(fl)
+            wgt[i] = uc - fl
+            cyc = r * two_over_lambda          # 4 pi R / lambda = 2 pi cyc
+            f = cyc - math.floor(cyc + 0.5)    # fractional cycle in [-1/2, 1/2), exact in float64
+            xh = math.pi * f                   # half angle in [-pi/2, pi/2]
+            t = xh * xh
+            sn = xh * (_S0 + t * (_S1 + t * (_S2 + t * (_S3 + t * (_S4 + t * _S5)))))
+            cs = _C0 + t * (_C1 + t * (_C2 + t * (_C3 + t * (_C4 + t * (_C5 + t * _C6)))))
+            m = 1.0 if valid else 0.0
+            cph[i] = (cs * cs - sn * sn) * m   # double-angle identities
+            sph[i] = 2.0 * sn * cs * m
+        # pass 2: gather the float32 samples, interpolate, rotate, accumulate
+        if mode == 0:
+            for i in range(n):
+                j = idx[i]
+                sr = d_re[j]
+                si = d_im[j]
+                acc_r[i] += sr * cph[i] - si * sph[i]
+                acc_i[i] += sr * sph[i] + si * cph[i]
+        elif mode == 1:
+            for i in range(n):
+                j = idx[i]
+                w = wgt[i]
+                r0 = d_re[j]
+                i0 = d_im[j]
+                sr = r0 + w * (d_re[j + one] - r0)
+                si = i0 + w * (d_im[j + one] - i0)
+                acc_r[i] += sr * cph[i] - si * sph[i]
+                acc_i[i] += sr * sph[i] + si * cph[i]
+        else:
+            for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
+                w = wgt[i]
+                x1 = 1.0 + w
+                x2 = 1.0 - w
+                x3 = 2.0 - w
+                w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+                w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+                w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+                w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+            for i in range(n):
+                j = idx[i]
+                sr = w4[0, i] * d_re[j - one] + w4[1, i] * d_re[j] + w4[2, i] * d_re[j + one] + w4[3, i] * d_re[j + two]
+                si = w4[0, i] * d_im[j - one] + w4[1, i] * d_im[j] + w4[2, i] * d_im[j + one] + w4[3, i] * d_im[j + two]
+                acc_r[i] += sr * cph[i] - si * sph[i]
+                acc_i[i] += sr * sph[i] + si * cph[i]
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lambda, mode, block,
+                pulse_block, out_re, out_im):  # pragma: no cover - compiled
+    """Accumulate sum_k s_k(R) exp(j 4 pi R / lambda) into out_re/out_im (float64).
+
+    dre/dim: (P, N + 2 PAD) float32 zero-padded real/imag samples; u = R * inv_dr - u_offset is the
+    unpadded fractional sample index, valid in [0, u_max]. Pulses are processed in groups of
+    ``pulse_block`` (their samples stay in L2 cache), pixels in parallel blocks of ``block``.
+    """
+    m_total = px.size
+    n_pulses = ant.shape[0]
+    n_blocks = (m_total + block - 1) // block
+    for k_start in range(0, n_pulses, pulse_block):
+        k_stop = min(n_pulses, k_start + pulse_block)
+        for blk in numba.prange(n_blocks):
+            i0 = blk * block
+            i1 = min(m_total, i0 + block)
+            n = i1 - i0
+            acc_r = np.zeros(n)
+            acc_i = np.zeros(n)
+            _pulse_block(px[i0:i1], py[i0:i1], pz[i0:i1], ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max,
+                         two_over_lambda, mode, acc_r, acc_i, np.empty(n, np.uint64), np.empty(n), np.empty(n),
+                         np.empty(n), np.empty((4, n)))
+            out_re[i0:i1] += acc_r
+            out_im[i0:i1] += acc_i
 
 
 # ---------------------------------------------------------------------------------------------
@@ -275,7 +283,8 @@ def _image(g, values: np.ndarray, rc: PulseData, lam: float, interpolation: str,
 # public API
 
 def backproject_points(rc: PulseData, points, positions=None, interpolation: str = "linear", *,
-                       wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK) -> np.ndarray:
+                       wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK,
+                       pulse_block: int = DEFAULT_PULSE_BLOCK) -> np.ndarray:
     """Back-project onto arbitrary points; returns complex128 values of shape ``points.shape[:-1]``.
 
     Same arguments as :func:`backproject` with ``points`` an ``(..., 3)`` float64 NED array [m].
@@ -301,7 +310,7 @@ def backproject_points(rc: PulseData, points, positions=None, interpolation: str
     out_re = np.zeros(flat.shape[0])
     out_im = np.zeros(flat.shape[0])
     _bpa_kernel(px, py, pz, np.ascontiguousarray(pos), dre, dim, float(rng[0]) / dr, 1.0 / dr, float(n - 1),
-                2.0 / lam, _MODE[interpolation], int(block), out_re, out_im)
+                2.0 / lam, _MODE[interpolation], int(block), int(pulse_block), out_re, out_im)
     return (out_re + 1j * out_im).reshape(pts.shape[:-1])
 
 
