@@ -37,6 +37,8 @@ CHIP_HALF_AZ_CELLS = 1.5
 CHIP_HALF_RANGE_M = 4.0
 #: slant-range half-window of the in-flight image around the predicted R0_hat [m]
 SEARCH_HALF_RANGE_M = 12.0
+#: look correlations of mapdrift: the paper's single pass (G12)
+MAPDRIFT_ITERATIONS = 1
 #: sub-pixel method of the chip registration: "parabola" (the upsampled-DFT refinement costs 25-60 ms per
 #: call on 2 cores when OpenBLAS runs multi-threaded small complex matmuls; 3 ms single-threaded)
 REGISTRATION_SUBPIXEL = "parabola"
@@ -146,7 +148,7 @@ class ApertureImager:
                 (None, float(np.linalg.norm(targ - p_hat[len(times) // 2])), None)
             sub = _crop_range(rc, r_hat - SEARCH_HALF_RANGE_M, r_hat + SEARCH_HALF_RANGE_M).with_positions(p_hat)
             t1 = time.perf_counter()
-            af = mapdrift(sub, speed_hat, max_iterations=2)
+            af = mapdrift(sub, speed_hat, max_iterations=MAPDRIFT_ITERATIONS)
             t2 = time.perf_counter()
             img = np.abs(af.image.data)
             # coarse: the chip at the centre of a canvas the size of the image, integer correlation peak;
