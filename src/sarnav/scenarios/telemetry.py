@@ -40,7 +40,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.scenarios.base import ScenarioKind
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
-from sarnav.sensors.imu import IMU_GRADES, ImuGrade, ImuModel
+from sarnav.sensors.imu import GRADE_THREE_SIGMA, IMU_GRADES, ImuGrade, ImuModel
 from sarnav.trajectory import Maneuvering, StraightLevel
 
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
@@ -148,8 +148,6 @@ def parse(cfg: dict) -> TelemetryParams:
             raise ConfigError(f"imu.{missing[0]}", "required when imu.grade = 'custom'")
         base3 = [None] * 4
     elif grade_name in IMU_GRADES:
-        from sarnav.sensors.imu import GRADE_THREE_SIGMA
-
         base3 = list(GRADE_THREE_SIGMA[grade_name])
     else:
         raise ConfigError("imu.grade", f"must be one of {sorted(IMU_GRADES)} or 'custom', got {grade_name!r}")
@@ -309,8 +307,8 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     bm0 = prm.bias_sigma * w0[:, :3]
     dx0 = prm.p0_sigma * w0[:, 3:]
     drive = np.stack([g.standard_normal((n_upd * steps, 3)) for g in rngs])
-    bm_truth, _ = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, dt_cov))
-    bm_truth = np.concatenate([bm_truth, _[:, None]], axis=1)  # (R, T, 3) at every output epoch
+    bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, dt_cov))
+    bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3) at every output epoch
     nu_k, om_k, ba_k, bg_k, ba, bg = imu.measure(nu_true[:1], om_true[:1], ba, bg, rngs)
 
     def truth_at(j, ba_now, bg_now):
