@@ -94,3 +94,32 @@ def test_real_subprocess_bad_input_and_help(tmp_path, toy_file):
     assert r.stderr.strip() == "sarnav: error: campaign.runs: must be an integer >= 1, got -3"
     r = subprocess.run(cmd + ["scenarios"], capture_output=True, text=True, env=env, timeout=60)
     assert r.returncode == 0 and "telemetry" in r.stdout
+
+
+# --------------------------------------------------------------------------- with the telemetry kind
+def test_telemetry_bad_values_through_main(capsys, tmp_path):
+    pytest.importorskip("sarnav.scenarios.telemetry")
+    for extra, pattern in [
+        (["--set", "imu.tau_accel=0"], "imu.tau_accel: must be finite and > 0"),
+        (["--set", "measurements.tau_range=-5"], "measurements.tau_range:"),
+        (["--set", "imu.tau_gyro=nan"], "imu.tau_gyro: must be a finite number"),
+        (["--set", "imu.no_such_key=1"], "imu.no_such_key: unknown key"),
+        (["--runs", "0"], "campaign.runs: must be an integer >= 1, got 0"),
+    ]:
+        one_error_line(capsys, main(["run", "--out", str(tmp_path / "o"), "--quiet"] + extra), pattern)
+
+
+def test_telemetry_show_and_small_run_with_figures(capsys, tmp_path):
+    pytest.importorskip("sarnav.scenarios.telemetry")
+    assert main(["show", "telemetry", "--set", "imu.grade=consumer"]) == 0
+    cfg = parse_toml(capsys.readouterr().out)
+    assert cfg["scenario"]["kind"] == "telemetry" and cfg["imu"]["grade"] == "consumer"
+    out = tmp_path / "tel"
+    code = main(["run", "telemetry", "--runs", "2", "--set", "trajectory.duration=4", "--executor", "serial", "--out", str(out)])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "telemetry: 2 runs" in printed and "mean NEES" in printed
+    figs = sorted(p.name for p in (out / "figures").glob("*.png"))
+    assert figs == ["attitude.png", "position.png", "residuals.png", "velocity.png"]
+    s = json.loads((out / "summary.json").read_text())
+    assert set(s["residuals"]) == {"alt", "range", "rate"} and s["nees"]["dof"] == 18

@@ -43,6 +43,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SarnavError as err:
         print(f"sarnav: error: {err}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

@@ -40,7 +40,8 @@ def _print_summary(summary: dict, out: Path) -> None:
     print(f"{summary['scenario']}: {summary['runs']} runs -> {out}")
     rows = list(summary["states"].items())[:9]
     for name, s in rows:
-        print(f"  {name:>6}  final 3-sigma {s['final_3sigma']:.4g} {s['units']:<5}  inside 3-sigma {100 * s['fraction_inside_3sigma']:.2f} %")
+        value = f"{s['final_3sigma']:.4g} {s['units']}"
+        print(f"  {name:>6}  final 3-sigma {value:<14} inside 3-sigma {100 * s['fraction_inside_3sigma']:6.2f} %")
     n = summary["nees"]
     print(f"  mean NEES (time average) {n['time_average']:.3g}, dof {n['dof']}, 95% band of the run mean [{n['band'][0]:.3g}, {n['band'][1]:.3g}]")
 
@@ -68,9 +69,12 @@ def run(args) -> int:
             return 0
         res = run_campaign(cfg, out, **opts)
     except CampaignInterrupted as exc:
-        done = len(stored_runs(out))
-        print(f"sarnav: interrupted by signal {exc.signum}: {done} of {cfg['campaign']['runs']} runs stored in "
-              f"{out}; finish with the same command and --resume", file=sys.stderr)
+        if cfg["scenario"]["kind"] == "study":
+            what = f"study {name}: finished cases and stored runs are kept in {out}"
+        else:
+            what = f"{len(stored_runs(out))} of {cfg['campaign']['runs']} runs stored in {out}"
+        print(f"sarnav: interrupted by signal {exc.signum}: {what}; finish with the same command and --resume",
+              file=sys.stderr)
         return 128 + exc.signum
     if not args.no_figures:
         from sarnav.report.figures import write_campaign_figures
