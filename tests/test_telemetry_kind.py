@@ -39,7 +39,16 @@ def test_records_follow_the_contract(campaign):
 
 
 def test_monte_carlo_is_consistent(campaign):
-    _, _, recs = campaign
+    _check_consistency(campaign[2])
+
+
+def test_maneuvering_monte_carlo_is_consistent():
+    cfg = KIND.default_config()
+    cfg["trajectory"]["type"] = "maneuver"  # turns, climb and descent within the 20 s
+    _check_consistency(KIND.simulate(cfg, list(range(200)), _seeds(cfg)))
+
+
+def _check_consistency(recs):
     R = len(recs)
     err = np.stack([r.error for r in recs])
     sig = np.stack([r.sigma for r in recs])
