@@ -430,7 +430,10 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
             v_true_toc = traj.state(np.array([eta_true])).velocity[0]
             noise = np.stack([g.standard_normal(2) for g in rngs])  # (R, 2), drawn in every mode
             if imaging is not None:
-                meas = imaging.measure(u, ap_t, ap_p, ap_v, stage_s[:, u])
+                u_hat = nav.v / np.linalg.norm(nav.v, axis=1, keepdims=True)
+                vv = P[:, L.slice("v"), L.slice("v")]
+                speed_sigma = np.sqrt(np.einsum("ri,rij,rj->r", u_hat, vv, u_hat))
+                meas = imaging.measure(u, ap_t, ap_p, ap_v, stage_s[:, u], speed_sigma)
                 eta_meas = meas["toc"]
             else:
                 eta_meas = np.full(R, eta_true)

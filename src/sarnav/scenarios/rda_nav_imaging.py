@@ -39,6 +39,9 @@ CHIP_HALF_RANGE_M = 4.0
 SEARCH_HALF_RANGE_M = 12.0
 #: look correlations of mapdrift: the paper's single pass (G12)
 MAPDRIFT_ITERATIONS = 1
+#: gate on the speed change a mapdrift correction implies: n-sigma of the filter's speed and a floor [m/s]
+MAPDRIFT_GATE_SIGMA = 3.0
+MAPDRIFT_GATE_FLOOR = 0.02
 #: sub-pixel method of the chip registration: "parabola" (the upsampled-DFT refinement costs 25-60 ms per
 #: call on 2 cores when OpenBLAS runs multi-threaded small complex matmuls; 3 ms single-threaded)
 REGISTRATION_SUBPIXEL = "parabola"
@@ -124,11 +127,15 @@ class ApertureImager:
         return entry
 
     # --- per run -------------------------------------------------------------------------------
-    def measure(self, u: int, ap_t, ap_p, ap_v, stage_seconds) -> dict:
+    def measure(self, u: int, ap_t, ap_p, ap_v, stage_seconds, speed_sigma=None) -> dict:
         """Measured TOC (R,), range of closest approach (R,) and mapdrift Delta_K (R,) for aperture u.
 
         ``ap_t`` (K,), ``ap_p``/``ap_v`` (R, K, 3): the estimated trajectory over the aperture (INS output);
-        ``stage_seconds`` (R, n_stages) is incremented with the time per stage.
+        ``stage_seconds`` (R, n_stages) is incremented with the time per stage; ``speed_sigma`` (R,) the
+        filter's 1-sigma of the forward speed: a mapdrift correction implying a speed change beyond
+        ``MAPDRIFT_GATE_SIGMA`` of it (or ``MAPDRIFT_GATE_FLOOR``) is rejected and the image focused with the
+        estimated speed is used (the look correlation of a sparse scene can be biased by scatterers seen
+        in only one look).
         """
         ap = self.aperture(u)
         times, rc, chip = ap["times"], ap["rc"], ap["chip"]
@@ -149,8 +156,10 @@ class ApertureImager:
             sub = _crop_range(rc, r_hat - SEARCH_HALF_RANGE_M, r_hat + SEARCH_HALF_RANGE_M).with_positions(p_hat)
             t1 = time.perf_counter()
             af = mapdrift(sub, speed_hat, max_iterations=MAPDRIFT_ITERATIONS)
+            gate = max(MAPDRIFT_GATE_FLOOR, MAPDRIFT_GATE_SIGMA * (0.0 if speed_sigma is None else speed_sigma[r]))
+            image = af.image if abs(af.speed - speed_hat) <= gate else range_doppler(sub, speed_hat)
             t2 = time.perf_counter()
-            img = np.abs(af.image.data)
+            img = np.abs(image.data)
             # coarse: the chip at the centre of a canvas the size of the image, integer correlation peak;
             # fine: the chip against the image cut (circularly in azimuth) around that peak, sub-pixel
             canvas = np.zeros_like(img)
@@ -164,7 +173,7 @@ class ApertureImager:
             row = i1 + fine.shift_pixels[0] + ap["anchor"][0]
             col = j1 + fine.shift_pixels[1] + ap["anchor"][1]
             out["toc"][r] = times[0] + (row % self.n_pulses) / prf
-            out["range"][r] = af.image.x[0] + col * af.image.dx
+            out["range"][r] = image.x[0] + col * image.dx
             out["autofocus_dk"][r] = af.fm_rate_error
             t3 = time.perf_counter()
             stage_seconds[r, STAGE_INDEX["rda"]] += t1 - t0
