@@ -196,6 +196,8 @@ def test_bad_inputs_name_the_argument():
         backproject(rc, grid, interpolation="sinc")
     with pytest.raises(ConfigError, match="^upsample"):
         backproject(rc, grid, interpolation="upsample", upsample=1)
+    with pytest.raises(ConfigError, match="^pulse_block"):
+        backproject(rc, grid, pulse_block=0)
     with pytest.raises(ConfigError, match="^wavelength"):
         backproject(rc, grid, wavelength=-1.0)
     with pytest.raises(InputDataError, match="^grid.north"):

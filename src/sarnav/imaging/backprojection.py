@@ -294,8 +294,9 @@ def backproject_points(rc: PulseData, points, positions=None, interpolation: str
         raise InputDataError("points", f"must have shape (..., 3), got {pts.shape}")
     if not np.all(np.isfinite(pts)):
         raise InputDataError("points", "must be finite (found NaN/inf)")
-    if isinstance(block, bool) or not isinstance(block, (int, np.integer)) or block < 1:
-        raise ConfigError("block", f"must be an integer >= 1, got {block!r}")
+    for name, value in (("block", block), ("pulse_block", pulse_block)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ConfigError(name, f"must be an integer >= 1, got {value!r}")
     data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
     flat = pts.reshape(-1, 3)
     px = np.ascontiguousarray(flat[:, 0])
@@ -315,7 +316,8 @@ def backproject_points(rc: PulseData, points, positions=None, interpolation: str
 
 
 def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linear", *,
-                wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK) -> SarImage:
+                wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK,
+                pulse_block: int = DEFAULT_PULSE_BLOCK) -> SarImage:
     """Form a SAR image by time-domain back-projection (thesis (4.27)), compiled and parallel.
 
     Parameters
@@ -329,6 +331,8 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
     wavelength : carrier wavelength [m]; default ``rc.params.wavelength``.
     upsample : FFT oversampling factor for ``interpolation="upsample"`` (integer in [2, 64]).
     block : pixels per parallel work item (tuning only; the result does not depend on it).
+    pulse_block : pulses per pass over the image (tuning only; changes only the float64 summation
+        order). Results are deterministic and do not depend on the number of threads.
 
     Returns
     -------
@@ -345,7 +349,7 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
     """
     g, pts = _points(grid)
     values = backproject_points(rc, pts, positions, interpolation, wavelength=wavelength, upsample=upsample,
-                                block=block)
+                                block=block, pulse_block=pulse_block)
     return _image(g, values, rc, _wavelength(rc, wavelength), interpolation, upsample, "bpa")
 
 
