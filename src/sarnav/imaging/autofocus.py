@@ -26,13 +26,13 @@ paper eq. 7, so K_a / K_amf = (V / V_hat)^2 at every range) and refocus the imag
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.fft as sfft
 from scipy.optimize import minimize_scalar
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging import quality
 from sarnav.imaging.data import PulseData, SarImage
 from sarnav.imaging.rda import (along_track_axis, apply_azimuth_filter, azimuth_compressed_spectrum,
@@ -100,27 +100,55 @@ def _mid_fm_rate(rc: PulseData, speed: float, lam: float) -> float:
     return 2.0 * speed**2 / (lam * 0.5 * (r[0] + r[-1]))
 
 
-def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int = 4, tolerance_px: float = 0.02,
-             look_bandwidth: float | None = None, rcmc_kernel: str = "sinc8", azimuth_model: str = "parabolic",
-             window=None, along_track_origin=None, upsample: int = 100) -> MapdriftResult:
+def _auto_padding(rc: PulseData, speed: float, bins: float = 32.0) -> float:
+    """Azimuth zero-padding: >= 3 (the band-limited filter is a chirp of 2T: linear correlation of a
+    T-long block needs 3T) and >= ``bins`` Doppler bins across K_a T (T = block duration)."""
+    from sarnav.imaging.rda import _prf, radar_constants
+
+    t_block = rc.n_pulses / _prf(rc.pulse_times)
+    k = _mid_fm_rate(rc, speed, radar_constants(rc.params)["wavelength"])
+    return float(min(64.0, max(3.0, bins / (k * t_block**2))))
+
+
+def mapdrift(rc: PulseData, speed: float | None = None, *, looks: str = "subaperture", max_iterations: int = 4,
+             tolerance_px: float = 0.02, look_bandwidth: float | None = None, rcmc_kernel: str = "sinc8",
+             azimuth_model: str = "parabolic", window=None, along_track_origin=None, upsample: int = 100,
+             azimuth_padding: float | None = None) -> MapdriftResult:
     """Mapdrift autofocus of range-compressed pulses (paper eqs. 14–16, module docstring).
 
     Parameters
     ----------
     rc : range-compressed ``PulseData``.
     speed : forward speed estimate V_hat that sets K_amf and RCMC [m/s]; default from ``rc.positions``.
+    looks : how the two looks are made (gap G12):
+
+        * ``"subaperture"`` (default): the first and second half of the pulses, each compressed with
+          K_amf. A target seen by the whole block has Doppler centroid -K_a (t_i - eta_c) in
+          sub-aperture i (eq. 8), so Delta_f_a = -K_a Delta_t for every target and eq. (14) becomes
+          ``Delta_eta = Delta_t (1 - K_a / K_amf)``, solved exactly for K_a. Unbiased for any
+          time-bandwidth product and any target position in the block.
+        * ``"doppler"``: the paper's literal form: two disjoint halves of the processed Doppler band
+          of the compressed spectrum; Delta_f_a is the measured difference of the looks' energy
+          centroids, ``1/K_a = 1/K_amf - Delta_eta / Delta_f_a``. Biased where the compressed
+          spectrum is not flat (Fresnel edges; weak chirps K_a T^2 of a few, as in the paper's
+          1-s, 10 m/s images, where it fails), hence not the default.
     max_iterations : at most this many look correlations (>= 1); 1 = the paper's single pass.
     tolerance_px : stop once the look offset is below this many azimuth samples (> 0).
-    look_bandwidth : processed Doppler band split into the two looks [Hz]; default
-        min(PRF, K_amf T) at mid-swath (T = block duration).
+    look_bandwidth : ``"doppler"`` looks only: processed Doppler band split into the two looks [Hz];
+        default min(PRF, K_amf T) at mid-swath (T = block duration).
     rcmc_kernel, azimuth_model, window, along_track_origin : as in :func:`~sarnav.imaging.rda.range_doppler`
         (the looks are formed without window; ``window`` applies to the returned image).
     upsample : sub-pixel factor of the look registration.
+    azimuth_padding : azimuth FFT zero-padding factor (``range_doppler``); default
+        max(3, 32 / (K_amf T^2)): linear (not circular) compression of the band-limited filter and
+        >= 32 Doppler bins across K_amf T.
 
     Returns
     -------
     MapdriftResult
     """
+    if looks not in ("subaperture", "doppler"):
+        raise ConfigError("looks", f"must be 'subaperture' or 'doppler', got {looks!r}")
     if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
         raise ConfigError("max_iterations", f"must be an integer >= 1, got {max_iterations!r}")
     if not (math.isfinite(tolerance_px) and tolerance_px > 0):
@@ -128,51 +156,76 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int =
     if speed is None:
         speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
     speed = float(speed)
-    # RCMC once (it depends on V_hat only); the matched filter is re-applied per iteration
-    spec0, freqs, info = azimuth_compressed_spectrum(rc, speed, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
-                                                     apply_filter=False)
+    if azimuth_padding is None:
+        azimuth_padding = _auto_padding(rc, speed)
+    n = rc.n_pulses
+    # widest band limit the padding allows without wrap: filter chirp of 2 b T in a pad*T FFT
+    blim = max(1.0, 0.5 * (azimuth_padding - 1.0))
+    kw = dict(rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model, apply_filter=False, azimuth_padding=azimuth_padding,
+              band_limit=blim)
+    # RCMC once (it depends on V_hat only, and is linear); the matched filter is re-applied per iteration
+    if looks == "subaperture":
+        half = n // 2
+        first = np.zeros(n, dtype=bool)
+        first[:half] = True
+        parts = [replace(rc, data=np.where(m[:, None], rc.data, 0)) for m in (first, ~first)]
+        spec_a, freqs, info = azimuth_compressed_spectrum(parts[0], speed, **kw)
+        spec_b, _, _ = azimuth_compressed_spectrum(parts[1], speed, **kw)
+        spec0 = spec_a + spec_b
+        dt_looks = (0.5 * (n + half) - 0.5 * half) / info["prf"]  # centre of pulses [half, n) minus [0, half)
+    else:
+        spec0, freqs, info = azimuth_compressed_spectrum(rc, speed, **kw)
     prf, lam = info["prf"], info["wavelength"]
     r = np.asarray(rc.slant_range, dtype=np.float64)
     k0 = _mid_fm_rate(rc, speed, lam)
 
-    def compressed(s):  # eqs. (11)-(12) with K_amf = s K_a: spec0 * exp(1j * outer(filter_phase / s, R0))
-        return apply_azimuth_filter(spec0, info["filter_phase"] / s, r)
+    def compressed(spec, s):  # eqs. (11)-(12) with K_amf = s K_a: spec * exp(1j * outer(filter_phase / s, R0))
+        return apply_azimuth_filter(spec, info["filter_phase"] / s, r, info["abs_freq"], s * info["fr_limit"])
 
     scale = 1.0
     dets, dfs = [], []
     it = 0
     for it in range(1, int(max_iterations) + 1):
-        spec = compressed(scale)
         k_mf = scale * k0
-        band = min(prf, k_mf * rc.n_pulses / prf) if look_bandwidth is None else float(look_bandwidth)
-        if not (math.isfinite(band) and 0 < band <= prf):
-            raise ConfigError("look_bandwidth", f"must be in (0, PRF = {prf:g}] Hz, got {band!r}")
-        lo = (freqs >= -band / 2) & (freqs < 0)
-        hi = (freqs >= 0) & (freqs <= band / 2)
-        power = np.sum(np.abs(spec) ** 2, axis=1)
-        f1 = float(np.sum(freqs[lo] * power[lo]) / np.sum(power[lo]))
-        f2 = float(np.sum(freqs[hi] * power[hi]) / np.sum(power[hi]))
-        look1 = sfft.ifft(spec * lo[:, None], axis=0)
-        look2 = sfft.ifft(spec * hi[:, None], axis=0)
-        shift, _ = register_axis(look1, look2, axis=0, use_magnitude=True, upsample=upsample)
+        if looks == "subaperture":
+            look1 = sfft.ifft(compressed(spec_a, scale), axis=0)
+            look2 = sfft.ifft(compressed(spec_b, scale), axis=0)
+            d_f = -k_mf * dt_looks                 # nominal Delta_f_a (reported only)
+        else:
+            spec = compressed(spec0, scale)
+            band = min(prf, k_mf * n / prf) if look_bandwidth is None else float(look_bandwidth)
+            if not (math.isfinite(band) and 0 < band <= prf):
+                raise ConfigError("look_bandwidth", f"must be in (0, PRF = {prf:g}] Hz, got {band!r}")
+            lo = (freqs >= -band / 2) & (freqs < 0)
+            hi = (freqs >= 0) & (freqs <= band / 2)
+            power = np.sum(np.abs(spec) ** 2, axis=1)
+            d_f = float(np.sum(freqs[hi] * power[hi]) / np.sum(power[hi])
+                        - np.sum(freqs[lo] * power[lo]) / np.sum(power[lo]))   # Delta_f_a [Hz]
+            look1 = sfft.ifft(spec * lo[:, None], axis=0)
+            look2 = sfft.ifft(spec * hi[:, None], axis=0)
+        shift, _ = register_axis(look1, look2, axis=0, use_magnitude=True, upsample=upsample, circular=True)
         d_eta = shift / prf                        # eta_2 - eta_1 [s]
-        d_f = f2 - f1                              # Delta_f_a [Hz]
         dets.append(d_eta)
         dfs.append(d_f)
-        # eq. (14) inverted exactly: 1/K_a = 1/K_amf - Delta_eta / Delta_f_a
-        k_a = 1.0 / (1.0 / k_mf - d_eta / d_f)
+        if looks == "subaperture":
+            k_a = k_mf * (1.0 - d_eta / dt_looks)  # eq. (14) with Delta_f_a = -K_a Delta_t
+        else:
+            k_a = 1.0 / (1.0 / k_mf - d_eta / d_f)  # eq. (14) inverted exactly
+        if not (math.isfinite(k_a) and k_a > 0):
+            raise InputDataError("rc", f"mapdrift diverged (look offset {d_eta:g} s); is there a focusable scene?")
         scale = scale * k_a / k_mf
         if abs(shift) < tolerance_px:
             break
     if window is None:
         window = getattr(rc.params, "azimuth_window", None) or "none"
     if as_window(window, "window").name == "none":  # eq. (16): corrected filter on the same spectrum
-        img = image_from_focused(rc, sfft.ifft(compressed(scale), axis=0), info, speed, fm_rate_scale=scale,
-                                 along_track_origin=along_track_origin)
+        img = image_from_focused(rc, sfft.ifft(compressed(spec0, scale), axis=0)[:n], info, speed,
+                                 fm_rate_scale=scale, along_track_origin=along_track_origin)
     else:
         img = range_doppler(rc, speed, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
-                            along_track_origin=along_track_origin, fm_rate_scale=scale)
-    img.metadata["autofocus"] = "mapdrift"
+                            along_track_origin=along_track_origin, fm_rate_scale=scale, azimuth_padding=azimuth_padding,
+                            band_limit=blim)
+    img.metadata["autofocus"] = f"mapdrift({looks})"
     img.metadata["fm_rate_scale"] = scale
     return MapdriftResult(fm_rate_error=k0 * (1.0 - scale), fm_rate_scale=scale, speed=speed * math.sqrt(scale),
                           image=img, misregistration=dets, look_separation=dfs, iterations=it)
@@ -180,7 +233,8 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, max_iterations: int =
 
 def contrast_autofocus(rc: PulseData, speed: float | None = None, *, metric: str = "normalised_variance",
                        search: float = 0.1, grid: int = 11, xtol: float = 1e-4, rcmc_kernel: str = "sinc8",
-                       azimuth_model: str = "parabolic", window=None, along_track_origin=None) -> ContrastResult:
+                       azimuth_model: str = "parabolic", window=None, along_track_origin=None,
+                       azimuth_padding: float | None = None) -> ContrastResult:
     """Contrast-maximisation autofocus over the forward speed (thesis App. D.2; spacecraft eq. 3).
 
     Parameters
@@ -192,6 +246,7 @@ def contrast_autofocus(rc: PulseData, speed: float | None = None, *, metric: str
     grid : points of the coarse scan (>= 3, odd keeps V_hat on the grid).
     xtol : relative tolerance of the Brent refinement on the speed (> 0).
     rcmc_kernel, azimuth_model, window, along_track_origin : as in ``range_doppler``.
+    azimuth_padding : as in :func:`mapdrift` (default: automatic, >= 32 Doppler bins over K_a T).
 
     Returns
     -------
@@ -208,12 +263,16 @@ def contrast_autofocus(rc: PulseData, speed: float | None = None, *, metric: str
     if speed is None:
         speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
     v0 = float(speed)
+    if azimuth_padding is None:
+        azimuth_padding = _auto_padding(rc, v0)
+    blim = max(1.0, 0.5 * (azimuth_padding - 1.0))
     score = CONTRAST_METRICS[metric]
     seen_v, seen_s = [], []
 
     def form(v):
         return range_doppler(rc, v, window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model,
-                             along_track_origin=along_track_origin)
+                             along_track_origin=along_track_origin, azimuth_padding=azimuth_padding,
+                             band_limit=blim * (v0 / v) ** 2)  # same absolute Doppler band for all v
 
     def neg(v):
         s = score(form(v).data)

@@ -87,8 +87,9 @@ def rcmc_kernel_table(taps: int = 8, beta: float = 2.5, steps: int = _TABLE_STEP
 
 
 @numba.njit(cache=True, nogil=True)
-def _rcmc_and_filter(spec, shift_coef, phase_coef, r_first, dr, table, steps, do_rcmc):
-    """out[i, j] = interp(spec[i, :], at R0_j (1 + a_i)) * exp(j b_i R0_j), R0_j = r_first + j dr.
+def _rcmc_and_filter(spec, shift_coef, phase_coef, r_first, dr, table, steps, do_rcmc, absf, fr_limit):
+    """out[i, j] = interp(spec[i, :], at R0_j (1 + a_i)) * exp(j b_i R0_j), R0_j = r_first + j dr,
+    and 0 where |f_i| R0_j > fr_limit (the band limit |f| <= K_a(R0) T_band).
 
     The input position is linear in j (pos_j = j (1 + a_i) + a_i r_first / dr) and the phase factor
     is a geometric sequence in j; both are advanced incrementally and re-anchored every 64 samples
@@ -109,6 +110,10 @@ def _rcmc_and_filter(spec, shift_coef, phase_coef, r_first, dr, table, steps, do
             if j % 64 == 0:
                 ph = b * (r_first + j * dr)
                 rot = complex(math.cos(ph), math.sin(ph))
+            if absf[i] * (r_first + j * dr) > fr_limit:
+                out[i, j] = 0j
+                rot *= step
+                continue
             if not do_rcmc:
                 out[i, j] = spec[i, j] * rot
             else:
@@ -136,14 +141,17 @@ def _rcmc_and_filter(spec, shift_coef, phase_coef, r_first, dr, table, steps, do
     return out
 
 
-def apply_azimuth_filter(spec: np.ndarray, phase_per_metre: np.ndarray, slant_range: np.ndarray) -> np.ndarray:
+def apply_azimuth_filter(spec: np.ndarray, phase_per_metre: np.ndarray, slant_range: np.ndarray,
+                         abs_freq: np.ndarray | None = None, fr_limit: float = math.inf) -> np.ndarray:
     """``spec * exp(1j * outer(phase_per_metre, slant_range))`` (the per-range-bin matched filter of
-    eq. 12 on an RCMC'd spectrum), computed by the compiled kernel without RCMC."""
+    eq. 12 on an RCMC'd spectrum), zero where ``abs_freq * slant_range > fr_limit`` (band limit),
+    computed by the compiled kernel without RCMC."""
     r = np.asarray(slant_range, dtype=np.float64)
     dr = float(r[-1] - r[0]) / (r.size - 1)
+    absf = np.zeros(spec.shape[0]) if abs_freq is None else np.asarray(abs_freq, dtype=np.float64)
     return _rcmc_and_filter(np.ascontiguousarray(spec), np.zeros(spec.shape[0]),
                             np.asarray(phase_per_metre, dtype=np.float64), float(r[0]), dr,
-                            rcmc_kernel_table(2, 0.0), _TABLE_STEPS, False)
+                            rcmc_kernel_table(2, 0.0), _TABLE_STEPS, False, absf, float(fr_limit))
 
 
 def radar_constants(params) -> dict:
@@ -222,7 +230,8 @@ def _check_inputs(rc: PulseData):
 
 def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", rcmc_kernel: str = "sinc8",
                                 azimuth_model: str = "parabolic", fm_rate_scale: float = 1.0,
-                                apply_filter: bool = True, _checked=None):
+                                apply_filter: bool = True, azimuth_padding: float = 1.0, band_limit: float = 1.0,
+                                _checked=None):
     """Steps 1–4 of the RDA: the range-Doppler spectrum after RCMC and azimuth matched filtering.
 
     Parameters
@@ -234,8 +243,17 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     azimuth_model : "parabolic" (paper eqs. 5, 11) or "hyperbolic" (exact zero-squint).
     fm_rate_scale : multiplies K_a of the matched filter (autofocus: K_amf = s K_a(V), eq. 16);
         RCMC keeps the speed's migration.
+    azimuth_padding : azimuth FFT length >= ``azimuth_padding`` x P (zero-padded pulses, next fast
+        length); 1 = the block's own length (circular, the sources' processing). Padding makes the
+        azimuth correlation linear and samples the Doppler spectrum finely (needed for short,
+        weak-chirp blocks such as the paper's K_a T^2 ~ 3); the spectrum then has that many rows.
+    band_limit : pass only |f| <= band_limit K_amf(R0) T (T = block duration; 0 = no limit). With
+        1 (default) that is the Doppler extent of any target inside the block (f = -K_a (eta - eta_c),
+        eq. 8) and the filter is a chirp of duration 2T instead of PRF/K_a, which matters when PRF/K_a
+        exceeds the FFT length (weak chirps); the noise outside the band is rejected. Weak chirps
+        (K_a T^2 of a few) spread beyond K_a T (Fresnel): use a wider limit with more padding.
     apply_filter : False stops after RCMC (step 3); the filter is then
-        ``exp(1j * info["filter_phase"][:, None] / fm_rate_scale * slant_range[None, :])``.
+        ``apply_azimuth_filter(spec, info["filter_phase"] / s, R0, info["abs_freq"], s * info["fr_limit"])``.
 
     Returns
     -------
@@ -263,8 +281,11 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     x = data.astype(cdtype, copy=False)
     if win.name != "none":
         x = x * win.samples(na).astype(x.real.dtype)[:, None]
-    spec = sfft.fft(x, axis=0)  # eq. (4)
-    freqs = sfft.fftfreq(na, d=1.0 / prf)
+    if not (math.isfinite(azimuth_padding) and 1.0 <= azimuth_padding <= 64.0):
+        raise ConfigError("azimuth_padding", f"must be in [1, 64], got {azimuth_padding!r}")
+    nfft = na if azimuth_padding == 1.0 else sfft.next_fast_len(int(math.ceil(na * azimuth_padding)))
+    spec = sfft.fft(x, n=nfft, axis=0)  # eq. (4)
+    freqs = sfft.fftfreq(nfft, d=1.0 / prf)
     if azimuth_model == "parabolic":
         shift = lam**2 * freqs**2 / (8.0 * speed**2)      # eq. (5)/(9): dR / R0
         phase1 = -np.pi * lam * freqs**2 / (2.0 * speed**2)  # -pi f^2 / K_a (eq. 11), per metre of R0
@@ -280,17 +301,23 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     table = rcmc_kernel_table(max(taps, 2), beta if taps else 0.0)
     dr = float(r[-1] - r[0]) / (r.size - 1)
     phase = phase1 / fm_rate_scale if apply_filter else np.zeros_like(phase1)
+    absf = np.abs(freqs)
+    # |f| <= K_a(R0) T  <=>  |f| R0 <= 2 V^2 T / lambda   (K_a of eq. 7, times the autofocus scale)
+    if not (math.isfinite(band_limit) and band_limit >= 0):
+        raise ConfigError("band_limit", f"must be finite and >= 0 (0 = none), got {band_limit!r}")
+    fr_limit = band_limit * 2.0 * speed**2 * na / prf / lam if band_limit > 0 else math.inf
     out = _rcmc_and_filter(np.ascontiguousarray(spec), shift.astype(np.float64), phase.astype(np.float64),
-                           float(r[0]), dr, table, _TABLE_STEPS, taps > 0)
+                           float(r[0]), dr, table, _TABLE_STEPS, taps > 0, absf,
+                           fr_limit * fm_rate_scale if apply_filter else math.inf)
     info = {"wavelength": lam, "carrier_frequency": consts["carrier_frequency"], "bandwidth": consts["bandwidth"],
             "prf": prf, "window": win.label, "rcmc_kernel": rcmc_kernel, "azimuth_model": azimuth_model,
-            "filter_phase": phase1}
+            "filter_phase": phase1, "abs_freq": absf, "fr_limit": fr_limit}
     return out, freqs, info
 
 
 def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcmc_kernel: str = "sinc8",
                   azimuth_model: str = "parabolic", along_track_origin=None,
-                  fm_rate_scale: float = 1.0) -> SarImage:
+                  fm_rate_scale: float = 1.0, azimuth_padding: float = 1.0, band_limit: float = 1.0) -> SarImage:
     """Focus range-compressed pulses with the Range-Doppler Algorithm (module docstring).
 
     Parameters
@@ -305,6 +332,10 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
     azimuth_model : "parabolic" (paper) or "hyperbolic" (exact).
     along_track_origin : (3,) origin of the along-track axis (default: first antenna position).
     fm_rate_scale : K_amf / K_a(V) (used by autofocus).
+    azimuth_padding : zero-pad the azimuth FFT to this many times the pulses (see
+        :func:`azimuth_compressed_spectrum`); the image keeps one row per pulse.
+    band_limit : limit the matched filter to |f| <= band_limit K_a T (see
+        :func:`azimuth_compressed_spectrum`; 0 = no limit).
 
     Returns
     -------
@@ -321,8 +352,9 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
         window = getattr(rc.params, "azimuth_window", None) or "none"
     spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,
                                                 azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale,
+                                                azimuth_padding=azimuth_padding, band_limit=band_limit,
                                                 _checked=(data, r))
-    img = sfft.ifft(spec, axis=0, overwrite_x=True)  # eq. (13)
+    img = sfft.ifft(spec, axis=0, overwrite_x=True)[: data.shape[0]]  # eq. (13)
     return image_from_focused(rc, img, info, v, fm_rate_scale=fm_rate_scale, along_track_origin=along_track_origin)
 
 

@@ -185,13 +185,16 @@ def register(reference, image, *, use_magnitude: bool = True, subpixel: str = "d
     )
 
 
-def register_axis(reference, image, axis: int = 0, *, use_magnitude: bool = True, upsample: int = 100) -> tuple[float, float]:
+def register_axis(reference, image, axis: int = 0, *, use_magnitude: bool = True, upsample: int = 100,
+                  circular: bool = False) -> tuple[float, float]:
     """Shift along one axis only: 1-D cross-correlations along ``axis``, summed over the other axis.
 
     ``C(k) = sum_n sum_m X(m, n) conj(Y(m - k, n))`` for ``axis=0`` (eq. 46 at l = 0, i.e. when the
     other axis is known to be aligned, as for the two looks of mapdrift), zero-padded, with the
     peak refined by a 1-D matrix DFT of the summed cross-power spectrum on a 1/``upsample`` grid
-    over ±1 sample. Much cheaper than :func:`register` for large images.
+    over ±1 sample. Much cheaper than :func:`register` for large images. ``circular=True``
+    correlates circularly (no zero padding): right for images that are periodic by construction,
+    e.g. the inverse FFTs of mapdrift's looks, whose responses may wrap around the array ends.
 
     Returns
     -------
@@ -207,7 +210,7 @@ def register_axis(reference, image, axis: int = 0, *, use_magnitude: bool = True
     if x.shape != y.shape:
         raise InputDataError("image", f"shape {x.shape} differs from the reference shape {y.shape}")
     m = x.shape[axis]
-    pm = sfft.next_fast_len(2 * m - 1)
+    pm = m if circular else sfft.next_fast_len(2 * m - 1)
     spectrum = np.sum(sfft.fft(x, pm, axis=axis) * np.conj(sfft.fft(y, pm, axis=axis)), axis=1 - axis)
     corr = sfft.ifft(spectrum)
     score = corr.real if use_magnitude else np.abs(corr)
