@@ -27,7 +27,7 @@ from sarnav.analysis.consistency import summarize
 from sarnav.errors import ConfigError
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
-from sarnav.montecarlo.executors import iter_chunks
+from sarnav.montecarlo.executors import ChunkRunner
 from sarnav.montecarlo.seeding import default_chunk_size, make_chunks, run_seeds
 from sarnav.scenarios.config import dump_toml, parse_toml, validate_scenario
 
@@ -109,7 +109,7 @@ class _SignalsToException:
 def run_campaign(
     cfg: dict,
     out: str | os.PathLike,
-    executor: str = "processes",
+    executor: "str | ChunkRunner" = "processes",
     workers: int | None = None,
     scheduler: str | None = None,
     resume: bool = False,
@@ -123,7 +123,8 @@ def run_campaign(
     ----------
     cfg : validated scenario dict (``[campaign] runs, seed`` plus the kind's tables).
     out : output directory (created).
-    executor : ``"serial"``, ``"processes"`` (default) or ``"dask"``.
+    executor : ``"serial"``, ``"processes"`` (default) or ``"dask"``; or a :class:`ChunkRunner`
+        to share its workers between campaigns (it is then left open).
     workers : worker processes (default: number of cores); for dask without ``scheduler``, the
         size of the LocalCluster started.
     scheduler : dask scheduler address (``tcp://host:port``).
@@ -178,8 +179,11 @@ def run_campaign(
     seeds = run_seeds(seed, n_runs)
     done = {i for i in store.stored_runs(out) if i < n_runs} if keep else set()
     todo = [i for i in range(n_runs) if i not in done]
-    n_workers = 1 if executor == "serial" else (workers or os.cpu_count() or 1)
-    chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), n_workers))
+    if isinstance(executor, ChunkRunner):
+        runner, own_runner = executor, False
+    else:
+        runner, own_runner = ChunkRunner(executor, workers, scheduler), True
+    chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
     bar = tqdm(
         total=n_runs,
         initial=len(done),
@@ -188,15 +192,19 @@ def run_campaign(
         file=sys.stderr,
         disable=quiet or not sys.stderr.isatty(),
     )
+    clean = False
     try:
         with _SignalsToException():
             if chunks:
-                for ids, records in iter_chunks(kind, canonical, chunks, seeds, executor, workers, scheduler):
+                for ids, records in runner.run(kind, canonical, chunks, seeds):
                     for rec in records:
                         store.save_record(out, rec)
                     bar.update(len(ids))
+            clean = True
     finally:
         bar.close()
+        if own_runner:
+            runner.close(abort=not clean)
 
     missing = sorted(set(range(n_runs)) - store.stored_runs(out))
     if missing:  # cannot happen unless files were removed underneath us

@@ -1,8 +1,10 @@
 """Where the chunks of a campaign run: in this process, in local processes, or on dask.distributed.
 
-Each executor takes the chunk list and yields ``(run_ids, records)`` as chunks finish (in completion
-order). The work item is :func:`simulate_chunk`, a pure function of (kind, cfg, run_ids, seeds), so
-all executors give bit-identical records.
+A :class:`ChunkRunner` holds the workers (a process pool, or a dask client and perhaps the
+LocalCluster it started) so that several campaigns — the cases of a study — share them; its
+:meth:`~ChunkRunner.run` yields ``(run_ids, records)`` as chunks finish (in completion order). The
+work item is :func:`simulate_chunk`, a pure function of (kind, cfg, run_ids, seeds), so every
+executor gives bit-identical records.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.base import ScenarioKind
 
-__all__ = ["EXECUTORS", "simulate_chunk", "iter_serial", "iter_processes", "iter_dask", "iter_chunks"]
+__all__ = ["EXECUTORS", "simulate_chunk", "ChunkRunner"]
 
 EXECUTORS = ("serial", "processes", "dask")
 
@@ -38,11 +40,6 @@ def simulate_chunk(
     return records
 
 
-def iter_serial(kind, cfg, chunks, seeds) -> Iterator[tuple[list[int], list[RunRecord]]]:
-    for ids in chunks:
-        yield ids, simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
-
-
 def _terminate(pool: ProcessPoolExecutor) -> None:
     """Stop the workers now (ProcessPoolExecutor has no public terminate before Python 3.14)."""
     procs = list((getattr(pool, "_processes", None) or {}).values())
@@ -54,64 +51,118 @@ def _terminate(pool: ProcessPoolExecutor) -> None:
         p.join(timeout=5)
 
 
-def iter_processes(kind, cfg, chunks, seeds, workers: int) -> Iterator[tuple[list[int], list[RunRecord]]]:
-    """Local worker processes (``spawn``: no inherited threads or locks), one chunk per task."""
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
-    clean = False
-    try:
-        pending = {pool.submit(simulate_chunk, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                ids = pending.pop(fut)
-                yield ids, fut.result()
-        clean = True
-    finally:
-        if clean:
-            pool.shutdown(wait=True)
+class ChunkRunner:
+    """Executes chunks of runs; a context manager that owns its workers.
+
+    Parameters
+    ----------
+    executor : ``"serial"``, ``"processes"`` (local ``spawn`` processes: no inherited threads or
+        locks) or ``"dask"`` (dask.distributed).
+    workers : worker processes (default: number of cores); for dask without ``scheduler``, the size
+        of the LocalCluster started.
+    scheduler : dask scheduler address (``tcp://host:port``); only with ``executor="dask"``.
+    """
+
+    def __init__(self, executor: str = "processes", workers: int | None = None, scheduler: str | None = None):
+        if executor not in EXECUTORS:
+            raise ConfigError("--executor", f"must be one of {', '.join(EXECUTORS)}, got {executor!r}")
+        workers = workers if workers is not None else (os.cpu_count() or 1)
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise ConfigError("--workers", f"must be an integer >= 1, got {workers!r}")
+        if scheduler and executor != "dask":
+            raise ConfigError("--scheduler", f"needs --executor dask, got --executor {executor}")
+        self.executor = executor
+        self.workers = 1 if executor == "serial" else workers
+        self.scheduler = scheduler
+        self._pool: ProcessPoolExecutor | None = None
+        self._client = None
+        self._cluster = None
+
+    # -- lifetime
+    def __enter__(self) -> "ChunkRunner":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        self.close(abort=exc_type is not None)
+        return False
+
+    def close(self, abort: bool = False) -> None:
+        """Release the workers (``abort``: terminate local worker processes at once)."""
+        if self._pool is not None:
+            if abort:
+                _terminate(self._pool)
+            else:
+                self._pool.shutdown(wait=True)
+            self._pool = None
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+    def _ensure_pool(self) -> ProcessPoolExecutor:
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        return self._pool
+
+    def _ensure_client(self):
+        if self._client is None:
+            from dask.distributed import Client, LocalCluster
+
+            try:
+                if self.scheduler:
+                    self._client = Client(self.scheduler, timeout="20s")
+                else:
+                    self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+                    self._client = Client(self._cluster)
+            except OSError as err:
+                raise ConfigError("--scheduler", f"cannot connect to dask scheduler {self.scheduler!r}: {err}") from None
+        return self._client
+
+    # -- work
+    def run(self, kind, cfg, chunks, seeds) -> Iterator[tuple[list[int], list[RunRecord]]]:
+        """Yield ``(run_ids, records)`` for each chunk as it finishes."""
+        if self.executor == "serial":
+            for ids in chunks:
+                yield ids, simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
+        elif self.executor == "processes":
+            yield from self._run_processes(kind, cfg, chunks, seeds)
         else:
-            _terminate(pool)
+            yield from self._run_dask(kind, cfg, chunks, seeds)
 
+    def _run_processes(self, kind, cfg, chunks, seeds):
+        pool = self._ensure_pool()
+        clean = False
+        pending = {}
+        try:
+            pending = {pool.submit(simulate_chunk, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
+            while pending:
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    ids = pending.pop(fut)
+                    yield ids, fut.result()
+            clean = True
+        finally:
+            if not clean:  # interrupted or failed: do not leave workers computing
+                self.close(abort=True)
 
-def iter_dask(kind, cfg, chunks, seeds, scheduler: str | None, workers: int) -> Iterator[tuple[list[int], list[RunRecord]]]:
-    """dask.distributed: ``scheduler`` address, or a LocalCluster of ``workers`` processes."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    def _run_dask(self, kind, cfg, chunks, seeds):
+        from dask.distributed import as_completed
 
-    cluster = None
-    try:
-        if scheduler:
-            client = Client(scheduler, timeout="20s")
-        else:
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
-            client = Client(cluster)
-    except OSError as err:
-        raise ConfigError("--scheduler", f"cannot connect to dask scheduler {scheduler!r}: {err}") from None
-    futures = []
-    try:
-        owner = {}
-        for ids in chunks:
-            f = client.submit(simulate_chunk, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
-            futures.append(f)
-            owner[f.key] = ids
-        for fut in as_completed(futures):
-            yield owner[fut.key], fut.result()
-    finally:
-        for f in futures:
-            f.cancel()
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
-def iter_chunks(kind, cfg, chunks, seeds, executor: str = "processes", workers: int | None = None, scheduler: str | None = None):
-    """Dispatch to the named executor; ``workers`` defaults to the number of cores."""
-    if executor not in EXECUTORS:
-        raise ConfigError("--executor", f"must be one of {', '.join(EXECUTORS)}, got {executor!r}")
-    workers = workers if workers is not None else (os.cpu_count() or 1)
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ConfigError("--workers", f"must be an integer >= 1, got {workers!r}")
-    if executor == "serial":
-        return iter_serial(kind, cfg, chunks, seeds)
-    if executor == "processes":
-        return iter_processes(kind, cfg, chunks, seeds, workers)
-    return iter_dask(kind, cfg, chunks, seeds, scheduler, workers)
+        client = self._ensure_client()
+        futures, owner = [], {}
+        clean = False
+        try:
+            for ids in chunks:
+                f = client.submit(simulate_chunk, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
+                futures.append(f)
+                owner[f.key] = ids
+            for fut in as_completed(futures):
+                yield owner[fut.key], fut.result()
+            clean = True
+        finally:
+            if not clean:
+                for f in futures:
+                    f.cancel()
+                self.close()

@@ -291,7 +291,8 @@ def load_scenario(
     from sarnav.scenarios import registry
 
     src = os.fspath(source)
-    if src.endswith(".toml") or os.sep in src or os.path.isfile(src):
+    registered = {name for name, _ in registry.list_scenarios()}
+    if src not in registered and (src.endswith(".toml") or os.sep in src or os.path.isfile(src)):
         raw = load_toml_file(src)
         check_finite(raw)
         kind_name = raw.get("scenario", {}).get("kind") if isinstance(raw.get("scenario"), dict) else None

@@ -161,6 +161,7 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     scheduler, resume, quiet, chunk_size). Returns the ``study.json`` content.
     """
     from sarnav.montecarlo.campaign import run_campaign
+    from sarnav.montecarlo.executors import ChunkRunner
     from sarnav.montecarlo.store import atomic_write_text
     from sarnav.report.figures import write_campaign_figures
     from sarnav.report.study_figure import plot_study_comparison
@@ -173,9 +174,17 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     kind = _base_kind(cfg)
     curves = {}
     cases_out = []
-    for i, case in enumerate(cfg["cases"]):
-        sub = case_config(cfg, i)
-        res = run_campaign(sub, out / case["label"], kind=kind, **campaign_options)
+    runner = ChunkRunner(
+        campaign_options.pop("executor", "processes"),
+        campaign_options.pop("workers", None),
+        campaign_options.pop("scheduler", None),
+    )
+    with runner:  # one set of workers for all cases
+        results = [
+            run_campaign(case_config(cfg, i), out / case["label"], executor=runner, kind=kind, **campaign_options)
+            for i, case in enumerate(cfg["cases"])
+        ]
+    for case, res in zip(cfg["cases"], results):
         ds = res.dataset
         states = [str(s) for s in ds["state"].values]
         sig3 = 3.0 * ds["sigma"].values.mean(axis=0)  # (T, S), mean over runs
