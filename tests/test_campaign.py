@@ -226,7 +226,7 @@ def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
 
 def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_path):
     """A real ``sarnav run`` subprocess, killed with SIGTERM once some runs are stored."""
-    cfg = toy_cfg(runs=16, delay=0.15)
+    cfg = toy_cfg(runs=16, delay=0.25)
     scen = tmp_path / "toy.toml"
     scen.write_text(dump_toml(cfg))
     out = tmp_path / "out"

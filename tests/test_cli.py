@@ -33,8 +33,12 @@ def one_error_line(capsys, code, pattern):
 
 
 def test_commands_are_modules_with_parser_and_run():
+    from sarnav.cli import run_cmd
+    from sarnav.montecarlo.executors import EXECUTORS
+
     for mod in COMMANDS:
         assert callable(mod.add_parser) and callable(mod.run) and mod.NAME
+    assert run_cmd.EXECUTORS == EXECUTORS
 
 
 def test_scenarios_lists_every_registered_name(capsys):

@@ -6,11 +6,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from sarnav.montecarlo.campaign import CampaignInterrupted, run_campaign
-from sarnav.montecarlo.executors import EXECUTORS
-from sarnav.montecarlo.store import stored_runs
-from sarnav.scenarios.config import load_scenario
 from sarnav.scenarios.registry import DEFAULT_SCENARIO
+
+# The heavy modules (xarray, scipy.stats, matplotlib) are imported inside run(): worker processes
+# started with ``spawn`` re-import this command's main module and should start fast.
+EXECUTORS = ("serial", "processes", "dask")  # == sarnav.montecarlo.executors.EXECUTORS (tested)
 
 NAME = "run"
 DEFAULT_OUT_ROOT = "sarnav-out"
@@ -48,6 +48,9 @@ def _print_summary(summary: dict, out: Path) -> None:
 
 def run(args) -> int:
     from sarnav.errors import ConfigError
+    from sarnav.montecarlo.campaign import CampaignInterrupted, run_campaign
+    from sarnav.montecarlo.store import stored_runs
+    from sarnav.scenarios.config import load_scenario
 
     if args.chunk_size is not None and args.chunk_size < 1:
         raise ConfigError("--chunk-size", f"must be an integer >= 1, got {args.chunk_size}")

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from sarnav.scenarios.config import dump_toml, load_scenario
-
 NAME = "show"
 
 
@@ -16,6 +14,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
+    from sarnav.scenarios.config import dump_toml, load_scenario
+
     cfg = load_scenario(args.scenario, args.overrides)
     print(dump_toml(cfg), end="")
     return 0

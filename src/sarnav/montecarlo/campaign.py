@@ -138,6 +138,13 @@ def run_campaign(
     Returns
     -------
     CampaignResult
+
+    Notes
+    -----
+    The ``processes`` and ``dask`` executors start fresh interpreters (``spawn``), which import the
+    calling script's main module: a script calling this function must do so under
+    ``if __name__ == "__main__":``. The kind instance and ``cfg`` are pickled to the workers, so a
+    kind defined outside sarnav must live in an importable module.
     """
     from sarnav.scenarios.registry import get_kind
 
