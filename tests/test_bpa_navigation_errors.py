@@ -126,15 +126,16 @@ def test_cross_track_velocity_error_shifts_along_track(rc256, dv):
     assert abs(20 * np.log10(amp / amp_ref)) < 0.1          # rotation of the track: no blur
 
 
-def azimuth_response_model(n_pulses: int, dv_along: float, x: np.ndarray) -> np.ndarray:
+def azimuth_response_model(n_pulses: int, dv_along: float, x: np.ndarray, error=None) -> np.ndarray:
     """Independent 1-D model: |sum_k exp(j 4 pi (R_hat_k(x) - R_k(t)) / lambda)| along track at y = y_t.
 
     Geometry only (no echoes, no range envelope, no interpolation): R_k(t) true range to the target,
-    R_hat_k(x) range from the erroneous antenna a_k + dv eta_k n to the pixel (x, y_t, 0).
+    R_hat_k(x) range from the erroneous antenna a_k + dv eta_k n (or a_k + ``error(eta_k)``) to the
+    pixel (x, y_t, 0).
     """
     eta, pos = true_track(n_pulses)
     r_true = np.linalg.norm(TARGET - pos, axis=1)
-    est = pos + np.outer(eta, [dv_along, 0.0, 0.0])
+    est = pos + (np.outer(eta, [dv_along, 0.0, 0.0]) if error is None else error(eta))
     pix = np.stack([x, np.full_like(x, YT), np.zeros_like(x)], axis=1)
     r_hat = np.linalg.norm(pix[:, None, :] - est[None, :, :], axis=2)
     return np.abs(np.exp(4j * np.pi * (r_hat - r_true[None, :]) / LAM).sum(axis=1))
@@ -171,3 +172,36 @@ def test_along_track_velocity_error_blurs_more_with_longer_aperture():
     assert short["loss"] > -0.1 and short["growth"] < 1.02
     assert long_["loss"] < short["loss"] - 1.0
     assert long_["growth"] > short["growth"] + 0.1
+
+
+def attitude_position_error(dtheta):
+    """Position error of the estimate from a constant attitude error (thesis (4.36)-(4.38)).
+
+    The thesis' delta p = p - p_hat = 1/2 (nu x dtheta) eta^2 with specific force nu = (0, 0, -g)
+    (NED, level flight), so ``positions = true - 1/2 (nu x dtheta) eta^2``; (4.37):
+    nu x dtheta = (g dtheta_y, -g dtheta_x, 0): yaw gives no error, roll a cross-track acceleration.
+    """
+    acc = np.cross([0.0, 0.0, -9.81], np.asarray(dtheta, dtype=float))
+    return lambda eta: -0.5 * np.outer(eta ** 2, acc)
+
+
+def test_roll_error_blurs_and_yaw_error_does_nothing():
+    """Thesis sim values (§12.10): roll 0.001 rad, yaw 0.1 rad; aperture centred on the target."""
+    yaw = attitude_position_error([0.0, 0.0, 0.1])
+    assert np.all(yaw(np.linspace(-2, 2, 5)) == 0.0)          # (4.37): no acceleration error from yaw
+    roll = attitude_position_error([0.001, 0.0, 0.0])
+    losses = {}
+    for n_pulses in (256, 1024):
+        rc, eta = compressed(n_pulses)
+        cell = azimuth_cell(n_pulses)
+        grid = GroundGrid.centered(0.0, YT, cell / 6, (96, 32), spacing_east=0.25)
+        ref = backproject(rc, grid, **INTERP)
+        img = backproject(rc, grid, positions=rc.positions + roll(eta), **INTERP)
+        _, amp = peak(img)
+        _, amp_ref = peak(ref)
+        xs = np.linspace(-12 * cell, 12 * cell, 2401)
+        loss_model = 20 * np.log10(azimuth_response_model(n_pulses, 0.0, xs, roll).max()
+                                   / azimuth_response_model(n_pulses, 0.0, xs).max())
+        losses[n_pulses] = 20 * np.log10(amp / amp_ref)
+        assert losses[n_pulses] == pytest.approx(loss_model, abs=0.2)
+    assert losses[256] > -0.1 and losses[1024] < losses[256] - 1.0
