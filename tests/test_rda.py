@@ -252,3 +252,22 @@ def test_band_limit_passes_exactly_the_doppler_band_of_the_block():
     np.testing.assert_allclose(np.sum(np.abs(img.data) ** 2, axis=0), expected, rtol=1e-9)
     full = range_doppler(rc, V, rcmc_kernel="none", band_limit=0.0)
     np.testing.assert_allclose(np.sum(np.abs(full.data) ** 2, axis=0), np.sum(np.abs(noise) ** 2, axis=0), rtol=1e-9)
+
+
+def test_weak_chirp_block_agrees_with_back_projection():
+    # paper regime: 10 m/s, PRF 100 Hz, 1 s, R0 = 2100 m -> K_a T^2 ~ 3; the default pads the azimuth
+    # FFT (linear compression). Reference: back-projection of the same pulses on the RDA pixels.
+    from sarnav.imaging.backprojection import backproject_points
+
+    v = 10.0
+    for yt in (2.0, 5.0, 8.5):
+        rc = synth_rc([(yt, 2100.0, 1.0)], speed=v, prf=100.0, duration=1.0, r_near=2090.0, nr=128)
+        img = range_doppler(rc, v)
+        assert img.metadata["azimuth_padding"] >= 3.0
+        j = int(np.argmin(np.abs(img.x - 2100.0)))
+        pts = np.column_stack([img.y, np.full(img.y.size, img.x[j]), np.zeros(img.y.size)])
+        ref = backproject_points(rc, pts[None], interpolation="upsample", wavelength=LAM)[0]
+        col = img.data[:, j]
+        k = int(np.argmax(np.abs(ref)))
+        a, b = col / col[k], ref / ref[k]  # same peak normalisation and phase
+        assert np.linalg.norm(a - b) / np.linalg.norm(b) < 0.10  # measured 0.06-0.07 (unpadded: 0.15-0.31)
