@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import open_results
 from sarnav.montecarlo.campaign import run_campaign
@@ -69,6 +69,8 @@ class ToyKind(ScenarioKind):
     def _one(toy, rid, ss, delay):
         if delay:
             time.sleep(delay)
+        if toy.get("fail_run") == rid:
+            raise InputDataError("toy.samples", f"NaN in run {rid}")
         rng = np.random.default_rng(ss)
         n, q, r1, r2, p0 = toy["steps"], toy["q"], toy["r1"], toy["r2"], toy["p0"]
         x = rng.normal(0.0, np.sqrt(p0))
@@ -255,3 +257,14 @@ def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_p
     assert_same_results(ref, out)
     assert json.loads((out / "campaign.json").read_text())["complete"] is True
     assert not (out / store.MARKER).exists()
+
+
+@pytest.mark.parametrize("executor", ["serial", "processes"])
+def test_input_error_in_a_worker_arrives_as_itself(tmp_path, executor):
+    """ConfigError/InputDataError do not unpickle by themselves; the engine carries them across."""
+    cfg = toy_cfg(runs=4)
+    cfg["toy"]["fail_run"] = 2
+    with pytest.raises(InputDataError, match=r"^toy\.samples: NaN in run 2$"):
+        run_campaign(cfg, tmp_path, executor=executor, workers=2, chunk_size=1, quiet=True)
+    assert json.loads((tmp_path / "campaign.json").read_text())["complete"] is False
+    assert not (tmp_path / "results.nc").exists() and (tmp_path / store.MARKER).exists()

@@ -62,15 +62,17 @@ def run(args) -> int:
         raise ConfigError("--scheduler", f"needs --executor dask, got --executor {executor}")
     opts = dict(executor=executor, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
                 quiet=args.quiet, chunk_size=args.chunk_size)
-    try:
-        if cfg["scenario"]["kind"] == "study":
-            from sarnav.scenarios.study import run_study
+    from sarnav.scenarios.registry import get_kind
 
-            study = run_study(cfg, out, figures=not args.no_figures, **opts)
+    kind = get_kind(cfg["scenario"]["kind"])
+    custom = getattr(kind, "run_scenario", None)  # kinds that are not one campaign (studies, ...)
+    try:
+        if callable(custom):
+            custom(cfg, out, figures=not args.no_figures, **opts)
             if not args.quiet:
-                print(f"{name}: {len(study['cases'])} cases -> {out} (study.json)")
+                print(f"{name} -> {out}")
             return 0
-        res = run_campaign(cfg, out, **opts)
+        res = run_campaign(cfg, out, kind=kind, **opts)
     except CampaignInterrupted as exc:
         if cfg["scenario"]["kind"] == "study":
             what = f"study {name}: finished cases and stored runs are kept in {out}"
@@ -82,9 +84,7 @@ def run(args) -> int:
     if not args.no_figures:
         from sarnav.report.figures import write_campaign_figures
 
-        from sarnav.scenarios.registry import get_kind
-
-        write_campaign_figures(res.dataset, out, kind=get_kind(cfg["scenario"]["kind"]))
+        write_campaign_figures(res.dataset, out, kind=kind)
     if not args.quiet:
         _print_summary(res.summary, out)
     return 0

@@ -16,13 +16,37 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, InputDataError, SarnavError
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.base import ScenarioKind
 
-__all__ = ["EXECUTORS", "simulate_chunk", "ChunkRunner"]
+__all__ = ["EXECUTORS", "simulate_chunk", "ChunkRunner", "WorkerInputError"]
 
 EXECUTORS = ("serial", "processes", "dask")
+
+
+class WorkerInputError(Exception):
+    """A :class:`SarnavError` raised in a worker, in a form that survives pickling.
+
+    ``ConfigError(field, message)`` cannot be unpickled (its ``__init__`` takes two arguments but
+    pickle replays one), which would turn a one-line input error into a broken process pool; the
+    worker returns this as its result instead and :func:`reraise_input_error` rebuilds the original
+    in the caller.
+    """
+
+    def __init__(self, module: str, qualname: str, field, message: str):
+        super().__init__(module, qualname, field, message)
+
+
+def reraise_input_error(err: WorkerInputError):
+    """Raise the SarnavError that :class:`WorkerInputError` describes."""
+    import importlib
+
+    module, qualname, field, message = err.args
+    cls = getattr(importlib.import_module(module), qualname, None)
+    if isinstance(cls, type) and issubclass(cls, (ConfigError, InputDataError)) and field is not None:
+        raise cls(field, message) from None
+    raise SarnavError(message) from None
 
 
 def simulate_chunk(
@@ -38,6 +62,23 @@ def simulate_chunk(
             raise RuntimeError(f"{type(kind).__name__}.simulate: record for run {rec.run}, expected {rid}")
         rec.check(n_state, n_meas)
     return records
+
+
+def _chunk_task(kind, cfg, run_ids, seeds):
+    """The work item sent to workers: records, or the input error as a picklable *value* (so that
+    neither pickling nor the workers' error logging gets in the way of a one-line message)."""
+    try:
+        return simulate_chunk(kind, cfg, run_ids, seeds)
+    except SarnavError as err:
+        cls = type(err)
+        return WorkerInputError(cls.__module__, cls.__qualname__, getattr(err, "field", None),
+                                getattr(err, "message", str(err)))
+
+
+def _checked(result):
+    if isinstance(result, WorkerInputError):
+        reraise_input_error(result)
+    return result
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
@@ -136,12 +177,12 @@ class ChunkRunner:
         clean = False
         pending = {}
         try:
-            pending = {pool.submit(simulate_chunk, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
+            pending = {pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
                     ids = pending.pop(fut)
-                    yield ids, fut.result()
+                    yield ids, _checked(fut.result())
             clean = True
         finally:
             if not clean:  # interrupted or failed: do not leave workers computing
@@ -155,11 +196,11 @@ class ChunkRunner:
         clean = False
         try:
             for ids in chunks:
-                f = client.submit(simulate_chunk, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
+                f = client.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
                 futures.append(f)
                 owner[f.key] = ids
             for fut in as_completed(futures):
-                yield owner[fut.key], fut.result()
+                yield owner[fut.key], _checked(fut.result())
             clean = True
         finally:
             if not clean:

@@ -43,6 +43,8 @@ class ScenarioEntry:
 KINDS: dict[str, str] = {
     "telemetry": "sarnav.scenarios.telemetry:TelemetryKind",
     "study": "sarnav.scenarios.study:StudyKind",
+    "rda-nav": "sarnav.scenarios.rda_nav:RdaNavKind",
+    "bpa-sensitivity": "sarnav.scenarios.bpa_sensitivity:BpaSensitivityKind",
 }
 
 # fmt: off
@@ -52,6 +54,9 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("telemetry-imu-grade", "study", "Thesis Table 3.2 / Fig 3.8: position 3-sigma for consumer, tactical, navigation IMUs", "sarnav.scenarios.study:imu_grade_study"),
     ScenarioEntry("telemetry-noise", "study", "Thesis Table 3.3 / Fig 3.9: range, range-rate, altimeter noise x10 one at a time", "sarnav.scenarios.study:noise_study"),
     ScenarioEntry("telemetry-geometry", "study", "Thesis Table 3.4 / Figs 3.10-3.11: eight target locations", "sarnav.scenarios.study:geometry_study"),
+    ScenarioEntry("rda-nav", "rda-nav", "NAVIGATION paper / thesis ch. 5: INS aided by range and cross-range from RDA images", "kind:"),
+    ScenarioEntry("rda-nav-flexsar", "rda-nav", "Paper Tables 4-6: simulated FlexSAR-like flight at 60 m/s", "sarnav.scenarios.rda_nav:flexsar_config"),
+    ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
 )
 # fmt: on
 

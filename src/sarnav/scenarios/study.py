@@ -139,6 +139,10 @@ class StudyKind(ScenarioKind):
     def simulate(self, cfg, run_ids, seeds):
         raise ConfigError("scenario.kind", "a study runs as one campaign per case: use run_study / `sarnav run`")
 
+    def run_scenario(self, cfg: dict, out, **options) -> dict:
+        """What ``sarnav run`` calls for kinds that are not a single campaign: :func:`run_study`."""
+        return run_study(cfg, out, **options)
+
 
 def case_config_shallow(cfg: dict) -> dict:
     """The base scenario with the study's campaign (no case applied)."""
