@@ -1,7 +1,10 @@
 """Studies: mechanics with the toy kind (fast), and the thesis chapter 3 claims with the telemetry
 kind (E2-E4 of the extraction; thesis L664-L717).
 
-Slow tests: ``python -m pytest -q -m slow tests/test_studies.py``.
+The claim tests run each study with 1-2 runs per case, serially (about 5 s each): the compared
+quantity is the filter 3σ, which hardly depends on the run. The full studies with their default run
+count, figures and local processes, through the CLI, are marked slow:
+``python -m pytest -q -m slow tests/test_studies.py``.
 """
 
 from __future__ import annotations
@@ -89,7 +92,7 @@ def _run(name, tmp_path, runs):
 
     cfg = get_scenario(name)
     cfg["campaign"]["runs"] = runs
-    return run_study(cfg, tmp_path / name, executor="processes", workers=2, quiet=True, figures=False)
+    return run_study(cfg, tmp_path / name, executor="serial", quiet=True, figures=False)
 
 
 def _final3(study, label, state):
@@ -104,7 +107,6 @@ def _horizontal_3sigma(path):
     return ds["time"].values, 3.0 * np.sqrt((s**2).sum(axis=1))
 
 
-@pytest.mark.slow
 def test_imu_grade_ordering_thesis_fig_3_8(tmp_path):
     """T21 (thesis L664-L681): consumer > tactical >= navigation in N and E, and the improvement from
     tactical to navigation "much smaller" than from consumer to tactical; down less affected.
@@ -114,7 +116,7 @@ def test_imu_grade_ordering_thesis_fig_3_8(tmp_path):
     so the absolute consumer/tactical ratio is reported, not asserted.)
     """
     pytest.importorskip("sarnav.scenarios.telemetry")
-    st = _run("telemetry-imu-grade", tmp_path, runs=4)
+    st = _run("telemetry-imu-grade", tmp_path, runs=2)
     grades = ("consumer", "tactical", "navigation")
     for s in ("pN", "pE"):
         c, t, n = (_final3(st, g, s) for g in grades)
@@ -125,11 +127,10 @@ def test_imu_grade_ordering_thesis_fig_3_8(tmp_path):
     assert d_c / d_t < c / t, (d_c / d_t, c / t)
 
 
-@pytest.mark.slow
 def test_measurement_noise_thesis_fig_3_9(tmp_path):
     """T22: range or range-rate noise x10 raises N/E (relative) more than D; altimeter noise x10 raises D more."""
     pytest.importorskip("sarnav.scenarios.telemetry")
-    st = _run("telemetry-noise", tmp_path, runs=4)
+    st = _run("telemetry-noise", tmp_path, runs=2)
     base = {s: _final3(st, "test1-baseline", s) for s in ("pN", "pE", "pD")}
 
     def ratio(label, s):
@@ -143,7 +144,6 @@ def test_measurement_noise_thesis_fig_3_9(tmp_path):
     assert ratio("test4-alt", "pD") > 1.5
 
 
-@pytest.mark.slow
 def test_target_geometry_thesis_figs_3_10_3_11(tmp_path):
     """T23/T24: a target nearer the track gives faster N/E convergence; D nearly invariant.
 
@@ -151,7 +151,7 @@ def test_target_geometry_thesis_figs_3_10_3_11(tmp_path):
     (the area under the convergence curve divided by its duration) is smaller.
     """
     pytest.importorskip("sarnav.scenarios.telemetry")
-    _run("telemetry-geometry", tmp_path, runs=2)
+    _run("telemetry-geometry", tmp_path, runs=1)
     mean_h = {}
     for k in range(1, 9):
         t, h = _horizontal_3sigma(tmp_path / "telemetry-geometry" / f"test{k}")
@@ -163,3 +163,26 @@ def test_target_geometry_thesis_figs_3_10_3_11(tmp_path):
     st = json.loads((tmp_path / "telemetry-geometry" / "study.json").read_text())
     d = [c["states"]["pD"]["mean_3sigma"] for c in st["cases"]]
     assert max(d) < 1.02 * min(d), d
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["telemetry-imu-grade", "telemetry-noise", "telemetry-geometry"])
+def test_full_study_through_cli(tmp_path, name):
+    """End to end: default runs per case, two worker processes, every figure."""
+    pytest.importorskip("sarnav.scenarios.telemetry")
+    from sarnav.cli.main import main
+    from sarnav.scenarios.registry import get_scenario
+
+    cfg = get_scenario(name)
+    assert main(["run", name, "--out", str(tmp_path), "--workers", "2", "--quiet"]) == 0
+    st = json.loads((tmp_path / "study.json").read_text())
+    assert [c["label"] for c in st["cases"]] == [c["label"] for c in cfg["cases"]]
+    assert st["runs"] == cfg["campaign"]["runs"] and st["complete"] is True
+    for fig in st["figures"]:
+        assert (tmp_path / fig).stat().st_size > 10_000
+    for c in cfg["cases"]:
+        case_dir = tmp_path / c["label"]
+        assert (case_dir / "results.nc").is_file() and (case_dir / "figures" / "position.png").is_file()
+        summary = json.loads((case_dir / "summary.json").read_text())
+        for s in ("pN", "pE", "pD"):
+            assert summary["states"][s]["fraction_inside_3sigma"] > 0.9, (c["label"], s)

@@ -153,6 +153,10 @@ def run_campaign(
     text = dump_toml(cfg)
     canonical = parse_toml(text)
     n_runs, seed = int(cfg["campaign"]["runs"]), int(cfg["campaign"]["seed"])
+    if isinstance(executor, ChunkRunner):
+        runner, own_runner = executor, False
+    else:  # checks executor, workers, scheduler before anything is written
+        runner, own_runner = ChunkRunner(executor, workers, scheduler), True
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -186,10 +190,6 @@ def run_campaign(
     seeds = run_seeds(seed, n_runs)
     done = {i for i in store.stored_runs(out) if i < n_runs} if keep else set()
     todo = [i for i in range(n_runs) if i not in done]
-    if isinstance(executor, ChunkRunner):
-        runner, own_runner = executor, False
-    else:
-        runner, own_runner = ChunkRunner(executor, workers, scheduler), True
     chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
     bar = tqdm(
         total=n_runs,
