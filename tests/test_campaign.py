@@ -226,6 +226,20 @@ def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
         run_campaign(bad, part, executor="serial", quiet=True, resume=True)
 
 
+def _children(pid: int) -> list[int]:
+    """Process ids whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_path):
     """A real ``sarnav run`` subprocess, killed with SIGTERM once some runs are stored."""
     cfg = toy_cfg(runs=16, delay=0.25)
@@ -240,8 +254,14 @@ def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_p
     while time.time() < deadline and len(store.stored_runs(out)) < 3:
         time.sleep(0.05)
     assert len(store.stored_runs(out)) >= 3, proc.stderr.read() if proc.poll() is not None else "no runs stored"
+    workers = _children(proc.pid)
+    assert workers, "expected worker processes"
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
+    deadline = time.time() + 10  # the workers are terminated, not orphaned
+    while time.time() < deadline and any(Path(f"/proc/{w}").exists() for w in workers):
+        time.sleep(0.1)
+    assert not [w for w in workers if Path(f"/proc/{w}").exists()]
     assert proc.returncode != 0, err
     n_stored = len(store.stored_runs(out))
     assert n_stored < 16

@@ -74,6 +74,8 @@ def test_run_writes_results_summary_figures(capsys, toy_file, tmp_path):
         (["--set", "toy.q"], "--set: expected key=value"),
         (["--workers", "0"], "--workers: must be an integer >= 1"),
         (["--chunk-size", "0"], "--chunk-size: must be an integer >= 1"),
+        (["--out", "/dev/null/x"], "--out: cannot create output directory"),
+        (["--scheduler", "tcp://127.0.0.1:9", "--executor", "serial"], "--scheduler: needs --executor dask"),
     ],
 )
 def test_bad_input_one_line_exit_2(capsys, toy_file, tmp_path, extra, pattern):

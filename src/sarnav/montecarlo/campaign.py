@@ -158,7 +158,10 @@ def run_campaign(
     else:  # checks executor, workers, scheduler before anything is written
         runner, own_runner = ChunkRunner(executor, workers, scheduler), True
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
 
     old = store.read_manifest(out) if (out / store.MANIFEST).exists() else None
     if resume and old is not None:
