@@ -12,12 +12,13 @@ from sarnav.scenarios.registry import DEFAULT_SCENARIO
 # started with ``spawn`` re-import this command's main module and should start fast.
 EXECUTORS = ("serial", "processes", "dask")  # == sarnav.montecarlo.executors.EXECUTORS (tested)
 
+DESCRIPTION = "Run a scenario's Monte Carlo campaign (or each case of a study); results, summary and figures go to --out (default ./sarnav-out/<scenario>/)."
 NAME = "run"
 DEFAULT_OUT_ROOT = "sarnav-out"
 
 
 def add_parser(subparsers) -> None:
-    p = subparsers.add_parser(NAME, help="run a scenario's Monte Carlo campaign", description=__doc__)
+    p = subparsers.add_parser(NAME, help="run a scenario's Monte Carlo campaign", description=DESCRIPTION)
     p.add_argument("scenario", metavar="SCENARIO", nargs="?", default=DEFAULT_SCENARIO,
                    help=f"registered name or FILE.toml (default: {DEFAULT_SCENARIO})")
     p.add_argument("--runs", type=int, help="number of Monte Carlo runs (campaign.runs)")

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from sarnav.scenarios.registry import list_scenarios
 
+DESCRIPTION = 'List the registered scenarios with one-line descriptions.'
 NAME = "scenarios"
 
 
 def add_parser(subparsers) -> None:
-    p = subparsers.add_parser(NAME, help="list the named scenarios", description=__doc__)
+    p = subparsers.add_parser(NAME, help="list the named scenarios", description=DESCRIPTION)
     p.set_defaults(handler=run)
 
 

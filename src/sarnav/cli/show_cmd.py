@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+DESCRIPTION = 'Print the full scenario as TOML (a starting point for your own file).'
 NAME = "show"
 
 
 def add_parser(subparsers) -> None:
-    p = subparsers.add_parser(NAME, help="print a scenario as TOML", description=__doc__)
+    p = subparsers.add_parser(NAME, help="print a scenario as TOML", description=DESCRIPTION)
     p.add_argument("scenario", metavar="SCENARIO", help="registered name or FILE.toml")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a value (dotted key, TOML value), repeatable")
