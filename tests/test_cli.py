@@ -92,12 +92,28 @@ def test_unknown_scenario_and_malformed_toml(capsys, tmp_path):
 
 
 def test_real_subprocess_bad_input_and_help(tmp_path, toy_file):
+    """The installed ``sarnav`` command: each kind of bad input -> exactly one stderr line, status 2."""
     exe = Path(sys.executable).with_name("sarnav")
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "sarnav.cli.main"]
     env = dict(os.environ, PYTHONPATH=str(TESTS) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    r = subprocess.run(cmd + ["run", str(toy_file), "--runs", "-3", "--out", str(tmp_path / "o")], capture_output=True, text=True, env=env, timeout=60)
-    assert r.returncode == 2
-    assert r.stderr.strip() == "sarnav: error: campaign.runs: must be an integer >= 1, got -3"
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[scenario]\nname = \n")
+    out = ["--out", str(tmp_path / "o")]
+    cases = [
+        (["run", str(toy_file), "--runs", "-3"] + out, "sarnav: error: campaign.runs: must be an integer >= 1, got -3"),
+        (["run", "no-such-scenario"] + out, "sarnav: error: scenario: unknown scenario 'no-such-scenario'"),
+        (["run", str(toy_file), "--set", "toy.nope=1"] + out, "sarnav: error: toy.nope: unknown key"),
+        (["run", str(toy_file), "--set", "toy.q=0"] + out, "sarnav: error: toy.q: must be > 0"),
+        (["run", str(toy_file), "--set", "toy.r1=nan"] + out, "sarnav: error: toy.r1: must be a finite number"),
+        (["run", str(bad)] + out, f"sarnav: error: {bad}: malformed TOML"),
+    ]
+    procs = [subprocess.Popen(cmd + args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for args, _ in cases]
+    for proc, (args, want) in zip(procs, cases):
+        stdout, stderr = proc.communicate(timeout=120)
+        assert proc.returncode == 2, (args, stderr)
+        lines = stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(want), (args, stderr)
+        assert stdout == ""
     r = subprocess.run(cmd + ["scenarios"], capture_output=True, text=True, env=env, timeout=60)
     assert r.returncode == 0 and "telemetry" in r.stdout
 
