@@ -1,1 +1,2 @@
-"""sarnav.cli"""
+"""sarnav.cli: the ``sarnav`` command (``main.py``; one module per subcommand, listed in
+``main.COMMANDS``)."""
