@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import numba
 import numpy as np
 import pytest
 
@@ -121,8 +122,15 @@ def test_compiled_equals_float64_numpy_reference_random_scene(interpolation):
     assert a.shape == (40, 50)
     # task goal -50 dB; float32 sample storage alone gives ~-140 dB, so a drop below -100 dB is a bug
     assert error_db(a, b) < -100.0
-    # block size is only a work split: bit-identical results
+    # block size and thread count are only a work split: bit-identical results
     np.testing.assert_array_equal(a, backproject(rc, pts, interpolation=interpolation, block=37).data)
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        single = backproject(rc, pts, interpolation=interpolation).data
+    finally:
+        numba.set_num_threads(threads)
+    np.testing.assert_array_equal(a, single)
 
 
 def test_phase_exact_at_spaceborne_range():
