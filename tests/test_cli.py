@@ -43,8 +43,10 @@ def test_commands_are_modules_with_parser_and_run():
 
 def test_scenarios_lists_every_registered_name(capsys):
     assert main(["scenarios"]) == 0
+    from sarnav.scenarios.imaging import IMAGE_SCENARIOS
+
     out = capsys.readouterr().out.splitlines()
-    assert [line.split()[0] for line in out] == [n for n, _ in list_scenarios()]
+    assert [line.split()[0] for line in out] == [n for n, _ in list_scenarios()] + list(IMAGE_SCENARIOS)
 
 
 def test_show_prints_toml_that_round_trips(capsys, toy_file):

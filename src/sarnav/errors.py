@@ -20,6 +20,9 @@ class ConfigError(SarnavError, ValueError):
         self.message = message
         super().__init__(f"{field}: {message}")
 
+    def __reduce__(self):  # picklable across worker processes (two-argument __init__)
+        return (type(self), (self.field, self.message))
+
 
 class InputDataError(SarnavError, ValueError):
     """An input array is malformed (wrong shape, NaN, missing samples)."""
@@ -28,6 +31,9 @@ class InputDataError(SarnavError, ValueError):
         self.field = field
         self.message = message
         super().__init__(f"{field}: {message}")
+
+    def __reduce__(self):
+        return (type(self), (self.field, self.message))
 
 
 def require_positive(field: str, value, unit: str = "") -> float:

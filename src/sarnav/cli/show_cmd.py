@@ -16,7 +16,11 @@ def add_parser(subparsers) -> None:
 
 def run(args) -> int:
     from sarnav.scenarios.config import dump_toml, load_scenario
+    from sarnav.scenarios.imaging import IMAGE_SCENARIOS, load_image_scenario
 
-    cfg = load_scenario(args.scenario, args.overrides)
+    if args.scenario in IMAGE_SCENARIOS:  # a single-image scenario (``sarnav image``)
+        cfg = load_image_scenario(args.scenario, args.overrides)
+    else:
+        cfg = load_scenario(args.scenario, args.overrides)
     print(dump_toml(cfg), end="")
     return 0
