@@ -18,9 +18,10 @@ from the INS history of the aperture and H is mapped to the update epoch by Phi(
 ``sar.enabled = false`` flies with the altimeter only.
 
 Random draws, per run from its own Generator, in this order: IMU biases (6), measurement biases (3),
-initial error (18), measurement-bias drive (cov steps x 3), IMU sample 0; then per update the IMU block,
-the altimeter noise and (SAR enabled) the two SAR noises. Run i depends only on cfg and seeds[i]; the
-scene is drawn from ``scene.seed`` and is the same for every run.
+initial error (18), measurement-bias drive (cov steps x 3), the clutter seed (1 integer), IMU sample 0; then
+per update the IMU block, the altimeter noise and (SAR enabled) the two SAR noises. Run i depends only on
+cfg and seeds[i]; the reference targets are drawn from ``scene.seed`` (the same world for every run), the
+clutter from the run's clutter seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
 """
 
 from __future__ import annotations
@@ -112,6 +113,7 @@ def default_config() -> dict:
             "ground_range_max": 1940.0,  # slant 2183 m
             "toc_jitter_s": 0.25,  # reference-target TOC = aperture centre +- this (G4)
             "clutter_per_image": 4,  # G5
+            "clutter_per_run": True,  # G5: clutter redrawn per run (independent registration errors)
             "reflector_amplitude": 3.16,  # 10 dB above the unit-mean-power clutter (G4)
         },
         "initial": {
@@ -282,7 +284,7 @@ def parse(cfg: dict) -> RdaNavParams:
         raise ConfigError("scene.clutter_per_image", f"must be an integer in [0, 1000], got {clutter!r}")
     refl = _pos(cfg, "scene", "reflector_amplitude")
     scene = {"seed": seed_s, "ground_range": (gmin, gmax), "toc_jitter": jitter, "clutter": clutter,
-             "reflector_amplitude": refl}
+             "reflector_amplitude": refl, "clutter_per_run": _bool(cfg, "scene", "clutter_per_run")}
 
     p3 = _vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
     v3 = _vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
@@ -348,18 +350,18 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     model = ErrorStateModel(L, prm.imu_grade.vrw, prm.imu_grade.arw, prm.imu_grade.accel_bias,
                             prm.imu_grade.gyro_bias, prm.tau_accel, prm.tau_gyro, prm.bias_sigma, prm.bias_tau)
     alt = AltimeterMeasurement(prm.alt_sigma, L)
-    imaging = None
-    if prm.sar_enabled and prm.measurement == "image":
-        from sarnav.scenarios.rda_nav_imaging import ApertureImager
-
-        imaging = ApertureImager(prm, targets)
-
     # --- per-run draws (fixed order) ---
     ba, bg = imu.initial_biases(rngs)
     w0 = np.stack([g.standard_normal(3 + L.n) for g in rngs])
     bm0 = prm.bias_sigma * w0[:, :3]
     dx0 = prm.p0_sigma * w0[:, 3:]
     drive = np.stack([g.standard_normal((n_upd * steps, 3)) for g in rngs])
+    clutter_seeds = [int(g.integers(2**63)) for g in rngs]
+    imaging = None
+    if prm.sar_enabled and prm.measurement == "image":
+        from sarnav.scenarios.rda_nav_imaging import ApertureImager
+
+        imaging = ApertureImager(prm, targets, clutter_seeds if prm.scene["clutter_per_run"] else None)
     bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, c * dt))
     bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3)
     nu_k, om_k, ba_k, bg_k, ba, bg = imu.measure(nu_true[:1], om_true[:1], ba, bg, rngs)

@@ -1,9 +1,9 @@
 """Image mode of ``rda-nav``: from echoes to the measured time and range of closest approach of the
 reference target in each 1-s sub-aperture (docs/scenarios/rda-nav.md §1-§2).
 
-Per aperture (cached, the same for every run: truth and scene do not depend on the run):
-  scene = reference reflector + clutter scatterers whose TOC lies in the aperture (drawn from
-  ``scene.seed``); echoes along the *true* antenna positions; range compression; the *reference
+Per aperture: scene = reference reflector (fixed geolocation, from ``scene.seed``) + clutter scatterers whose
+  TOC lies in the aperture, drawn per run (``scene.clutter_per_run = true``, from the run's seed, so that the
+  registration errors of different runs are independent) or once for all runs (cached); echoes along the *true* antenna positions; range compression; the *reference
   product*: an RDA image focused with the true track, of which a chip around the reflector is kept
   together with the reflector's position inside the chip (its geolocation). Only the chip's pattern and
   that internal anchor are used: the in-flight time axis is never taken from the reference.
@@ -70,17 +70,19 @@ class ApertureImager:
     targets : (U, 3) reference targets (``rda_nav.reference_targets``).
     """
 
-    def __init__(self, prm, targets):
+    def __init__(self, prm, targets, clutter_seeds=None):
         self.prm = prm
         self.targets = np.asarray(targets, dtype=np.float64)
         self.params = radar_for(prm.radar_preset)
         self.n_pulses = int(round(self.params.prf))
-        self._cache: dict[int, dict] = {}
+        self.clutter_seeds = None if clutter_seeds is None else [int(s) for s in clutter_seeds]
+        self._cache: dict[tuple, dict] = {}
 
-    # --- per aperture, shared by every run ---------------------------------------------------
-    def _scene(self, u: int) -> Scene:
+    # --- per aperture (and per run when the clutter is drawn per run) -------------------------
+    def _scene(self, u: int, clutter_seed: int | None) -> Scene:
         prm = self.prm
-        rng = np.random.default_rng(np.random.SeedSequence([prm.scene["seed"], 1, u]))
+        key = [prm.scene["seed"], 1, u] if clutter_seed is None else [clutter_seed, 2, u]
+        rng = np.random.default_rng(np.random.SeedSequence(key))
         n = prm.scene["clutter"]
         traj = prm.trajectory
         uvec = np.array([math.cos(traj.heading), math.sin(traj.heading), 0.0])
@@ -94,15 +96,15 @@ class ApertureImager:
         refl = prm.scene["reflector_amplitude"]
         return Scene(np.vstack([self.targets[u][None, :], clutter]), np.concatenate([[refl], amp]))
 
-    def aperture(self, u: int) -> dict:
-        """Range-compressed echoes of aperture u and its reference chip (cached)."""
-        if u in self._cache:
-            return self._cache[u]
+    def aperture(self, u: int, clutter_seed: int | None = None) -> dict:
+        """Range-compressed echoes of aperture u and its reference chip (cached per clutter draw)."""
+        if (u, clutter_seed) in self._cache:
+            return self._cache[(u, clutter_seed)]
         t0 = time.perf_counter()
         prm = self.prm
         times = u + np.arange(self.n_pulses) / self.params.prf
         truth = prm.trajectory.state(times)
-        raw = simulate_echoes(self.params, truth.position, times, self._scene(u))
+        raw = simulate_echoes(self.params, truth.position, times, self._scene(u, clutter_seed))
         rc = range_compress(raw)
         # reference product: focused with the true track; keep a chip around the reflector + its anchor
         targ = self.targets[u]
@@ -123,7 +125,8 @@ class ApertureImager:
         chip = np.abs(ref.data[np.ix_(rows, cols)])
         entry = {"times": times, "rc": rc, "chip": chip, "anchor": (fi - i0, fj - j0),
                  "seconds": time.perf_counter() - t0}
-        self._cache[u] = entry
+        if clutter_seed is None:  # per-run scenes are used once: do not keep them
+            self._cache[(u, clutter_seed)] = entry
         return entry
 
     # --- per run -------------------------------------------------------------------------------
@@ -137,16 +140,21 @@ class ApertureImager:
         estimated speed is used (the look correlation of a sparse scene can be biased by scatterers seen
         in only one look).
         """
-        ap = self.aperture(u)
-        times, rc, chip = ap["times"], ap["rc"], ap["chip"]
         R = ap_p.shape[0]
-        stage_seconds[:, STAGE_INDEX["echoes"]] += ap["seconds"] / R if not ap.get("charged") else 0.0
-        ap["charged"] = True
+        if self.clutter_seeds is not None and len(self.clutter_seeds) != R:
+            raise InputDataError("clutter_seeds", f"need one per run: {len(self.clutter_seeds)} for {R} runs")
         prf = self.params.prf
         out = {"toc": np.empty(R), "range": np.empty(R), "autofocus_dk": np.empty(R)}
         targ = self.targets[u]
-        hi, hj = chip.shape[0] // 2, chip.shape[1] // 2
         for r in range(R):
+            if self.clutter_seeds is None:
+                ap = self.aperture(u)
+                stage_seconds[r, STAGE_INDEX["echoes"]] += ap["seconds"] / R
+            else:
+                ap = self.aperture(u, self.clutter_seeds[r])
+                stage_seconds[r, STAGE_INDEX["echoes"]] += ap["seconds"]
+            times, rc, chip = ap["times"], ap["rc"], ap["chip"]
+            hi, hj = chip.shape[0] // 2, chip.shape[1] // 2
             t0 = time.perf_counter()
             p_hat = np.stack([np.interp(times, ap_t, ap_p[r, :, i]) for i in range(3)], axis=1)
             v_mean = np.mean(ap_v[r], axis=0)
