@@ -133,10 +133,10 @@ def test_image_mode_registration_error_is_small_and_justifies_r(image_runs):
     reg = np.stack([r.extras["registration_error"][1] for r in image_runs])
     assert np.all(np.isnan(reg[..., 0]))
     # measured minus geometric truth: range from radar timing (noise-free echoes), along-track from the
-    # azimuth registration of a 3-m-resolution chip; R adds sar.registration_sigma_m = 0.08 m
+    # azimuth registration of a 3-m-resolution chip; R adds sar.registration_sigma_m = 0.02 m
     assert np.all(np.abs(reg[..., 1]) < 0.01)
-    assert np.all(np.abs(reg[..., 2]) < 0.3)
-    assert np.sqrt(np.mean(reg[..., 2] ** 2)) < 0.15
+    assert np.all(np.abs(reg[..., 2]) < 0.2)
+    assert np.sqrt(np.mean(reg[..., 2] ** 2)) < 0.05
 
 
 def test_image_mode_measured_toc_is_the_true_zero_doppler_time(image_runs):
@@ -255,7 +255,7 @@ def test_campaign_image_mode_is_consistent_and_registration_justifies_r(image_ca
     for m in (1, 2):
         e = reg[..., m].ravel()
         assert abs(e.mean()) < 3 * e.std() / np.sqrt(e.size) + 0.01
-        assert e.std() <= 1.2 * r_sig
+        assert e.std() <= 2.0 * r_sig  # R adds r_sig (0.02 m) to the 0.25 m measurement noise
     sig = ds["sigma"].values[0]
     assert sig[-1, 2] < sig[0, 2]  # D reduced
     assert sig[-1, 4] < 0.3 * sig[0, 4]  # cross-track velocity through the zero-Doppler lever
