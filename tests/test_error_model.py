@@ -218,3 +218,24 @@ def test_Q_and_B_follow_eq_3_19_and_3_11():
     np.testing.assert_allclose(B[6:9, 3:6], T[0])
     np.testing.assert_allclose(B[9:, 6:], np.eye(9))
     assert model.noise_names()[-1] == "w_b_rate"
+
+
+@pytest.mark.parametrize("tau", [1e-300, 1e-9, 1e-4, 0.01])
+def test_fogm_kernels_short_tau_is_fast_and_exact(tau):
+    """tau << dt (nearly white bias): bounded cost, and the Gram entries equal their closed forms
+    G00 = tau/2 (1 - e^-2x), G01 = tau^2 (e1 - e2/2), G11 = tau^2 (dt - 2 tau e1 + tau e2/2),
+    e1 = 1 - e^-x, e2 = 1 - e^-2x, x = dt/tau (integrals of phi0 = e^-s/tau, phi1 = tau(1 - e^-s/tau))."""
+    import time
+
+    dt = 0.1
+    fogm_kernels.cache_clear()
+    t0 = time.perf_counter()
+    phi, G = fogm_kernels(tau, dt)
+    assert time.perf_counter() - t0 < 1.0
+    x = dt / tau
+    e1, e2 = -np.expm1(-x), -np.expm1(-2 * x)
+    np.testing.assert_allclose(G[0, 0], tau / 2 * e2, rtol=1e-12)
+    np.testing.assert_allclose(G[0, 1], tau**2 * (e1 - e2 / 2), rtol=1e-12)
+    np.testing.assert_allclose(G[1, 1], tau**2 * (dt - 2 * tau * e1 + tau * e2 / 2), rtol=1e-12)
+    np.testing.assert_allclose(phi[2], tau * dt - tau**2 * e1, rtol=1e-12)
+    assert np.all(np.isfinite(G))
