@@ -118,6 +118,10 @@ def test_maneuver_and_other_grades_run():
         ("trajectory", "type", "loop", "trajectory.type"),
         ("trajectory", "duration", 0.05, "trajectory.duration"),
         ("trajectory", "speed", -50.0, "trajectory.speed"),
+        ("trajectory", "speed", 1e300, "trajectory.speed"),  # overflowed to NaN residuals
+        ("imu", "rate_hz", 1e9, "imu.rate_hz"),  # was a 149 GiB MemoryError traceback
+        # the aircraft is at the target at t = 10 s: was "residual: must be finite" after a NaN warning
+        ("target", "position_ned", [500.0, -200.0, -500.0], "target.position_ned"),
         ("target", "position_ned", [1.0, float("inf"), 0.0], "target.position_ned[1]"),
         ("initial", "p_3sigma", [1.0, 0.0, 3.0], "initial.p_3sigma[1]"),
         ("initial", "bias_alt_3sigma", -1.0, "initial.bias_alt_3sigma"),

@@ -46,6 +46,11 @@ from sarnav.trajectory import Maneuvering, StraightLevel
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
 #: dividing the update interval that does not exceed it (F is held constant over a step).
 COV_STEP_MAX = 0.1
+#: validation limits: an aircraft's speed [m/s], an IMU's sample rate [Hz], the closest approach of
+#: the track to the target [m] (range rate and its Jacobian divide by the range)
+MAX_SPEED = 1.0e4
+MAX_IMU_RATE = 1.0e4
+MIN_TARGET_RANGE = 1.0
 
 STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_rate"), scalar_units=("m", "m", "m/s"))
 MEAS_NAMES = ["alt", "range", "rate"]
@@ -130,7 +135,9 @@ def parse(cfg: dict) -> TelemetryParams:
     tr = _table(cfg, "trajectory")
     ttype = tr.get("type")
     start = _vector(cfg, "trajectory", "start_ned", unit="m")
-    speed = _pos(cfg, "trajectory", "speed", "m/s")
+    speed = require_finite("trajectory.speed", _get(cfg, "trajectory", "speed"), hi=MAX_SPEED, unit="m/s")
+    if speed <= 0:
+        raise ConfigError("trajectory.speed", f"must be in (0, {MAX_SPEED}] m/s, got {speed!r}")
     heading = units.deg_to_rad(require_finite("trajectory.heading_deg", _get(cfg, "trajectory", "heading_deg"), lo=-360.0, hi=360.0, unit="deg"))
     duration = _pos(cfg, "trajectory", "duration", "s")
     if ttype == "straight":
@@ -155,7 +162,9 @@ def parse(cfg: dict) -> TelemetryParams:
     for k, v in zip(_IMU_OVERRIDES, vals3):
         require_positive(f"imu.{k}", v)
     grade = ImuGrade.from_three_sigma(grade_name, *vals3)
-    imu_rate = _pos(cfg, "imu", "rate_hz", "Hz")
+    imu_rate = require_finite("imu.rate_hz", _get(cfg, "imu", "rate_hz"), hi=MAX_IMU_RATE, unit="Hz")
+    if imu_rate <= 0:
+        raise ConfigError("imu.rate_hz", f"must be in (0, {MAX_IMU_RATE}] Hz, got {imu_rate!r}")
     tau_a = _pos(cfg, "imu", "tau_accel", "s")
     tau_g = _pos(cfg, "imu", "tau_gyro", "s")
 
@@ -170,6 +179,13 @@ def parse(cfg: dict) -> TelemetryParams:
     bias3 = np.array([_pos(cfg, "measurements", k) for k in ("bias_alt_3sigma", "bias_range_3sigma", "bias_rate_3sigma")])
     bias_tau = np.array([_pos(cfg, "measurements", k, "s") for k in ("tau_alt", "tau_range", "tau_rate")])
     target = _vector(cfg, "target", "position_ned", unit="m")
+    # range and range rate (and H, eq. 3.17) divide by |r - p|: no update epoch may be at the target
+    n_upd = int(math.floor(duration * meas_rate + 1e-9))
+    track = traj.state(np.arange(1, n_upd + 1) / meas_rate).position
+    closest = float(np.min(np.linalg.norm(track - target, axis=-1)))
+    if closest < MIN_TARGET_RANGE:
+        raise ConfigError("target.position_ned", f"must be >= {MIN_TARGET_RANGE} m from the aircraft at every update (range "
+                          f"rate is undefined at the target), comes within {closest:.3g} m")
 
     ini = _table(cfg, "initial")
     p3 = _vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
