@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -147,3 +148,13 @@ def test_telemetry_show_and_small_run_with_figures(capsys, tmp_path):
     assert figs == ["attitude.png", "position.png", "residuals.png", "velocity.png"]
     s = json.loads((out / "summary.json").read_text())
     assert set(s["residuals"]) == {"alt", "range", "rate"} and s["nees"]["dof"] == 18
+
+
+def test_help_descriptions_are_plain_text():
+    """``sarnav SUB --help`` shows argparse text: no reStructuredText markup from docstrings."""
+    from sarnav.cli.main import build_parser
+
+    parser = build_parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, sub in subs.choices.items():
+        assert sub.description and "``" not in sub.description, name

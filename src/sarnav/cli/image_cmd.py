@@ -11,6 +11,8 @@ import numpy as np
 
 NAME = "image"
 DEFAULT_OUT_ROOT = "sarnav-out"
+DESCRIPTION = ("Simulate one block of echoes, focus it (RDA or BPA, optional autofocus) and write image.npz, "
+               "image.png and metrics.json to --out (default ./sarnav-out/image-<scenario>/).")
 #: dynamic range of the PNG [dB below the peak]
 PNG_DYNAMIC_RANGE_DB = 50.0
 
@@ -18,7 +20,7 @@ PNG_DYNAMIC_RANGE_DB = 50.0
 def add_parser(subparsers) -> None:
     from sarnav.scenarios.imaging import ALGORITHMS, IMAGE_SCENARIOS
 
-    p = subparsers.add_parser(NAME, help="form one SAR image of a simulated scene", description=__doc__)
+    p = subparsers.add_parser(NAME, help="form one SAR image of a simulated scene", description=DESCRIPTION)
     p.add_argument("scenario", metavar="SCENARIO", help=f"{' | '.join(IMAGE_SCENARIOS)} or FILE.toml")
     p.add_argument("--algorithm", choices=ALGORITHMS, help="image formation (image.algorithm)")
     p.add_argument("--window", metavar="NAME", help="azimuth window: none, hamming, taylor, kaiser (image.window)")
