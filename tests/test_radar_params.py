@@ -87,6 +87,15 @@ def test_other_bad_values():
         _base(azimuth_window=("taylor", 4, 35))
     with pytest.raises(ConfigError, match="^radar.azimuth_beamwidth"):
         _base(antenna_length=None, azimuth_beamwidth=4.0)
+    # non-physical combinations (were accepted): band reaching 0 Hz, duty cycle >= 1, beam >= pi
+    with pytest.raises(ConfigError, match="^radar.bandwidth: must be < 2 x carrier_frequency"):
+        _base(carrier_frequency=200e6)
+    with pytest.raises(ConfigError, match="^radar.pulse_length: must be shorter than the pulse repetition"):
+        _base(pulse_length=0.02, n_range_samples=40_000_000)  # 20 ms pulse at PRF 100 Hz
+    lam = 299_792_458.0 / 9.75e9
+    with pytest.raises(ConfigError, match="^radar.antenna_length: must be > 0.886 lambda / pi"):
+        _base(antenna_length=0.886 * lam / np.pi * 0.99)
+    _base(antenna_length=0.886 * lam / np.pi * 1.01).validate(speed=0.1)  # just above: accepted
     # error message is one line and names the bound
     try:
         _base(sample_rate=400e6)

@@ -78,9 +78,19 @@ class RadarParams:
         if (self.antenna_length is None) == (self.azimuth_beamwidth is None):
             raise ConfigError("radar.antenna_length",
                               "give exactly one of antenna_length [m] and azimuth_beamwidth [rad]")
+        if self.bandwidth >= 2.0 * self.carrier_frequency:
+            raise ConfigError("radar.bandwidth", f"must be < 2 x carrier_frequency = {2.0 * self.carrier_frequency:g} Hz "
+                              f"(lowest transmitted frequency f_c - B/2 > 0), got {self.bandwidth:g} Hz")
+        if self.pulse_length >= 1.0 / self.prf:
+            raise ConfigError("radar.pulse_length", f"must be shorter than the pulse repetition interval 1/prf = "
+                              f"{1.0 / self.prf:g} s, got {self.pulse_length:g} s")
         if self.antenna_length is not None:
-            object.__setattr__(self, "antenna_length",
-                               require_positive("radar.antenna_length", self.antenna_length, "m"))
+            L = require_positive("radar.antenna_length", self.antenna_length, "m")
+            l_min = BEAMWIDTH_FACTOR * (C / self.carrier_frequency) / math.pi
+            if L <= l_min:
+                raise ConfigError("radar.antenna_length", f"must be > 0.886 lambda / pi = {l_min:.4g} m "
+                                  f"(-3 dB beamwidth below pi rad), got {L!r} m")
+            object.__setattr__(self, "antenna_length", L)
         else:
             bw = require_positive("radar.azimuth_beamwidth", self.azimuth_beamwidth, "rad")
             if bw >= math.pi:
