@@ -96,6 +96,10 @@ def test_scatterers_are_reproducible_and_toml_round_trips(tmp_path):
     ("scene.target_slant_range_m=900.0", "scene.target_slant_range_m"),  # below the altitude
     ("image.rcmc_kernel=\"linear\"", "image.rcmc_kernel"),
     ("radar.colour=\"red\"", "radar.colour"),
+    # non-physical (were accepted, failing later in the metrics or naming radar.near_range)
+    ("radar.carrier_ghz=0.0001", "radar.bandwidth_mhz"),
+    ("radar.pulse_length_us=1e6", "radar.pulse_length_us"),
+    ("radar.antenna_length_m=1e-9", "radar.antenna_length_m"),
 ])
 def test_bad_values_name_the_field(tmp_path, override, field):
     with pytest.raises(ConfigError) as err:

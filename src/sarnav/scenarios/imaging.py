@@ -135,6 +135,17 @@ def validate(cfg: dict) -> None:
     if cfg["radar"]["sample_rate_mhz"] < cfg["radar"]["bandwidth_mhz"]:
         raise ConfigError("radar.sample_rate_mhz", f"must be >= radar.bandwidth_mhz = {cfg['radar']['bandwidth_mhz']} "
                           f"(complex Nyquist), got {cfg['radar']['sample_rate_mhz']}")
+    r = cfg["radar"]
+    if r["bandwidth_mhz"] * 1e-3 >= 2.0 * r["carrier_ghz"]:
+        raise ConfigError("radar.bandwidth_mhz", f"must be < 2 x radar.carrier_ghz = {2e3 * r['carrier_ghz']:g} MHz "
+                          f"(lowest transmitted frequency > 0), got {r['bandwidth_mhz']}")
+    if r["pulse_length_us"] * 1e-6 >= 1.0 / r["prf_hz"]:
+        raise ConfigError("radar.pulse_length_us", f"must be shorter than the pulse repetition interval "
+                          f"1/radar.prf_hz = {1e6 / r['prf_hz']:g} us, got {r['pulse_length_us']}")
+    l_min = 0.886 * units.C / float(units.ghz_to_hz(r["carrier_ghz"])) / math.pi
+    if r["antenna_length_m"] <= l_min:
+        raise ConfigError("radar.antenna_length_m", f"must be > 0.886 lambda / pi = {l_min:.4g} m "
+                          f"(-3 dB beamwidth below pi rad), got {r['antenna_length_m']}")
     _choice(cfg, "radar", "look_side", ("left", "right"))
     as_window(cfg["radar"]["range_window"], "radar.range_window")
     if not isinstance(cfg["radar"]["antenna_pattern"], bool):
