@@ -141,6 +141,9 @@ def test_missing_kind_and_unknown_scenario_and_kind(tmp_path):
         load_scenario("no-such")
     with pytest.raises(ConfigError, match=r"^scenario\.kind: unknown kind 'martian'"):
         registry.get_kind("martian")
+    p.write_text('[scenario]\nname = "x"\nkind = "martian"\n')  # was reported as campaign.seed missing
+    with pytest.raises(ConfigError, match=r"^scenario\.kind: unknown kind 'martian'"):
+        load_scenario(p, runs=1)
     with pytest.raises(ConfigError, match=r"^scenario\.kind: cannot import"):
         registry.get_kind("no_such_module_xyz:Kind")
 

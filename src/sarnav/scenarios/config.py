@@ -298,6 +298,7 @@ def load_scenario(
         kind_name = raw.get("scenario", {}).get("kind") if isinstance(raw.get("scenario"), dict) else None
         if not isinstance(kind_name, str) or not kind_name:
             raise ConfigError("scenario.kind", f"missing in {src} (e.g. kind = \"telemetry\")")
+        registry.get_kind(kind_name)  # an unknown kind is the error to report, not the keys it lacks
         template = registry.template_for_kind(kind_name)
         cfg = merge_onto(template, raw, registry.optional_keys(kind_name)) if template is not None else raw
     else:
