@@ -15,6 +15,7 @@ All functions accept stacked inputs: a leading batch shape ``(..., 4)`` / ``(...
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 
 def skew(v):
@@ -70,31 +71,14 @@ def quat_to_dcm(q):
 
 
 def dcm_to_quat(T):
-    """Inverse of :func:`quat_to_dcm`; returns the quaternion with non-negative scalar part."""
+    """Inverse of :func:`quat_to_dcm`; returns the quaternion with non-negative scalar part.
+
+    ``scipy.spatial.transform.Rotation`` (Hamilton, same DCM as :func:`quat_to_dcm`) does the work.
+    """
     T = np.asarray(T, dtype=float)
-    batch = T.shape[:-2]
-    Tf = T.reshape((-1, 3, 3))
-    out = np.empty((Tf.shape[0], 4))
-    for i, m in enumerate(Tf):
-        tr = np.trace(m)
-        # Shepperd's method: choose the largest of 4 candidates for numerical stability
-        cands = np.array([tr, m[0, 0], m[1, 1], m[2, 2]])
-        k = int(np.argmax(cands))
-        if k == 0:
-            w = 0.5 * np.sqrt(1.0 + tr)
-            q = [w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w)]
-        elif k == 1:
-            x = 0.5 * np.sqrt(1.0 + 2 * m[0, 0] - tr)
-            q = [(m[2, 1] - m[1, 2]) / (4 * x), x, (m[0, 1] + m[1, 0]) / (4 * x), (m[0, 2] + m[2, 0]) / (4 * x)]
-        elif k == 2:
-            y = 0.5 * np.sqrt(1.0 + 2 * m[1, 1] - tr)
-            q = [(m[0, 2] - m[2, 0]) / (4 * y), (m[0, 1] + m[1, 0]) / (4 * y), y, (m[1, 2] + m[2, 1]) / (4 * y)]
-        else:
-            z = 0.5 * np.sqrt(1.0 + 2 * m[2, 2] - tr)
-            q = [(m[1, 0] - m[0, 1]) / (4 * z), (m[0, 2] + m[2, 0]) / (4 * z), (m[1, 2] + m[2, 1]) / (4 * z), z]
-        q = np.asarray(q)
-        out[i] = q if q[0] >= 0 else -q
-    return out.reshape(batch + (4,))
+    q = np.roll(Rotation.from_matrix(T.reshape((-1, 3, 3))).as_quat(), 1, axis=-1)  # [x,y,z,w] -> [w,x,y,z]
+    q = np.where(q[:, :1] < 0, -q, q)
+    return q.reshape(T.shape[:-2] + (4,))
 
 
 def quat_rotate(q, v):
