@@ -55,13 +55,18 @@ class Trajectory(ABC):
         """Position, velocity and attitude q_b^n at times ``t`` (any shape)."""
 
     @abstractmethod
+    def _kin(self, t) -> tuple:
+        """``sarnav.trajectory.flight_path.path_kinematics`` at checked times ``t``: (velocity,
+        quaternion, acceleration, specific force, angular rate)."""
+
     def acceleration(self, t) -> np.ndarray:
         """Kinematic acceleration a^n = dv^n/dt (..., 3) [m/s^2]."""
+        return self._kin(self._times(t))[2]
 
-    @abstractmethod
     def specific_force(self, t) -> np.ndarray:
         """Specific force in the body frame nu^b = T^T (a^n - g^n) (..., 3) [m/s^2]."""
+        return self._kin(self._times(t))[3]
 
-    @abstractmethod
     def angular_rate(self, t) -> np.ndarray:
         """Body angular rate omega^b (..., 3) [rad/s] (q_dot = 1/2 q (x) [0; omega^b])."""
+        return self._kin(self._times(t))[4]

@@ -96,12 +96,3 @@ class Maneuvering(Trajectory):
         pos = np.concatenate([self.start[:2] + horiz, down[..., None]], -1)
         vel, q, _, _, _ = self._kin(t)
         return TrajectoryState(pos, vel, q)
-
-    def acceleration(self, t):
-        return self._kin(self._times(t))[2]
-
-    def specific_force(self, t):
-        return self._kin(self._times(t))[3]
-
-    def angular_rate(self, t):
-        return self._kin(self._times(t))[4]

@@ -37,12 +37,3 @@ class StraightLevel(Trajectory):
         t = self._times(t)
         vel, q, _, _, _ = self._kin(t)
         return TrajectoryState(self.start + vel * t[..., None], vel, q)
-
-    def acceleration(self, t):
-        return self._kin(self._times(t))[2]
-
-    def specific_force(self, t):
-        return self._kin(self._times(t))[3]
-
-    def angular_rate(self, t):
-        return self._kin(self._times(t))[4]
