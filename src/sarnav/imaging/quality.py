@@ -139,7 +139,8 @@ def normalised_variance(image, *, quantity: str = "intensity") -> float:
 
     ``S = mean((g - mean g)^2) / mean(g)^2`` with ``g`` the pixel intensity. The source does not say
     whether g is amplitude or power; ``quantity`` chooses ("intensity" = |I|^2, "amplitude" = |I|).
-    With g = |I|^2 this equals (D.11) minus 1.
+    With g = |I| (``quantity="amplitude"``) this equals (D.11) minus 1; with g = |I|^2 it is
+    E[|I|^4]/E[|I|^2]^2 minus 1 (Cumming & Wong's contrast of the intensity image).
     """
     y = _pixels(image)
     if quantity == "intensity":
