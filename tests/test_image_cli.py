@@ -110,3 +110,11 @@ def test_bad_values_name_the_field(tmp_path, override, field):
 def test_unknown_scenario_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="scenario"):
         _run(["no-such-scene", "--out", str(tmp_path)])
+
+
+def test_unusable_out_is_a_config_error(tmp_path):
+    f = tmp_path / "a_file"
+    f.write_text("")
+    with pytest.raises(ConfigError) as err:  # was a FileExistsError traceback
+        _run(["point-target", "--out", str(f)])
+    assert err.value.field == "--out"

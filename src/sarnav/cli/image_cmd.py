@@ -137,6 +137,7 @@ def _json_safe(obj):
 
 
 def run(args) -> int:
+    from sarnav.errors import ConfigError
     from sarnav.imaging import quality
     from sarnav.scenarios.imaging import build_pulses, load_image_scenario
 
@@ -148,7 +149,10 @@ def run(args) -> int:
     cfg = load_image_scenario(args.scenario, overrides)
     name = cfg["scenario"]["name"] or Path(str(args.scenario)).stem
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{name}"
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # one line like ``sarnav run --out``
+        raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
 
     rc, sc, params = build_pulses(cfg)
     img, af = _form_image(cfg, rc, sc, params)
