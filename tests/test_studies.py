@@ -66,6 +66,13 @@ def test_toy_study_runs_each_case_and_reports_final_sigma(tmp_path):
     assert res["cases"][1]["states"]["x"]["mean_3sigma"] > res["cases"][0]["states"]["x"]["mean_3sigma"]
 
 
+def test_unusable_out_is_a_config_error(tmp_path):
+    f = tmp_path / "a_file"
+    f.write_text("")
+    with pytest.raises(ConfigError, match=r"^--out: cannot create"):  # was a FileExistsError traceback
+        run_study(toy_study(), f, executor="serial", quiet=True)
+
+
 @pytest.mark.parametrize(
     "mutate, pattern",
     [

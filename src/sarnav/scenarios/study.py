@@ -173,7 +173,10 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
 
     validate_scenario(cfg)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # one line, as run_campaign does
+        raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
     (out / "study.json").unlink(missing_ok=True)
     kind = _base_kind(cfg)
     curves = {}
