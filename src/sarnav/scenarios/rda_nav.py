@@ -321,11 +321,13 @@ def reference_targets(prm: RdaNavParams) -> np.ndarray:
 # --- the Monte Carlo ------------------------------------------------------------------------------
 
 def _phi_back(model, T_hat, f_mean, span):
-    """Phi(t_toc, t_k) = Phi(t_k, t_toc)^-1 for the error state, per run (R, n, n)."""
+    """Phi(t_toc, t_k) = Phi(t_k, t_toc)^-1 and the process noise Q_d accumulated over [t_toc, t_k] (R, n, n)."""
+    n = model.layout.n
     if span <= 0:
-        return np.broadcast_to(np.eye(model.layout.n), (T_hat.shape[0], model.layout.n, model.layout.n))
-    Phi, _ = model.discretize(T_hat, f_mean, span)
-    return np.linalg.inv(Phi)
+        eye = np.broadcast_to(np.eye(n), (T_hat.shape[0], n, n))
+        return eye, np.zeros_like(eye)
+    Phi, Qd = model.discretize(T_hat, f_mean, span)
+    return np.linalg.inv(Phi), Qd
 
 
 def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
@@ -447,8 +449,9 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
             T_last = quat_to_dcm(nav.q)
             for r in range(R):
                 span = t_k - eta_meas[r]
-                phi = (_phi_back(model, T_last[r:r + 1], f_mean[r:r + 1], span)[0]
-                       if prm.delayed_state else None)
+                phi, q_back = (_phi_back(model, T_last[r:r + 1], f_mean[r:r + 1], span)
+                               if prm.delayed_state else (None, None))
+                phi = None if phi is None else phi[0]
                 p_hat_toc = interpolate_state(ap_t, ap_p[r], eta_meas[r])
                 v_hat_toc = interpolate_state(ap_t, ap_v[r], eta_meas[r])
                 kw = {}
@@ -463,6 +466,11 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
                 zh_sar[r] = [zr[0], zc[0]]
                 H_sar[r] = np.vstack([Hr, Hc])
                 R_sar[r] = np.diag([Rr[0, 0], Rc[0, 0]])
+                if q_back is not None:
+                    # dx(t_toc) = Phi^-1 (dx(t_k) - w), w ~ N(0, Q_d over [t_toc, t_k]): the process noise after
+                    # the TOC acts as extra measurement noise H Q_d H^T (its correlation with dx(t_k) is
+                    # neglected; eq. 57 / Brown & Hwang's correlated form is not implemented)
+                    R_sar[r] += H_sar[r] @ q_back[0] @ H_sar[r].T
                 b_true = bm_truth[r, j, 1:3]
                 n_add = prm.sar_sigma * noise[r]
                 if imaging is None:  # oracle: truth model at the true TOC (eqs. 47-48)
