@@ -171,3 +171,17 @@ def test_registry_lists_one_line_per_scenario():
     names = [n for n, _ in registry.list_scenarios()]
     assert names[:4] == ["telemetry", "telemetry-imu-grade", "telemetry-noise", "telemetry-geometry"]
     assert all(desc and "\n" not in desc for _, desc in registry.list_scenarios())
+
+
+def test_require_helpers_reject_booleans():
+    """float(True) == 1.0: a boolean must not pass as a number (e.g. ``--set imu.vrw_3sigma=true``)."""
+    import numpy as np
+
+    from sarnav.errors import require_finite, require_positive
+
+    for v in (True, False, np.True_):
+        with pytest.raises(ConfigError, match="^x: must be a number"):
+            require_positive("x", v)
+        with pytest.raises(ConfigError, match="^x: must be a number"):
+            require_finite("x", v)
+    assert require_positive("x", 2) == 2.0 and require_finite("x", np.float32(-1.5)) == -1.5

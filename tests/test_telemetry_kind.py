@@ -119,6 +119,8 @@ def test_maneuver_and_other_grades_run():
         ("trajectory", "duration", 0.05, "trajectory.duration"),
         ("trajectory", "speed", -50.0, "trajectory.speed"),
         ("trajectory", "speed", 1e300, "trajectory.speed"),  # overflowed to NaN residuals
+        ("imu", "vrw_3sigma", True, "imu.vrw_3sigma"),  # TOML `true` was taken as 1.0
+        ("trajectory", "duration", True, "trajectory.duration"),
         ("imu", "rate_hz", 1e9, "imu.rate_hz"),  # was a 149 GiB MemoryError traceback
         # the aircraft is at the target at t = 10 s: was "residual: must be finite" after a NaN warning
         ("target", "position_ned", [500.0, -200.0, -500.0], "target.position_ned"),

@@ -36,11 +36,19 @@ class InputDataError(SarnavError, ValueError):
         return (type(self), (self.field, self.message))
 
 
+def _is_bool(value) -> bool:
+    import numpy as np
+
+    return isinstance(value, (bool, np.bool_))
+
+
 def require_positive(field: str, value, unit: str = "") -> float:
     """Return float(value) or raise ConfigError naming the field when it is not finite and > 0."""
     import math
 
     try:
+        if _is_bool(value):  # float(True) == 1.0: a TOML `true` must not pass as a number
+            raise TypeError
         v = float(value)
     except (TypeError, ValueError):
         raise ConfigError(field, f"must be a number > 0{(' ' + unit) if unit else ''}, got {value!r}") from None
@@ -54,6 +62,8 @@ def require_finite(field: str, value, lo=None, hi=None, unit: str = "") -> float
     import math
 
     try:
+        if _is_bool(value):
+            raise TypeError
         v = float(value)
     except (TypeError, ValueError):
         raise ConfigError(field, f"must be a number, got {value!r}") from None
