@@ -148,6 +148,13 @@ def test_bad_inputs_are_named():
     still = rc.with_positions(np.zeros_like(rc.positions))
     with pytest.raises(InputDataError, match="rc.positions"):
         range_doppler(still, V)
+    # a malformed estimate is an input error at once (was a bare ValueError / accepted NaN)
+    with pytest.raises(InputDataError, match="^positions: shape"):
+        rc.with_positions(rc.positions[:-1])
+    nan = rc.positions.copy()
+    nan[3, 1] = np.nan
+    with pytest.raises(InputDataError, match="^positions: contains NaN"):
+        rc.with_positions(nan)
 
 
 # ---------------------------------------------------------------- end to end with the radar package

@@ -48,9 +48,13 @@ class PulseData:
 
     def with_positions(self, positions: np.ndarray) -> "PulseData":
         """Same data referred to other antenna positions (e.g. the navigation estimate)."""
+        from sarnav.errors import InputDataError
+
         positions = np.asarray(positions, dtype=np.float64)
-        if positions.shape != self.positions.shape:
-            raise ValueError(f"positions: shape {positions.shape}, expected {self.positions.shape}")
+        if positions.shape != np.shape(self.positions):
+            raise InputDataError("positions", f"shape {positions.shape}, expected {np.shape(self.positions)}")
+        if not np.all(np.isfinite(positions)):
+            raise InputDataError("positions", "contains NaN or inf (a navigation estimate must be finite)")
         return replace(self, positions=positions)
 
 
