@@ -123,7 +123,6 @@ def test_real_subprocess_bad_input_and_help(tmp_path, toy_file):
 
 # --------------------------------------------------------------------------- with the telemetry kind
 def test_telemetry_bad_values_through_main(capsys, tmp_path):
-    pytest.importorskip("sarnav.scenarios.telemetry")
     for extra, pattern in [
         (["--set", "imu.tau_accel=0"], "imu.tau_accel: must be finite and > 0"),
         (["--set", "measurements.tau_range=-5"], "measurements.tau_range:"),
@@ -135,7 +134,6 @@ def test_telemetry_bad_values_through_main(capsys, tmp_path):
 
 
 def test_telemetry_show_and_small_run_with_figures(capsys, tmp_path):
-    pytest.importorskip("sarnav.scenarios.telemetry")
     assert main(["show", "telemetry", "--set", "imu.grade=consumer"]) == 0
     cfg = parse_toml(capsys.readouterr().out)
     assert cfg["scenario"]["kind"] == "telemetry" and cfg["imu"]["grade"] == "consumer"

@@ -122,7 +122,6 @@ def test_imu_grade_ordering_thesis_fig_3_8(tmp_path):
     consumer-tactical gap is at least 5 times the tactical-navigation gap. (The thesis gives no values,
     so the absolute consumer/tactical ratio is reported, not asserted.)
     """
-    pytest.importorskip("sarnav.scenarios.telemetry")
     st = _run("telemetry-imu-grade", tmp_path, runs=2)
     grades = ("consumer", "tactical", "navigation")
     for s in ("pN", "pE"):
@@ -136,7 +135,6 @@ def test_imu_grade_ordering_thesis_fig_3_8(tmp_path):
 
 def test_measurement_noise_thesis_fig_3_9(tmp_path):
     """T22: range or range-rate noise x10 raises N/E (relative) more than D; altimeter noise x10 raises D more."""
-    pytest.importorskip("sarnav.scenarios.telemetry")
     st = _run("telemetry-noise", tmp_path, runs=2)
     base = {s: _final3(st, "test1-baseline", s) for s in ("pN", "pE", "pD")}
 
@@ -157,7 +155,6 @@ def test_target_geometry_thesis_figs_3_10_3_11(tmp_path):
     "Faster" in numbers: the time-average of the horizontal 3σ, 3·sqrt(σ_N² + σ_E²), over the flight
     (the area under the convergence curve divided by its duration) is smaller.
     """
-    pytest.importorskip("sarnav.scenarios.telemetry")
     _run("telemetry-geometry", tmp_path, runs=1)
     mean_h = {}
     for k in range(1, 9):
@@ -176,7 +173,6 @@ def test_target_geometry_thesis_figs_3_10_3_11(tmp_path):
 @pytest.mark.parametrize("name", ["telemetry-imu-grade", "telemetry-noise", "telemetry-geometry"])
 def test_full_study_through_cli(tmp_path, name):
     """End to end: default runs per case, two worker processes, every figure."""
-    pytest.importorskip("sarnav.scenarios.telemetry")
     from sarnav.cli.main import main
     from sarnav.scenarios.registry import get_scenario
 
