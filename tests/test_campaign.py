@@ -173,17 +173,11 @@ def test_serial_campaign_writes_schema_and_summary(tmp_path):
 
 
 def _identity_cfg():
-    """The telemetry kind with a few short runs when it is available, else the toy kind."""
-    try:
-        from sarnav.scenarios.config import load_scenario
+    """The telemetry kind with a few short runs (a real batched kind; an import error must fail,
+    not silently fall back to the toy)."""
+    from sarnav.scenarios.config import load_scenario
 
-        return load_scenario("telemetry", ["trajectory.duration=8"], runs=4, seed=11), "telemetry"
-    except ImportError:
-        return toy_cfg(runs=10), "toy"
-    except ConfigError as err:
-        if "cannot import" in str(err):
-            return toy_cfg(runs=10), "toy"
-        raise
+    return load_scenario("telemetry", ["trajectory.duration=8"], runs=4, seed=11), "telemetry"
 
 
 def test_same_seed_bit_identical_serial_processes_dask(tmp_path):
