@@ -26,12 +26,12 @@ EXECUTORS = ("serial", "processes", "dask")
 
 
 class WorkerInputError(Exception):
-    """A :class:`SarnavError` raised in a worker, in a form that survives pickling.
+    """A :class:`SarnavError` raised in a worker, returned as a value.
 
-    ``ConfigError(field, message)`` cannot be unpickled (its ``__init__`` takes two arguments but
-    pickle replays one), which would turn a one-line input error into a broken process pool; the
-    worker returns this as its result instead and :func:`reraise_input_error` rebuilds the original
-    in the caller.
+    ``ConfigError``/``InputDataError`` pickle through their ``__reduce__`` (sarnav.errors); returning
+    the error as the task's *result* instead of raising it keeps dask workers from logging it as a
+    task failure with a traceback, and :func:`reraise_input_error` rebuilds the original in the
+    caller, so the CLI still prints one line.
     """
 
     def __init__(self, module: str, qualname: str, field, message: str):
