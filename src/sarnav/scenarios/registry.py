@@ -89,6 +89,10 @@ def _entry(name: str) -> ScenarioEntry:
     for e in SCENARIOS:
         if e.name == name:
             return e
+    from sarnav.scenarios.imaging import IMAGE_SCENARIOS
+
+    if name in IMAGE_SCENARIOS:  # listed by `sarnav scenarios`, but not a campaign
+        raise ConfigError("scenario", f"{name!r} is a single-image scenario: run it with `sarnav image {name}`")
     known = ", ".join(e.name for e in SCENARIOS)
     raise ConfigError("scenario", f"unknown scenario {name!r} (known: {known}; or give a .toml file)")
 
