@@ -43,3 +43,24 @@ def test_image_unknown_scenario_is_one_line_error(capsys):
     assert main(["image", "no-such-scenario"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("sarnav: error:")
+
+
+def test_plain_run_is_a_reduced_default_campaign(monkeypatch, tmp_path):
+    """``sarnav run`` with no scenario runs DEFAULT_SCENARIO with DEFAULT_RUNS runs (the README's main
+    job); an explicit --runs wins. The campaign itself is replaced by a recorder here."""
+    from sarnav.cli import run_cmd
+    from sarnav.scenarios import registry
+
+    seen = {}
+
+    def fake_campaign(cfg, out, kind=None, **opts):
+        seen["name"], seen["runs"] = cfg["scenario"]["name"], cfg["campaign"]["runs"]
+        raise SystemExit(0)
+
+    monkeypatch.setattr("sarnav.montecarlo.campaign.run_campaign", fake_campaign)
+    for argv, runs in ((["run", "--out", str(tmp_path / "a")], registry.DEFAULT_RUNS),
+                       (["run", "--runs", "3", "--out", str(tmp_path / "b")], 3)):
+        with pytest.raises(SystemExit):
+            main(argv)
+        assert seen == {"name": registry.DEFAULT_SCENARIO, "runs": runs}
+    assert registry.DEFAULT_SCENARIO == "rda-nav" and 10 <= registry.DEFAULT_RUNS <= 50

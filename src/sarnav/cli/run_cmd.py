@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from sarnav.scenarios.registry import DEFAULT_SCENARIO
+from sarnav.scenarios.registry import DEFAULT_RUNS, DEFAULT_SCENARIO
 
 # The heavy modules (xarray, scipy.stats, matplotlib) are imported inside run(): worker processes
 # started with ``spawn`` re-import this command's main module and should start fast.
@@ -19,8 +19,9 @@ DEFAULT_OUT_ROOT = "sarnav-out"
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(NAME, help="run a scenario's Monte Carlo campaign", description=DESCRIPTION)
-    p.add_argument("scenario", metavar="SCENARIO", nargs="?", default=DEFAULT_SCENARIO,
-                   help=f"registered name or FILE.toml (default: {DEFAULT_SCENARIO})")
+    p.add_argument("scenario", metavar="SCENARIO", nargs="?", default=None,
+                   help=f"registered name or FILE.toml (default: {DEFAULT_SCENARIO} with {DEFAULT_RUNS} runs "
+                        f"unless --runs is given)")
     p.add_argument("--runs", type=int, help="number of Monte Carlo runs (campaign.runs)")
     p.add_argument("--seed", type=int, help="campaign seed (campaign.seed)")
     p.add_argument("--out", help=f"output directory (default: ./{DEFAULT_OUT_ROOT}/<scenario>)")
@@ -55,6 +56,13 @@ def run(args) -> int:
 
     if args.chunk_size is not None and args.chunk_size < 1:
         raise ConfigError("--chunk-size", f"must be an integer >= 1, got {args.chunk_size}")
+    if args.scenario is None:  # the main job: a reduced campaign of the default scenario
+        args.scenario = DEFAULT_SCENARIO
+        if args.runs is None:
+            args.runs = DEFAULT_RUNS
+            if not args.quiet:
+                print(f"sarnav run: default job {DEFAULT_SCENARIO} with {DEFAULT_RUNS} runs "
+                      f"(the full campaign: sarnav run {DEFAULT_SCENARIO})", file=sys.stderr)
     cfg = load_scenario(args.scenario, args.overrides, runs=args.runs, seed=args.seed)
     name = cfg["scenario"]["name"]
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / name

@@ -26,6 +26,7 @@ __all__ = [
     "template_for_kind",
     "optional_keys",
     "DEFAULT_SCENARIO",
+    "DEFAULT_RUNS",
 ]
 
 
@@ -60,8 +61,11 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
 )
 # fmt: on
 
-#: what ``sarnav run`` runs without a scenario argument
-DEFAULT_SCENARIO = "telemetry"
+#: what ``sarnav run`` runs without a scenario argument (issue 4: the image-aided flight) ...
+DEFAULT_SCENARIO = "rda-nav"
+#: ... with this many runs unless ``--runs`` is given: a few minutes on 2 cores; the full 200-run
+#: campaign of the paper is ``sarnav run rda-nav``
+DEFAULT_RUNS = 20
 
 _KIND_INSTANCES: dict[str, ScenarioKind] = {}
 
