@@ -218,6 +218,12 @@ def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
         bad = toy_cfg(runs=9)
         bad["toy"]["q"] = 0.6
         run_campaign(bad, part, executor="serial", quiet=True, resume=True)
+    # runs stored by another sarnav version are not mixed into this campaign
+    m = store.read_manifest(part)
+    m["sarnav_version"], m["complete"] = "0.0.0-other", False
+    store.write_manifest(part, m)
+    with pytest.raises(ConfigError, match=r"--resume: .*sarnav '0\.0\.0-other'"):
+        run_campaign(cfg, part, executor="serial", quiet=True, resume=True)
 
 
 def _children(pid: int) -> list[int]:

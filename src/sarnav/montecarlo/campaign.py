@@ -173,6 +173,12 @@ def run_campaign(
                 f"{out / store.MANIFEST} holds a different scenario (first difference at {where}); "
                 "run without --resume or choose another --out",
             )
+        if old.get("sarnav_version") != sarnav.__version__:  # runs by other code must not be mixed in
+            raise ConfigError(
+                "--resume",
+                f"{out / store.MANIFEST} was written by sarnav {old.get('sarnav_version')!r}, this is "
+                f"{sarnav.__version__!r}; run without --resume or choose another --out",
+            )
     keep = resume and old is not None
     # Mark incomplete before anything else can be half-written.
     store.atomic_write_text(out / store.MARKER, "campaign in progress or interrupted; rerun with --resume\n")
