@@ -330,6 +330,27 @@ def _phi_back(model, T_hat, f_mean, span):
     return np.linalg.inv(Phi), Qd
 
 
+def correlated_update(P, H, R, C, residual):
+    """Kalman update with measurement noise correlated with the state error, cov(dx, nu) = C (Brown & Hwang,
+    "correlated process and measurement noise"); C = 0 gives the Joseph update of ``filters.joseph_update``.
+
+    S = H P H^T + R + H C + C^T H^T,  K = (P H^T + C) S^-1,
+    P+ = (I - K H) P (I - K H)^T + K R K^T - (I - K H) C K^T - K C^T (I - K H)^T  (valid for any K).
+    Shapes: P (R, n, n), H (R, m, n), R (R, m, m), C (R, n, m), residual (R, m). Returns dx, P+, S.
+    """
+    Ht = np.swapaxes(H, -1, -2)
+    Ct = np.swapaxes(C, -1, -2)
+    S = H @ P @ Ht + R + H @ C + Ct @ Ht
+    S = 0.5 * (S + np.swapaxes(S, -1, -2))
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(P @ Ht + C, -1, -2)), -1, -2)
+    A = np.eye(P.shape[-1]) - K @ H
+    Kt = np.swapaxes(K, -1, -2)
+    P_new = A @ P @ np.swapaxes(A, -1, -2) + K @ R @ Kt - A @ C @ Kt - K @ Ct @ np.swapaxes(A, -1, -2)
+    P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+    dx = (K @ residual[..., None])[..., 0]
+    return dx, P_new, S
+
+
 def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     """The batched Monte Carlo of :class:`RdaNavKind` (see the module docstring)."""
     L = STATE_LAYOUT
@@ -446,6 +467,7 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
             zh_sar = np.empty((R, 2))
             H_sar = np.empty((R, 2, L.n))
             R_sar = np.zeros((R, 2, 2))
+            C_sar = np.zeros((R, L.n, 2))
             T_last = quat_to_dcm(nav.q)
             for r in range(R):
                 span = t_k - eta_meas[r]
@@ -467,10 +489,10 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
                 H_sar[r] = np.vstack([Hr, Hc])
                 R_sar[r] = np.diag([Rr[0, 0], Rc[0, 0]])
                 if q_back is not None:
-                    # dx(t_toc) = Phi^-1 (dx(t_k) - w), w ~ N(0, Q_d over [t_toc, t_k]): the process noise after
-                    # the TOC acts as extra measurement noise H Q_d H^T (its correlation with dx(t_k) is
-                    # neglected; eq. 57 / Brown & Hwang's correlated form is not implemented)
+                    # dx(t_toc) = Phi^-1 (dx(t_k) - w), w ~ N(0, Q_d over [t_toc, t_k]): the SAR noise becomes
+                    # nu = v - H w, cov H Q_d H^T + R, correlated with dx(t_k): cov(dx_k, nu) = -Q_d H^T
                     R_sar[r] += H_sar[r] @ q_back[0] @ H_sar[r].T
+                    C_sar[r] = -q_back[0] @ H_sar[r].T
                 b_true = bm_truth[r, j, 1:3]
                 n_add = prm.sar_sigma * noise[r]
                 if imaging is None:  # oracle: truth model at the true TOC (eqs. 47-48)
@@ -490,12 +512,15 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
             Rm = np.zeros((R, 3, 3))
             Rm[:, :1, :1] = R_alt
             Rm[:, 1:, 1:] = R_sar
+            Cm = np.zeros((R, L.n, 3))
+            Cm[:, :, 1:] = C_sar
             cols = slice(0, 3)
             stage_s[:, u, STAGES.index("update")] += (_time.perf_counter() - t0) / R
         else:
             z, z_hat, H, Rm, cols = z_alt, zh_alt, H_alt, R_alt, slice(0, 1)
+            Cm = np.zeros((R, L.n, 1))
         r_vec = z - z_hat
-        dx, P, S = joseph_update(P, H, Rm, r_vec)
+        dx, P, S = correlated_update(P, H, Rm, Cm, r_vec)
         nav = apply_feedback(nav, dx, L)
         history = None  # the three-point rule restarts after a correction
         res[:, u, cols] = r_vec
