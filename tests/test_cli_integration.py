@@ -64,3 +64,18 @@ def test_plain_run_is_a_reduced_default_campaign(monkeypatch, tmp_path):
             main(argv)
         assert seen == {"name": registry.DEFAULT_SCENARIO, "runs": runs}
     assert registry.DEFAULT_SCENARIO == "rda-nav" and 10 <= registry.DEFAULT_RUNS <= 50
+
+
+def test_run_bpa_sensitivity_writes_table_and_grid(tmp_path):
+    """``sarnav run bpa-sensitivity`` runs the deterministic chapter 4 study through its kind's
+    ``run_scenario`` hook: one CSV row per injected error of thesis §12.10, and the figure grid."""
+    import csv
+
+    out = tmp_path / "bpa"
+    assert main(["run", "bpa-sensitivity", "--out", str(out), "--quiet"]) == 0
+    rows = list(csv.DictReader(open(out / "sensitivity.csv")))
+    assert [r["name"] for r in rows] == ["position_along", "position_cross", "position_elevation", "velocity_along",
+                                         "velocity_cross", "velocity_elevation", "roll", "pitch", "yaw"]
+    yaw = rows[-1]
+    assert abs(float(yaw["meas_peak_loss"])) < 0.01  # yaw changes nothing (thesis T17)
+    assert (out / "sensitivity.png").stat().st_size > 10_000

@@ -337,6 +337,16 @@ class BpaSensitivityKind(ScenarioKind):
     def meas_names(self, cfg: dict) -> list[str]:
         return []
 
+    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
+        """``sarnav run bpa-sensitivity``: the deterministic study (executor options do not apply);
+        writes ``sensitivity.csv`` and, unless ``figures`` is False, ``sensitivity.png``."""
+        if figures:
+            return run_sensitivity(cfg, out)
+        out = Path(out)
+        os.makedirs(out, exist_ok=True)
+        results, _ = run_study(cfg)
+        return write_csv(results, out / "sensitivity.csv")
+
     def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
         raise ConfigError("scenario.kind", "bpa-sensitivity is a deterministic study: run it with "
                                            "sarnav.scenarios.bpa_sensitivity.run_sensitivity(cfg, out_dir)")
