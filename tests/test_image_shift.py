@@ -130,3 +130,62 @@ def test_bad_input_names_the_field():
         ims.RangeMeasurement(P_TARG, 0.25, S, B_RANGE, phi_back=np.eye(3))
     with pytest.raises(InputDataError, match="v_hat"):
         ims.CrossRangeMeasurement(P_TARG, 0.25, S, B_CROSS).predict(P_HAT, [0.0, 0.0, 0.0])
+
+
+def _fd_hessian(meas, p, v, step=1e-2):
+    """Central second differences of h(x_hat + dx) w.r.t. the position and velocity errors (6 x 6)."""
+    def h(dx):
+        return meas.model(p + dx[0:3], v + dx[3:6], 0.0)
+    A = np.zeros((6, 6))
+    E = step * np.eye(6)
+    for i in range(6):
+        for j in range(6):
+            A[i, j] = (h(E[i] + E[j]) - h(E[i] - E[j]) - h(-E[i] + E[j]) + h(-E[i] - E[j])) / (4 * step**2)
+    return A
+
+
+@pytest.mark.parametrize("cls", ["range", "cross"])
+def test_hessian_matches_second_differences(cls):
+    if cls == "range":
+        m = ims.RangeMeasurement(P_TARG, 0.25, S, B_RANGE)
+    else:
+        m = ims.CrossRangeMeasurement(P_TARG, 0.25, S, B_CROSS)
+    A = m.hessian(P_HAT, V_HAT)
+    assert A.shape == (S, S) and np.allclose(A, A.T)
+    assert np.all(A[6:] == 0) and np.all(A[:, 6:] == 0)
+    J = _fd_hessian(m, P_HAT, V_HAT)
+    np.testing.assert_allclose(A[:6, :6], J, rtol=0, atol=1e-4 * np.max(np.abs(J)))
+    paper = ims.CrossRangeMeasurement(P_TARG, 0.25, S, B_CROSS, model_name="paper", u_c=V_HAT, r_orig=P_HAT)
+    assert np.all(paper.hessian(P_HAT, V_HAT) == 0)
+
+
+def test_zero_doppler_remainder_is_the_speed_scaled_lever_and_second_order_terms_predict_it():
+    """h(x) - h(x_hat) - H dx = -(l_perp . dv)(u . dv) / V^2 to leading order: an along-track speed error
+    scales the 185-s lever. The Gaussian second-order terms give its mean and variance (Monte Carlo)."""
+    m = ims.CrossRangeMeasurement(P_TARG, 0.25, S, B_CROSS)
+    z0, H, _ = m.predict(P_HAT, V_HAT, 0.0)
+    dv = np.array([0.3, 0.05, 0.0])
+    exact = m.model(P_HAT, V_HAT + dv) - z0[0] - H[0, 3:6] @ dv
+    l = P_HAT - P_TARG
+    u = V_HAT / np.linalg.norm(V_HAT)
+    lp = l - u * (u @ l)
+    assert exact == pytest.approx(-(lp @ dv) * (u @ dv) / np.linalg.norm(V_HAT) ** 2, rel=0.1)
+    rng = np.random.default_rng(11)
+    sd = np.array([2.0, 0.3, 0.5, 0.2, 0.04, 0.07])
+    Cc = 0.6 ** np.abs(np.subtract.outer(np.arange(6), np.arange(6)))  # correlated p and v errors
+    P6 = Cc * np.outer(sd, sd)
+    P = np.zeros((S, S))
+    P[:6, :6] = P6
+    dz, var = m.second_order(P_HAT, V_HAT, P)
+    dx = rng.multivariate_normal(np.zeros(6), P6, 20000)
+    h = np.array([m.model(P_HAT + d[:3], V_HAT + d[3:], 0.0) for d in dx])
+    rem = h - z0[0] - dx @ H[0, :6]
+    assert abs(rem.mean() - dz) < 4 * rem.std() / np.sqrt(rem.size) + 0.02 * abs(dz)
+    assert rem.var() == pytest.approx(var, rel=0.1)
+    # stacked terms: the diagonal reproduces the single-measurement ones
+    r = ims.RangeMeasurement(P_TARG, 0.25, S, B_RANGE)
+    dzs, C = ims.second_order_terms([r.hessian(P_HAT), m.hessian(P_HAT, V_HAT)], P)
+    assert dzs[1] == pytest.approx(dz) and C[1, 1] == pytest.approx(var)
+    assert dzs[0] == pytest.approx(r.second_order(P_HAT, V_HAT, P)[0]) and np.allclose(C, C.T)
+    with pytest.raises(InputDataError, match="P_toc"):
+        m.second_order(P_HAT, V_HAT, np.eye(3))

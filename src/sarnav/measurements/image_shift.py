@@ -17,6 +17,13 @@ The measurement refers to the state at the TOC. When the update is applied later
 pass ``phi_back`` = Phi(eta0, t_k), the error-state transition from the update epoch back to the TOC, and
 H becomes H_toc @ phi_back (paper eq. 57 without process-noise correlation).
 
+``second_order(p_hat, v_hat, P_toc)`` gives the Gaussian second-order terms (Hessian A of h w.r.t. the
+error state at the TOC): the mean correction ``tr(A P)/2`` to add to z_hat and the variance
+``tr(A P A P)/2`` to add to R. They matter for the zero-Doppler cross-range: its lever (p - p_targ)_perp / |v|
+is divided by the *estimated* speed, so an along-track speed error dv_N scales the lever and
+``h(x) - h(x_hat) - H dx = -(l_perp . dv)(u . dv) / V^2`` (docs/scenarios/rda-nav.md §2). The
+weakly observed along-track chain makes that 0.1-0.2 m (mean and std) in the paper geometry.
+
 Every object's ``predict(p_hat, v_hat, b_hat)`` returns (z_hat (1,), H (1, S), R (1, 1)).
 """
 
@@ -103,6 +110,45 @@ class RangeMeasurement:
             H = H @ self.phi_back
         return np.array([rng + b_hat]), H, np.array([[self.sigma**2]])
 
+    def hessian(self, p_hat, v_hat=None) -> np.ndarray:
+        """(S, S) Hessian of h w.r.t. the error state at the TOC: (I - d d^T / |d|^2) / |d| in the position block."""
+        p_hat = _vec3("p_hat", p_hat)
+        d = self.p_targ - p_hat
+        rng = np.linalg.norm(d)
+        A = np.zeros((self.n_states, self.n_states))
+        i = slice(self.pos_index, self.pos_index + 3)
+        A[i, i] = (np.eye(3) - np.outer(d, d) / rng**2) / rng
+        return A
+
+    def second_order(self, p_hat, v_hat, P_toc):
+        """Gaussian second-order terms (mean correction for z_hat, variance for R) for the TOC covariance
+        ``P_toc`` (S, S); see the module docstring."""
+        return _second_order(self.hessian(p_hat, v_hat), P_toc, self.n_states)
+
+
+def _second_order(A, P_toc, n_states):
+    dz, C = second_order_terms([A], P_toc)
+    return float(dz[0]), float(C[0, 0])
+
+
+def second_order_terms(hessians, P_toc):
+    """Gaussian second-order filter terms of stacked measurements with Hessians A_i and error covariance P:
+    mean correction ``dz_i = tr(A_i P) / 2`` (add to z_hat) and covariance ``C_ij = tr(A_i P A_j P) / 2`` (add
+    to R). For a zero-mean Gaussian error the quadratic terms are uncorrelated with the error itself."""
+    P_toc = np.asarray(P_toc, dtype=np.float64)
+    n = P_toc.shape[0]
+    if P_toc.shape != (n, n) or not np.all(np.isfinite(P_toc)):
+        raise InputDataError("P_toc", f"must be a finite square matrix, got {P_toc.shape}")
+    AP = []
+    for A in hessians:
+        A = np.asarray(A, dtype=np.float64)
+        if A.shape != (n, n):
+            raise InputDataError("hessian", f"must be ({n}, {n}) like P_toc, got {A.shape}")
+        AP.append(A @ P_toc)
+    dz = np.array([0.5 * np.trace(a) for a in AP])
+    C = np.array([[0.5 * np.sum(a * b.T) for b in AP] for a in AP])
+    return dz, C
+
 
 @dataclass
 class CrossRangeMeasurement:
@@ -180,6 +226,34 @@ class CrossRangeMeasurement:
         if self.phi_back is not None:
             H = H @ self.phi_back
         return np.array([z + b_hat]), H, np.array([[self.sigma**2]])
+
+    def hessian(self, p_hat, v_hat=None) -> np.ndarray:
+        """(S, S) Hessian of h w.r.t. the error state at the TOC (zero for the linear ``"paper"`` model).
+
+        Zero-Doppler, h = u^T l + b with l = p - p_targ, s = |v|, u = v / s:
+        d2h/dp dv = (I - u u^T) / s,  d2h/dv2 = -(l u^T + u l^T) / s^2 - (u^T l)(I - 3 u u^T) / s^2.
+        """
+        A = np.zeros((self.n_states, self.n_states))
+        if self.model_name == "paper":
+            return A
+        p_hat, v_hat = _vec3("p_hat", p_hat), _vec3("v_hat", v_hat)
+        s = np.linalg.norm(v_hat)
+        if s <= 0:
+            raise InputDataError("v_hat", "speed must be > 0 for the zero-Doppler cross-range model")
+        u = v_hat / s
+        l = p_hat - self.p_targ
+        ul = u @ l
+        ip = slice(self.pos_index, self.pos_index + 3)
+        iv = slice(self.vel_index, self.vel_index + 3)
+        A[ip, iv] = (np.eye(3) - np.outer(u, u)) / s
+        A[iv, ip] = A[ip, iv].T
+        A[iv, iv] = -(np.outer(l, u) + np.outer(u, l)) / s**2 - ul * (np.eye(3) - 3 * np.outer(u, u)) / s**2
+        return A
+
+    def second_order(self, p_hat, v_hat, P_toc):
+        """Gaussian second-order terms (mean correction for z_hat, variance for R) for the TOC covariance
+        ``P_toc`` (S, S); see the module docstring."""
+        return _second_order(self.hessian(p_hat, v_hat), P_toc, self.n_states)
 
 
 def stack(predictions):

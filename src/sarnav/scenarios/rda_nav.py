@@ -53,6 +53,7 @@ from sarnav.measurements.image_shift import (
     RangeMeasurement,
     closest_approach,
     interpolate_state,
+    second_order_terms,
 )
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.montecarlo.record import RunRecord
@@ -98,6 +99,7 @@ def default_config() -> dict:
             "measurement": "image",  # --set sar.measurement=oracle: truth + noise
             "cross_range_model": "zero-doppler",  # G1: docs/scenarios/rda-nav.md §2
             "delayed_state": True,  # H mapped from the TOC to the update epoch (eq. 57)
+            "second_order": True,  # Gaussian second-order terms of h (zero-Doppler lever / |v|), §2
             "range_3sigma": 0.75,  # Table 2
             "cross_3sigma": 0.75,  # Table 2
             "bias_range_3sigma": 0.25,  # Table 1
@@ -193,6 +195,7 @@ class RdaNavParams:
     measurement: str
     cross_model: str
     delayed_state: bool
+    second_order: bool
     sar_sigma: np.ndarray  # (2,) range, cross [m]
     registration_sigma: float
     bias_sigma: np.ndarray  # (3,) b_alt, b_range, b_cross steady-state sigma [m]
@@ -261,6 +264,7 @@ def parse(cfg: dict) -> RdaNavParams:
         raise ConfigError("sar.cross_range_model", "'paper' (eq. 48 with constant u_c, r_orig) cannot be made from "
                           "an image; use 'zero-doppler' with sar.measurement = 'image'")
     delayed = _bool(cfg, "sar", "delayed_state")
+    second = _bool(cfg, "sar", "second_order")
     sar_sigma = three(np.array([_pos(cfg, "sar", "range_3sigma", "m"), _pos(cfg, "sar", "cross_3sigma", "m")]))
     reg_sigma = require_finite("sar.registration_sigma_m", _get(cfg, "sar", "registration_sigma_m"), 0.0, 10.0, "m")
     bias3 = np.array([_pos(cfg, "altimeter", "bias_3sigma", "m"), _pos(cfg, "sar", "bias_range_3sigma", "m"),
@@ -295,7 +299,7 @@ def parse(cfg: dict) -> RdaNavParams:
         runs=runs, trajectory=traj, altitude=float(-start[2]), imu_grade=grade, imu_rate=imu_rate,
         tau_accel=_pos(cfg, "imu", "tau_accel", "s"), tau_gyro=_pos(cfg, "imu", "tau_gyro", "s"),
         alt_sigma=float(alt_sigma), sar_enabled=enabled, measurement=mode, cross_model=cross_model,
-        delayed_state=delayed, sar_sigma=sar_sigma, registration_sigma=float(reg_sigma), bias_sigma=three(bias3),
+        delayed_state=delayed, second_order=second, sar_sigma=sar_sigma, registration_sigma=float(reg_sigma), bias_sigma=three(bias3),
         bias_tau=bias_tau, radar_preset=preset, scene=scene, p0_sigma=p0,
     )
 
@@ -488,6 +492,13 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
                 zh_sar[r] = [zr[0], zc[0]]
                 H_sar[r] = np.vstack([Hr, Hc])
                 R_sar[r] = np.diag([Rr[0, 0], Rc[0, 0]])
+                if prm.second_order:
+                    # Gaussian second-order filter: E[h] and the variance of the quadratic remainder under the
+                    # error covariance at the TOC, dx(t_toc) = Phi^-1 (dx(t_k) - w): P_toc = Phi^-1 (P - Q_d) Phi^-T
+                    P_toc = P[r] if phi is None else phi @ (P[r] - q_back[0]) @ phi.T
+                    dz2, C2 = second_order_terms([rm.hessian(p_hat_toc), cm.hessian(p_hat_toc, v_hat_toc)], P_toc)
+                    zh_sar[r] += dz2
+                    R_sar[r] += C2
                 if q_back is not None:
                     # dx(t_toc) = Phi^-1 (dx(t_k) - w), w ~ N(0, Q_d over [t_toc, t_k]): the SAR noise becomes
                     # nu = v - H w, cov H Q_d H^T + R, correlated with dx(t_k): cov(dx_k, nu) = -Q_d H^T
