@@ -9,6 +9,8 @@ covariance propagation (Van Loan per 0.1-s step) -> at the end of every 1-s sub-
 update [altimeter, range, cross-range] (Joseph form), full feedback and reset. The SAR measurement refers
 to the reference target's time of closest approach (TOC) inside the aperture; the estimate there comes
 from the INS history of the aperture and H is mapped to the update epoch by Phi(t_toc, t_k) (eq. 57).
+With ``sar.second_order`` (default) z_hat and R get the Gaussian second-order terms of the range and
+cross-range functions under the TOC covariance (the zero-Doppler lever is divided by the estimated speed).
 
 ``sar.measurement``:
 * ``"oracle"``: z from the truth state at the true TOC plus the truth FOGM bias and white noise
