@@ -589,3 +589,35 @@ class RdaNavKind(ScenarioKind):
         if len(run_ids) == 0:
             return []
         return simulate_runs(parse(cfg), run_ids, seeds)
+
+    def figures(self, results, outdir) -> list[str]:
+        """Paper-style extras: the images of sub-aperture 10 of run 0 (reference, in flight before and
+        after mapdrift, correlation surface; paper Figs 4-6) and the position 3-sigma with and without SAR
+        on a log scale (paper Fig. 15). Run 0 is simulated again for them (a pure function of the scenario
+        and its seed, so identical to the stored run 0); the altimeter-only curve is run 0 with
+        ``sar.enabled = false``."""
+        import copy
+        from pathlib import Path
+
+        from sarnav.montecarlo.seeding import run_seeds
+        from sarnav.report.rda_nav_figures import plot_aperture_images, plot_sar_ablation
+        from sarnav.scenarios.config import parse_toml
+        from sarnav.scenarios.rda_nav_imaging import capture_images
+
+        cfg = parse_toml(results.attrs["scenario"])
+        prm = parse(cfg)
+        seed0 = run_seeds(int(cfg["campaign"]["seed"]), int(cfg["campaign"]["runs"]))[0]
+        outdir = Path(outdir)
+        paths = []
+        if prm.sar_enabled and prm.measurement == "image":
+            with capture_images(min(10, prm.n_updates - 1)) as cap:
+                simulate_runs(prm, [0], [seed0])
+            paths.append(plot_aperture_images(cap, outdir / "sar_images_run0.png"))
+        if prm.sar_enabled:
+            off = copy.deepcopy(cfg)
+            off["sar"]["enabled"] = False
+            rec = simulate_runs(parse(off), [0], [seed0])[0]
+            pos = [list(results["state"].values).index(s) for s in ("pN", "pE", "pD")]
+            paths.append(plot_sar_ablation(results["time"].values, results["sigma"].values[0][:, pos],
+                                           rec.time, rec.sigma[:, :3], outdir / "position_3sigma_with_without_sar.png"))
+        return paths

@@ -47,6 +47,33 @@ MAPDRIFT_GATE_FLOOR = 0.02
 REGISTRATION_SUBPIXEL = "parabola"
 STAGE_INDEX = {"echoes": 0, "rda": 1, "autofocus": 2, "registration": 3}
 
+#: set by :func:`capture_images`: the images of one sub-aperture of the batch's first run are kept here
+_CAPTURE: dict | None = None
+
+
+class capture_images:
+    """Context manager that keeps the images of sub-aperture ``aperture`` of the first run of the batch
+    simulated inside it (reference, in-flight before/after mapdrift, correlation surface) for figures.
+    Nothing else changes: the run's numbers are the same with or without it.
+
+    >>> with capture_images(10) as cap:            # doctest: +SKIP
+    ...     RdaNavKind().simulate(cfg, [0], [seed0])
+    >>> cap["before"], cap["after"], cap["correlation"]   # doctest: +SKIP
+    """
+
+    def __init__(self, aperture: int):
+        self.store = {"aperture": int(aperture), "run": 0}
+
+    def __enter__(self) -> dict:
+        global _CAPTURE
+        _CAPTURE = self.store
+        return self.store
+
+    def __exit__(self, *exc) -> bool:
+        global _CAPTURE
+        _CAPTURE = None
+        return False
+
 
 def radar_for(preset: str):
     return nav_paper_sim() if preset == "nav-paper-sim" else flexsar()
@@ -124,7 +151,7 @@ class ApertureImager:
             raise InputDataError("scene.ground_range_max", "reference chip leaves the reference image")
         chip = np.abs(ref.data[np.ix_(rows, cols)])
         entry = {"times": times, "rc": rc, "chip": chip, "anchor": (fi - i0, fj - j0),
-                 "seconds": time.perf_counter() - t0}
+                 "seconds": time.perf_counter() - t0, "reference": ref}
         if clutter_seed is None:  # per-run scenes are used once: do not keep them
             self._cache[(u, clutter_seed)] = entry
         return entry
@@ -184,6 +211,10 @@ class ApertureImager:
             out["range"][r] = image.x[0] + col * image.dx
             out["autofocus_dk"][r] = af.fm_rate_error
             t3 = time.perf_counter()
+            if _CAPTURE is not None and r == 0 and u == _CAPTURE["aperture"] and "before" not in _CAPTURE:
+                _CAPTURE.update(reference=ap["reference"], before=range_doppler(sub, speed_hat), after=af.image,
+                                correlation=(coarse.surface, coarse.lags_y, coarse.lags_x), speed_hat=speed_hat,
+                                autofocus_speed=float(af.speed), used="mapdrift" if image is af.image else "estimate")
             stage_seconds[r, STAGE_INDEX["rda"]] += t1 - t0
             stage_seconds[r, STAGE_INDEX["autofocus"]] += t2 - t1
             stage_seconds[r, STAGE_INDEX["registration"]] += t3 - t2
