@@ -79,3 +79,13 @@ def test_run_bpa_sensitivity_writes_table_and_grid(tmp_path):
     yaw = rows[-1]
     assert abs(float(yaw["meas_peak_loss"])) < 0.01  # yaw changes nothing (thesis T17)
     assert (out / "sensitivity.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("override, field", [
+    ("initial.theta_3sigma=[0.01,0.01,3.0]", "initial.theta_3sigma"),
+    ("trajectory.duration=100000", "trajectory.duration"),
+])
+def test_telemetry_refuses_huge_attitude_error_and_results_that_do_not_fit(capsys, override, field):
+    assert main(["run", "telemetry", "--set", override, "--out", "/nonexistent/never-written"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"sarnav: error: {field}:")

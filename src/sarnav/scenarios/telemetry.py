@@ -51,6 +51,10 @@ COV_STEP_MAX = 0.1
 MAX_SPEED = 1.0e4
 MAX_IMU_RATE = 1.0e4
 MIN_TARGET_RANGE = 1.0
+#: the attitude error is a small angle (thesis eq. 4.9): larger initial 3-sigma values are refused [rad]
+MAX_THETA_3SIGMA = 0.5
+#: refuse campaigns whose assembled error + sigma histories would exceed this many bytes
+MAX_RESULT_BYTES = 8 * 2**30
 
 STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_rate"), scalar_units=("m", "m", "m/s"))
 MEAS_NAMES = ["alt", "range", "rate"]
@@ -191,6 +195,16 @@ def parse(cfg: dict) -> TelemetryParams:
     p3 = _vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
     v3 = _vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
     th3 = _vector(cfg, "initial", "theta_3sigma", positive=True, unit="rad")
+    if np.any(th3 > MAX_THETA_3SIGMA):
+        raise ConfigError("initial.theta_3sigma", f"must be <= {MAX_THETA_3SIGMA} rad on each axis (the attitude error "
+                          f"state is a small angle, thesis eq. 4.9), got {th3.tolist()}")
+    runs = cfg.get("campaign", {}).get("runs", 1)
+    n_out = math.ceil(duration / 0.1) + 1  # covariance steps are <= 0.1 s (see samples_per_cov_step)
+    need = (runs if isinstance(runs, int) and runs > 0 else 1) * n_out * 18 * 8 * 2  # error + sigma, float64
+    if need > MAX_RESULT_BYTES:
+        raise ConfigError("trajectory.duration", f"{duration} s x campaign.runs = {runs} would need "
+                          f"{need / 2**30:.1f} GiB of results (limit {MAX_RESULT_BYTES / 2**30:.0f} GiB): "
+                          "shorten the flight or run fewer runs")
     defaults = dict(zip(_INITIAL_BIAS, [vals3[1], vals3[3], *bias3]))
     b3 = {k: require_positive(f"initial.{k}", ini.get(k, defaults[k])) for k in _INITIAL_BIAS}
     p0 = np.concatenate(
