@@ -234,6 +234,18 @@ def _lookup(cfg: dict, field: str) -> Any:
 
 
 # ----------------------------------------------------------------------------- validation
+def validate_campaign(cfg: dict) -> tuple[int, int]:
+    """``(runs, seed)`` of the ``[campaign]`` table; ConfigError unless runs >= 1 and seed >= 0 are integers."""
+    camp = _require_table(cfg, "campaign")
+    runs = camp.get("runs")
+    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
+    seed = camp.get("seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
+    return runs, seed
+
+
 def _require_table(cfg: dict, name: str) -> dict:
     table = cfg.get(name)
     if not isinstance(table, dict):
@@ -252,13 +264,7 @@ def validate_common(cfg: dict) -> None:
             raise ConfigError(f"scenario.{key}", f"must be a non-empty string, got {scen.get(key)!r}")
     if not isinstance(scen.get("description", ""), str):
         raise ConfigError("scenario.description", "must be a string")
-    camp = _require_table(cfg, "campaign")
-    runs = camp.get("runs")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
-    seed = camp.get("seed")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
+    validate_campaign(cfg)
 
 
 def validate_scenario(cfg: dict, kind=None) -> None:

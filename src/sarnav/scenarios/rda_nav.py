@@ -60,7 +60,8 @@ from sarnav.measurements.image_shift import (
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.montecarlo.record import RunRecord
 from sarnav.rotations import quat_to_dcm
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.scenarios.base import ErrorStateKind
+from sarnav.scenarios.config import validate_campaign
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade, ImuModel
 from sarnav.trajectory import StraightLevel
@@ -221,13 +222,7 @@ class RdaNavParams:
 
 def parse(cfg: dict) -> RdaNavParams:
     """Validate ``cfg`` and convert to SI; ConfigError names the first bad field and its range."""
-    camp = _table(cfg, "campaign")
-    runs = camp.get("runs")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
-    seed = camp.get("seed")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
+    runs, seed = validate_campaign(cfg)
 
     start = _vector(cfg, "trajectory", "start_ned", unit="m")
     if not start[2] < 0:
@@ -557,7 +552,7 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     return records
 
 
-class RdaNavKind(ScenarioKind):
+class RdaNavKind(ErrorStateKind):
     """NAVIGATION paper / thesis ch. 5 image-aided INS Monte Carlo (module docstring)."""
 
     kind = "rda-nav"
@@ -568,27 +563,15 @@ class RdaNavKind(ScenarioKind):
     def optional_keys(self) -> list[str]:
         return optional_keys()
 
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
+    layout = STATE_LAYOUT
+    measurement_names = tuple(MEAS_NAMES)
+    measurement_units = tuple(MEAS_UNITS)
 
-    def state_names(self, cfg: dict) -> list[str]:
-        return STATE_LAYOUT.state_names()
+    def parse(self, cfg: dict):
+        return parse(cfg)
 
-    def state_units(self, cfg: dict) -> list[str]:
-        return STATE_LAYOUT.state_units()
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return list(MEAS_NAMES)
-
-    def meas_units(self, cfg: dict) -> list[str]:
-        return list(MEAS_UNITS)
-
-    def simulate(self, cfg: dict, run_ids: Sequence[int], seeds: Sequence[np.random.SeedSequence]) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
-        if len(run_ids) == 0:
-            return []
-        return simulate_runs(parse(cfg), run_ids, seeds)
+    def simulate_runs(self, prm, run_ids, seeds) -> list[RunRecord]:
+        return simulate_runs(prm, run_ids, seeds)
 
     def figures(self, results, outdir) -> list[str]:
         """Paper-style extras: the images of sub-aperture 10 of run 0 (reference, in flight before and

@@ -38,7 +38,8 @@ from sarnav.measurements.base import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.montecarlo.record import RunRecord
 from sarnav.rotations import quat_normalize, quat_to_dcm
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.scenarios.base import ErrorStateKind
+from sarnav.scenarios.config import validate_campaign
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, IMU_GRADES, ImuGrade, ImuModel
 from sarnav.trajectory import Maneuvering, StraightLevel
@@ -128,13 +129,7 @@ class TelemetryParams:
 
 def parse(cfg: dict) -> TelemetryParams:
     """Validate ``cfg`` and convert it to SI; ConfigError names the first bad field and its range."""
-    camp = _table(cfg, "campaign")
-    runs = camp.get("runs")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
-    seed = camp.get("seed")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
+    runs, seed = validate_campaign(cfg)
 
     tr = _table(cfg, "trajectory")
     ttype = tr.get("type")
@@ -224,7 +219,7 @@ def parse(cfg: dict) -> TelemetryParams:
     )
 
 
-class TelemetryKind(ScenarioKind):
+class TelemetryKind(ErrorStateKind):
     """Thesis chapter 3 telemetry-aided INS Monte Carlo (see module docstring)."""
 
     kind = "telemetry"
@@ -278,28 +273,15 @@ class TelemetryKind(ScenarioKind):
         """Keys accepted although the default configuration leaves them out."""
         return [f"imu.{k}" for k in _IMU_OVERRIDES] + [f"initial.{k}" for k in _INITIAL_BIAS]
 
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
+    layout = STATE_LAYOUT
+    measurement_names = tuple(MEAS_NAMES)
+    measurement_units = tuple(MEAS_UNITS)
 
-    def state_names(self, cfg: dict) -> list[str]:
-        return STATE_LAYOUT.state_names()
+    def parse(self, cfg: dict):
+        return parse(cfg)
 
-    def state_units(self, cfg: dict) -> list[str]:
-        return STATE_LAYOUT.state_units()
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return list(MEAS_NAMES)
-
-    def meas_units(self, cfg: dict) -> list[str]:
-        return list(MEAS_UNITS)
-
-    def simulate(self, cfg: dict, run_ids: Sequence[int], seeds: Sequence[np.random.SeedSequence]) -> list[RunRecord]:
-        """Simulate the runs as one batch; run i depends only on cfg and seeds[i]."""
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
-        if len(run_ids) == 0:
-            return []
-        return simulate_runs(parse(cfg), run_ids, seeds)
+    def simulate_runs(self, prm, run_ids, seeds) -> list[RunRecord]:
+        return simulate_runs(prm, run_ids, seeds)
 
 
 def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
