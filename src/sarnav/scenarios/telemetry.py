@@ -41,7 +41,7 @@ from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.scenarios.base import ErrorStateKind
 from sarnav.scenarios.config import validate_campaign
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
-from sarnav.sensors.imu import GRADE_THREE_SIGMA, IMU_GRADES, ImuGrade, ImuModel
+from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuBlocks, IMU_GRADES, ImuGrade, ImuModel
 from sarnav.trajectory import Maneuvering, StraightLevel
 
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
@@ -321,7 +321,8 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     drive = np.stack([g.standard_normal((n_upd * steps, 3)) for g in rngs])
     bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, dt_cov))
     bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3) at every output epoch
-    nu_k, om_k, ba_k, bg_k, ba, bg = imu.measure(nu_true[:1], om_true[:1], ba, bg, rngs)
+    imu_blocks = ImuBlocks(imu, nu_true, om_true, ba, bg, rngs)
+    ba_k, bg_k = imu_blocks.first[2], imu_blocks.first[3]
 
     def truth_at(j, ba_now, bg_now):
         return NavState(
@@ -353,12 +354,7 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     history = None
     for u in range(n_upd):
         k0 = u * m
-        new = imu.measure(nu_true[k0 + 1:k0 + m + 1], om_true[k0 + 1:k0 + m + 1], ba, bg, rngs)
-        nu_blk = np.concatenate([nu_k[:, -1:], new[0]], axis=1)
-        om_blk = np.concatenate([om_k[:, -1:], new[1]], axis=1)
-        ba_blk = np.concatenate([ba_k[:, -1:], new[2]], axis=1)
-        bg_blk = np.concatenate([bg_k[:, -1:], new[3]], axis=1)
-        nu_k, om_k, ba_k, bg_k, ba, bg = nu_blk, om_blk, ba_blk, bg_blk, new[4], new[5]
+        nu_blk, om_blk, ba_blk, bg_blk = imu_blocks.next(m)
         for s in range(steps):
             a, b = s * c, (s + 1) * c
             q_start = nav.q

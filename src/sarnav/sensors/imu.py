@@ -146,3 +146,33 @@ class ImuModel:
         nu_meas = nu + ba_path + (self.grade.vrw / root_dt) * w[:, 0]
         om_meas = omega + bg_path + (self.grade.arw / root_dt) * w[:, 1]
         return nu_meas, om_meas, ba_path, bg_path, ba_next, bg_next
+
+
+class ImuBlocks:
+    """Corrupted IMU samples of a batch of runs, delivered block by block.
+
+    The first sample is measured at construction (so the random draws keep their order: the caller
+    builds this where it would measure sample 0); each :meth:`next` measures the following ``m`` samples
+    and returns blocks of ``m + 1`` samples that start with the previous block's last sample, as the
+    strapdown integration over [t_k, t_k + m dt] needs.
+
+    Attributes
+    ----------
+    first : (nu, omega, ba_path, bg_path), each (R, 1, 3): sample 0 and the true biases there.
+    """
+
+    def __init__(self, imu: ImuModel, nu_true, omega_true, ba, bg, rngs: Sequence[np.random.Generator]):
+        self.imu, self.nu_true, self.omega_true, self.rngs = imu, nu_true, omega_true, rngs
+        *self.first, self._ba, self._bg = imu.measure(nu_true[:1], omega_true[:1], ba, bg, rngs)
+        self.first = tuple(self.first)
+        self._last = self.first
+        self._k = 0
+
+    def next(self, m: int):
+        """(nu, omega, ba_path, bg_path), each (R, m + 1, 3), for samples k .. k + m."""
+        k = self._k
+        new = self.imu.measure(self.nu_true[k + 1:k + m + 1], self.omega_true[k + 1:k + m + 1],
+                               self._ba, self._bg, self.rngs)
+        blocks = tuple(np.concatenate([prev[:, -1:], cur], axis=1) for prev, cur in zip(self._last, new[:4]))
+        self._last, self._ba, self._bg, self._k = blocks, new[4], new[5], k + m
+        return blocks
