@@ -28,11 +28,9 @@ clutter from the run's clutter seed (``scene.clutter_per_run``, default) or from
 
 from __future__ import annotations
 
-import copy
 import math
 import time as _time
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -44,7 +42,6 @@ from sarnav.filters import (
     apply_feedback,
     corrupt_state,
     error_state,
-    joseph_update,
     normalized_squared,
     propagate_covariance,
 )
@@ -62,6 +59,11 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.rotations import quat_to_dcm
 from sarnav.scenarios.base import ErrorStateKind
 from sarnav.scenarios.config import validate_campaign
+from sarnav.scenarios.fields import boolean as _bool
+from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.fields import positive as _pos
+from sarnav.scenarios.fields import table as _table
+from sarnav.scenarios.fields import vector as _vector
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuBlocks, ImuGrade, ImuModel
 from sarnav.trajectory import StraightLevel
@@ -146,40 +148,6 @@ def flexsar_config() -> dict:
 
 def optional_keys() -> list[str]:
     return [f"imu.{k}" for k in _IMU_KEYS]
-
-
-def _table(cfg, name):
-    t = cfg.get(name)
-    if not isinstance(t, dict):
-        raise ConfigError(name, "missing table")
-    return t
-
-
-def _get(cfg, table, key):
-    t = _table(cfg, table)
-    if key not in t:
-        raise ConfigError(f"{table}.{key}", "missing")
-    return t[key]
-
-
-def _pos(cfg, table, key, unit=""):
-    return require_positive(f"{table}.{key}", _get(cfg, table, key), unit)
-
-
-def _vector(cfg, table, key, positive=False, unit=""):
-    field = f"{table}.{key}"
-    val = _get(cfg, table, key)
-    if not isinstance(val, (list, tuple)) or len(val) != 3:
-        raise ConfigError(field, f"must be a list of 3 numbers [{unit}], got {val!r}")
-    f = require_positive if positive else require_finite
-    return np.array([f(f"{field}[{i}]", v, unit=unit) for i, v in enumerate(val)])
-
-
-def _bool(cfg, table, key):
-    v = _get(cfg, table, key)
-    if not isinstance(v, bool):
-        raise ConfigError(f"{table}.{key}", f"must be true or false, got {v!r}")
-    return v
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -40,6 +39,10 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.scenarios.base import ErrorStateKind
 from sarnav.scenarios.config import validate_campaign
+from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.fields import positive as _pos
+from sarnav.scenarios.fields import table as _table
+from sarnav.scenarios.fields import vector as _vector
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuBlocks, IMU_GRADES, ImuGrade, ImuModel
 from sarnav.trajectory import Maneuvering, StraightLevel
@@ -62,34 +65,6 @@ MEAS_NAMES = ["alt", "range", "rate"]
 MEAS_UNITS = ["m", "m", "m/s"]
 _IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
 _INITIAL_BIAS = ("accel_bias_3sigma", "gyro_bias_3sigma", "bias_alt_3sigma", "bias_range_3sigma", "bias_rate_3sigma")
-
-
-def _table(cfg, name):
-    t = cfg.get(name)
-    if not isinstance(t, dict):
-        raise ConfigError(name, "missing table")
-    return t
-
-
-def _get(cfg, table, key):
-    t = _table(cfg, table)
-    if key not in t:
-        raise ConfigError(f"{table}.{key}", "missing")
-    return t[key]
-
-
-def _vector(cfg, table, key, n=3, positive=False, unit=""):
-    field = f"{table}.{key}"
-    val = _get(cfg, table, key)
-    if not isinstance(val, (list, tuple)) or len(val) != n:
-        raise ConfigError(field, f"must be a list of {n} numbers{(' [' + unit + ']') if unit else ''}, got {val!r}")
-    if positive:
-        return np.array([require_positive(f"{field}[{i}]", v, unit) for i, v in enumerate(val)])
-    return np.array([require_finite(f"{field}[{i}]", v, unit=unit) for i, v in enumerate(val)])
-
-
-def _pos(cfg, table, key, unit=""):
-    return require_positive(f"{table}.{key}", _get(cfg, table, key), unit)
 
 
 @dataclass(frozen=True)
