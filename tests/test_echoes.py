@@ -7,7 +7,7 @@ import pytest
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.metrics import interpolate_value, peak_location
 from sarnav.imaging.range_compression import range_compress
-from sarnav.radar.echoes import simulate_echoes
+from sarnav.radar.echoes import add_receiver_noise, simulate_echoes
 from sarnav.radar.presets import nav_paper_sim
 from sarnav.radar.scene import Scene, point_targets
 
@@ -110,6 +110,36 @@ def test_noise_power_and_reproducibility():
     rc_noise = range_compress(a).data - range_compress(clean).data
     inner = rc_noise[:, m:-m].ravel()  # away from the edges of the window
     assert np.mean(np.abs(inner) ** 2) == pytest.approx(sigma2 / m, rel=0.1)
+
+
+def test_add_receiver_noise_is_a_second_acquisition_of_the_same_echoes():
+    p = nav_paper_sim()
+    pos, t = _track(p, n=40)
+    sc = point_targets([[1.0, 1850.0, 0.0], [2.0, 1900.0, 0.0]], [2.0, 0.5])
+    clean = simulate_echoes(p, pos, t, sc)
+    before = clean.data.copy()
+    # same generator state -> exactly what simulate_echoes adds (amplitude 2 = the strongest scatterer)
+    a = add_receiver_noise(clean, 2.0, 7.0, np.random.default_rng(np.random.SeedSequence(5)))
+    ref = simulate_echoes(p, pos, t, sc, snr_db=7.0, rng=np.random.default_rng(np.random.SeedSequence(5)))
+    np.testing.assert_array_equal(a.data, ref.data)
+    assert a.metadata["noise_power"] == ref.metadata["noise_power"]
+    np.testing.assert_array_equal(clean.data, before)  # the clean echoes are not modified
+    # a second acquisition: independent noise of the same power (the correlation of the two noises ~ 0)
+    b = add_receiver_noise(clean, 2.0, 7.0, np.random.default_rng(np.random.SeedSequence(6)))
+    na, nb = (a.data - clean.data).ravel(), (b.data - clean.data).ravel()
+    rho = abs(np.vdot(na, nb)) / np.sqrt(np.vdot(na, na).real * np.vdot(nb, nb).real)
+    assert rho < 4 / np.sqrt(na.size)
+    # the SNR refers to the given amplitude: 0.5 at 7 dB is 16x less noise power than 2.0 at 7 dB
+    c = add_receiver_noise(clean, 0.5, 7.0, np.random.default_rng(1))
+    assert c.metadata["noise_power"] == pytest.approx(ref.metadata["noise_power"] / 16)
+    with pytest.raises(ConfigError, match="^snr_db"):
+        add_receiver_noise(clean, 2.0, np.inf, np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="^amplitude"):
+        add_receiver_noise(clean, 0.0, 7.0, np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="^rng"):
+        add_receiver_noise(clean, 2.0, 7.0, None)
+    with pytest.raises(InputDataError, match="^raw"):
+        add_receiver_noise(range_compress(clean), 2.0, 7.0, np.random.default_rng(0))
 
 
 def test_complex64_output():

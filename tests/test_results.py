@@ -114,6 +114,19 @@ def test_summary_numbers_match_independent_computation():
     D = int(sum(r.nis_dof.sum() for r in recs))
     assert s["nis"]["total_dof"] == D
     assert s["nis"]["per_dof"] == pytest.approx(sum(r.nis.sum() for r in recs) / D, rel=1e-12)
+    # registration statistics of the image-derived axes (NaN entries = axis not image-derived)
+    reg = np.stack([r.extras["registration_error"][1] for r in recs])
+    reg[:, :, 0] = np.nan
+    ds["registration_error"].values[:] = reg
+    s = summarize(ds)
+    assert list(s["registration"]) == ["cross"]
+    e = reg[:, :, 1].ravel()
+    st = s["registration"]["cross"]
+    assert st["count"] == e.size and st["units"] == "m"
+    assert st["mean"] == pytest.approx(e.mean(), rel=1e-12)
+    assert st["std"] == pytest.approx(e.std(ddof=1), rel=1e-12)
+    assert st["rms"] == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-12)
+    assert st["max_abs"] == np.max(np.abs(e))
     json.dumps(s)  # serialisable
 
 

@@ -227,4 +227,32 @@ def summarize(ds, confidence: float = 0.95) -> dict:
             }
             for j, m in enumerate(meas)
         }
+    if "registration_error" in ds:
+        out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units)
+    return out
+
+
+def registration_statistics(reg: np.ndarray, meas: list[str], units: list[str] | None = None) -> dict:
+    """Per measurement axis of an image-derived measurement: statistics of the registration error
+    (measured minus geometric truth), ``reg`` (R, U, M) with NaN where an axis is not image-derived.
+
+    Returns {meas: {units, count, mean, std, stderr, rms, p99_abs, max_abs}} for the axes with data: the
+    numbers that justify the R a filter gives those measurements."""
+    reg = np.asarray(reg, dtype=np.float64)
+    out = {}
+    for j, m in enumerate(meas):
+        e = reg[..., j].ravel()
+        e = e[np.isfinite(e)]
+        if e.size == 0:
+            continue
+        out[m] = {
+            "units": str(units[j]) if units and j < len(units) else "",
+            "count": int(e.size),
+            "mean": float(e.mean()),
+            "std": float(e.std(ddof=1)) if e.size > 1 else 0.0,
+            "stderr": float(e.std(ddof=1) / np.sqrt(e.size)) if e.size > 1 else float("nan"),
+            "rms": float(np.sqrt(np.mean(e**2))),
+            "p99_abs": float(np.percentile(np.abs(e), 99)),
+            "max_abs": float(np.max(np.abs(e))),
+        }
     return out

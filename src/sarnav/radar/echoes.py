@@ -23,6 +23,7 @@ complex128; output complex128 (or ``dtype=np.complex64`` on request).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numba import njit, prange
@@ -128,6 +129,32 @@ def _check_inputs(positions, pulse_times, scene):
     return np.ascontiguousarray(pos), np.ascontiguousarray(t)
 
 
+def _add_noise(out: np.ndarray, amplitude: float, snr_db, rng) -> float:
+    """Add circular complex white Gaussian noise in place; per-sample SNR of ``amplitude`` (module doc)."""
+    if snr_db is None or isinstance(snr_db, bool) or not np.isfinite(snr_db):
+        raise ConfigError("snr_db", f"must be finite [dB], got {snr_db!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise ConfigError("rng", "a numpy.random.Generator is required when snr_db is given")
+    noise_power = float(amplitude**2 / db_to_power(snr_db))
+    noise = rng.standard_normal(out.shape + (2,))
+    out += np.sqrt(noise_power / 2.0) * (noise[..., 0] + 1j * noise[..., 1])
+    return noise_power
+
+
+def add_receiver_noise(raw: PulseData, amplitude: float, snr_db: float, rng: np.random.Generator) -> PulseData:
+    """A copy of noise-free raw echoes with receiver noise added: per-sample SNR ``snr_db`` of a scatterer of
+    ``amplitude`` on boresight (the module's definition). Two calls with independent generators on the same
+    echoes give two acquisitions of one scene that differ only in their receiver noise."""
+    if not isinstance(raw, PulseData) or raw.compressed:
+        raise InputDataError("raw", "must be uncompressed PulseData from simulate_echoes")
+    if not (np.isfinite(amplitude) and amplitude > 0):
+        raise ConfigError("amplitude", f"must be finite and > 0, got {amplitude!r}")
+    out = raw.data.astype(np.complex128, copy=True)
+    noise_power = _add_noise(out, float(amplitude), snr_db, rng)
+    meta = dict(raw.metadata, snr_db=float(snr_db), noise_power=noise_power)
+    return replace(raw, data=out.astype(raw.data.dtype, copy=False), metadata=meta)
+
+
 def simulate_echoes(params, positions, pulse_times, scene: Scene, snr_db: float | None = None,
                     rng: np.random.Generator | None = None, pattern: bool = True,
                     dtype=np.complex128) -> PulseData:
@@ -190,15 +217,9 @@ def simulate_echoes(params, positions, pulse_times, scene: Scene, snr_db: float 
 
     noise_power = 0.0
     if snr_db is not None:
-        if not np.isfinite(snr_db):
-            raise ConfigError("snr_db", f"must be finite [dB], got {snr_db!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise ConfigError("rng", "a numpy.random.Generator is required when snr_db is given")
         if targets.shape[0] == 0 or np.max(np.abs(amps)) == 0:
             raise ConfigError("snr_db", "undefined for a scene without a non-zero scatterer")
-        noise_power = float(np.max(np.abs(amps)) ** 2 / db_to_power(snr_db))
-        noise = rng.standard_normal((n_p, params.n_range_samples, 2))
-        out += np.sqrt(noise_power / 2.0) * (noise[..., 0] + 1j * noise[..., 1])
+        noise_power = _add_noise(out, float(np.max(np.abs(amps))), snr_db, rng)
 
     return PulseData(
         data=out.astype(dtype, copy=False),

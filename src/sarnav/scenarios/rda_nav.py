@@ -111,7 +111,10 @@ def default_config() -> dict:
             "bias_cross_3sigma": 0.25,  # Table 1
             "tau_range": 3600.0,  # G2
             "tau_cross": 3600.0,
-            "registration_sigma_m": 0.02,  # image mode: added to R (G11); measured: along-track std 0.020 m, range 0.3 mm
+            # image mode (G11): R = registration_sigma_m^2 per axis [range, along-track], set from the measured
+            # registration errors (summary.json "registration"; docs/scenarios/rda-nav.md §3)
+            "registration_sigma_m": [0.00125, 0.0315],
+            "image_added_noise": False,  # true: also add Table 2's white noise (range/cross_3sigma) in image mode
         },
         "radar": {"preset": "nav-paper-sim"},  # Table 3
         "scene": {
@@ -122,6 +125,7 @@ def default_config() -> dict:
             "clutter_per_image": 4,  # G5
             "clutter_per_run": True,  # G5: clutter redrawn per run (independent registration errors)
             "reflector_amplitude": 3.16,  # 10 dB above the unit-mean-power clutter (G4)
+            "snr_db": -10.0,  # receiver noise: per-sample SNR of the reflector (G5); independent per acquisition
         },
         "initial": {
             "p_3sigma": [1.9, 1.9, 4.4],  # Table 1
@@ -168,7 +172,8 @@ class RdaNavParams:
     delayed_state: bool
     second_order: bool
     sar_sigma: np.ndarray  # (2,) range, cross [m]
-    registration_sigma: float
+    registration_sigma: np.ndarray  # (2,) image mode: range, along-track registration 1-sigma [m]
+    image_added_noise: bool
     bias_sigma: np.ndarray  # (3,) b_alt, b_range, b_cross steady-state sigma [m]
     bias_tau: np.ndarray  # (3,)
     radar_preset: str
@@ -231,7 +236,8 @@ def parse(cfg: dict) -> RdaNavParams:
     delayed = _bool(cfg, "sar", "delayed_state")
     second = _bool(cfg, "sar", "second_order")
     sar_sigma = three(np.array([_pos(cfg, "sar", "range_3sigma", "m"), _pos(cfg, "sar", "cross_3sigma", "m")]))
-    reg_sigma = require_finite("sar.registration_sigma_m", _get(cfg, "sar", "registration_sigma_m"), 0.0, 10.0, "m")
+    reg_sigma = _vector(cfg, "sar", "registration_sigma_m", n=2, positive=True, unit="m")
+    added = _bool(cfg, "sar", "image_added_noise")
     bias3 = np.array([_pos(cfg, "altimeter", "bias_3sigma", "m"), _pos(cfg, "sar", "bias_range_3sigma", "m"),
                       _pos(cfg, "sar", "bias_cross_3sigma", "m")])
     bias_tau = np.array([_pos(cfg, "altimeter", "tau", "s"), _pos(cfg, "sar", "tau_range", "s"), _pos(cfg, "sar", "tau_cross", "s")])
@@ -252,8 +258,9 @@ def parse(cfg: dict) -> RdaNavParams:
     if isinstance(clutter, bool) or not isinstance(clutter, int) or not 0 <= clutter <= 1000:
         raise ConfigError("scene.clutter_per_image", f"must be an integer in [0, 1000], got {clutter!r}")
     refl = _pos(cfg, "scene", "reflector_amplitude")
+    snr = require_finite("scene.snr_db", _get(cfg, "scene", "snr_db"), -60.0, 100.0, "dB")
     scene = {"seed": seed_s, "ground_range": (gmin, gmax), "toc_jitter": jitter, "clutter": clutter,
-             "reflector_amplitude": refl, "clutter_per_run": _bool(cfg, "scene", "clutter_per_run")}
+             "reflector_amplitude": refl, "snr_db": float(snr), "clutter_per_run": _bool(cfg, "scene", "clutter_per_run")}
 
     p3 = _vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
     v3 = _vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
@@ -264,9 +271,23 @@ def parse(cfg: dict) -> RdaNavParams:
         runs=runs, trajectory=traj, altitude=float(-start[2]), imu_grade=grade, imu_rate=imu_rate,
         tau_accel=_pos(cfg, "imu", "tau_accel", "s"), tau_gyro=_pos(cfg, "imu", "tau_gyro", "s"),
         alt_sigma=float(alt_sigma), sar_enabled=enabled, measurement=mode, cross_model=cross_model,
-        delayed_state=delayed, second_order=second, sar_sigma=sar_sigma, registration_sigma=float(reg_sigma), bias_sigma=three(bias3),
+        delayed_state=delayed, second_order=second, sar_sigma=sar_sigma, registration_sigma=reg_sigma, image_added_noise=added, bias_sigma=three(bias3),
         bias_tau=bias_tau, radar_preset=preset, scene=scene, p0_sigma=p0,
     )
+
+
+def measurement_sigma(prm: RdaNavParams, image: bool):
+    """(sigma (2,) [range, cross] of R, 0/1 factor of Table 2's white noise added to z) for the SAR pair.
+
+    Oracle: Table 2's noise is the measurement's only error and R = its variance. Image: the error is what
+    the image makes (registration, clutter, receiver noise), R = ``sar.registration_sigma_m`` squared, set
+    from the measured registration errors; ``sar.image_added_noise`` adds Table 2's noise on top (and to R).
+    """
+    if not image:
+        return prm.sar_sigma.copy(), 1.0
+    if prm.image_added_noise:
+        return np.hypot(prm.sar_sigma, prm.registration_sigma), 1.0
+    return prm.registration_sigma.copy(), 0.0
 
 
 def reference_targets(prm: RdaNavParams) -> np.ndarray:
@@ -353,7 +374,8 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     if prm.sar_enabled and prm.measurement == "image":
         from sarnav.scenarios.rda_nav_imaging import ApertureImager
 
-        imaging = ApertureImager(prm, targets, clutter_seeds if prm.scene["clutter_per_run"] else None)
+        imaging = ApertureImager(prm, targets, clutter_seeds if prm.scene["clutter_per_run"] else None,
+                                 noise_seeds=clutter_seeds)
     bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, c * dt))
     bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3)
     imu_blocks = ImuBlocks(imu, nu_true, om_true, ba, bg, rngs)
@@ -428,6 +450,7 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
             else:
                 eta_meas = np.full(R, eta_true)
             t0 = _time.perf_counter()
+            meas_sigma, add_white = measurement_sigma(prm, image=imaging is not None)
             z_sar = np.empty((R, 2))
             zh_sar = np.empty((R, 2))
             H_sar = np.empty((R, 2, L.n))
@@ -444,9 +467,8 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
                 kw = {}
                 if prm.cross_model == "paper":
                     kw = dict(u_c=ap_p[r, -1] - ap_p[r, 0], r_orig=ap_p[r, 0])
-                sig_add = prm.registration_sigma if imaging is not None else 0.0
-                rm = RangeMeasurement(targ, math.hypot(prm.sar_sigma[0], sig_add), L.n, i_range, phi_back=phi)
-                cm = CrossRangeMeasurement(targ, math.hypot(prm.sar_sigma[1], sig_add), L.n, i_cross,
+                rm = RangeMeasurement(targ, meas_sigma[0], L.n, i_range, phi_back=phi)
+                cm = CrossRangeMeasurement(targ, meas_sigma[1], L.n, i_cross,
                                            model_name=prm.cross_model, phi_back=phi, **kw)
                 zr, Hr, Rr = rm.predict(p_hat_toc, v_hat_toc, nav.bm[r, 1])
                 zc, Hc, Rc = cm.predict(p_hat_toc, v_hat_toc, nav.bm[r, 2])
@@ -466,7 +488,7 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
                     R_sar[r] += H_sar[r] @ q_back[0] @ H_sar[r].T
                     C_sar[r] = -q_back[0] @ H_sar[r].T
                 b_true = bm_truth[r, j, 1:3]
-                n_add = prm.sar_sigma * noise[r]
+                n_add = prm.sar_sigma * noise[r] * add_white
                 if imaging is None:  # oracle: truth model at the true TOC (eqs. 47-48)
                     z_sar[r] = [rm.model(p_true_toc, v_true_toc, b_true[0]) + n_add[0],
                                 cm.model(p_true_toc, v_true_toc, b_true[1]) + n_add[1]]

@@ -3,15 +3,18 @@ reference target in each 1-s sub-aperture (docs/scenarios/rda-nav.md §1-§2).
 
 Per aperture: scene = reference reflector (fixed geolocation, from ``scene.seed``) + clutter scatterers whose
   TOC lies in the aperture, drawn per run (``scene.clutter_per_run = true``, from the run's seed, so that the
-  registration errors of different runs are independent) or once for all runs (cached); echoes along the *true* antenna positions; range compression; the *reference
-  product*: an RDA image focused with the true track, of which a chip around the reflector is kept
-  together with the reflector's position inside the chip (its geolocation). Only the chip's pattern and
+  registration errors of different runs are independent) or once for all runs (cached); noise-free echoes
+  along the *true* antenna positions. Two acquisitions of that scene differ only in their receiver noise
+  (``scene.snr_db``, per-sample SNR of the reflector): the *reference pass*, an RDA image focused with the
+  true track, of which a chip around the reflector is kept together with the reflector's position inside the
+  chip (its geolocation); and the *in-flight pass*, with the run's own noise. Only the chip's pattern and
   that internal anchor are used: the in-flight time axis is never taken from the reference.
 Per run:
-  RDA + mapdrift (paper eqs. 14-16) on the range-compressed data with the *estimated* speed, restricted to a
-  slant-range window around the range R0_hat the estimate predicts (thesis eq. 4.41); the chip is searched
-  in that image by 2-D correlation (paper eq. 46, magnitudes, sub-pixel); the anchor lands at the measured
-  TOC eta0 (row -> pulse time) and range R0 (column -> slant range). Both come from radar timing only.
+  range compression of the in-flight pass; RDA + mapdrift (paper eqs. 14-16) with the *estimated* speed,
+  restricted to a slant-range window around the range R0_hat the estimate predicts (thesis eq. 4.41); the
+  chip is searched in that image by 2-D correlation (paper eq. 46, magnitudes, sub-pixel); the anchor lands
+  at the measured TOC eta0 (row -> pulse time) and range R0 (column -> slant range). Both come from radar
+  timing only.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.rda import range_doppler
 from sarnav.imaging.registration import register
 from sarnav.measurements.image_shift import closest_approach
-from sarnav.radar.echoes import simulate_echoes
+from sarnav.radar.echoes import add_receiver_noise, simulate_echoes
 from sarnav.radar.presets import flexsar, nav_paper_sim
 from sarnav.radar.scene import Scene
 
@@ -97,12 +100,13 @@ class ApertureImager:
     targets : (U, 3) reference targets (``rda_nav.reference_targets``).
     """
 
-    def __init__(self, prm, targets, clutter_seeds=None):
+    def __init__(self, prm, targets, clutter_seeds=None, noise_seeds=None):
         self.prm = prm
         self.targets = np.asarray(targets, dtype=np.float64)
         self.params = radar_for(prm.radar_preset)
         self.n_pulses = int(round(self.params.prf))
         self.clutter_seeds = None if clutter_seeds is None else [int(s) for s in clutter_seeds]
+        self.noise_seeds = None if noise_seeds is None else [int(s) for s in noise_seeds]
         self._cache: dict[tuple, dict] = {}
 
     # --- per aperture (and per run when the clutter is drawn per run) -------------------------
@@ -123,8 +127,19 @@ class ApertureImager:
         refl = prm.scene["reflector_amplitude"]
         return Scene(np.vstack([self.targets[u][None, :], clutter]), np.concatenate([[refl], amp]))
 
+    def _noisy(self, raw, key) -> object:
+        """Range-compressed copy of the noise-free echoes ``raw`` with receiver noise from ``key``
+        (``scene.snr_db`` of the reflector): one acquisition."""
+        rng = np.random.default_rng(np.random.SeedSequence(key))
+        return range_compress(add_receiver_noise(raw, self.prm.scene["reflector_amplitude"],
+                                                 self.prm.scene["snr_db"], rng))
+
     def aperture(self, u: int, clutter_seed: int | None = None) -> dict:
-        """Range-compressed echoes of aperture u and its reference chip (cached per clutter draw)."""
+        """Noise-free echoes of aperture u and its reference chip (cached per clutter draw).
+
+        The reference product is a separate acquisition of the same scene along the true track (its own
+        receiver noise, keyed by the clutter draw): the reference map and the in-flight image share the
+        ground, not the noise."""
         if (u, clutter_seed) in self._cache:
             return self._cache[(u, clutter_seed)]
         t0 = time.perf_counter()
@@ -132,11 +147,12 @@ class ApertureImager:
         times = u + np.arange(self.n_pulses) / self.params.prf
         truth = prm.trajectory.state(times)
         raw = simulate_echoes(self.params, truth.position, times, self._scene(u, clutter_seed))
-        rc = range_compress(raw)
+        key = [prm.scene["seed"], 3, u] if clutter_seed is None else [clutter_seed, 3, u]
+        rc_ref = self._noisy(raw, key)
         # reference product: focused with the true track; keep a chip around the reflector + its anchor
         targ = self.targets[u]
         eta_ref, r_ref, _ = closest_approach(targ, times, truth.position)
-        ref = range_doppler(_crop_range(rc, r_ref - SEARCH_HALF_RANGE_M, r_ref + SEARCH_HALF_RANGE_M),
+        ref = range_doppler(_crop_range(rc_ref, r_ref - SEARCH_HALF_RANGE_M, r_ref + SEARCH_HALF_RANGE_M),
                             prm.trajectory.speed)
         prf = self.params.prf
         fi = (eta_ref - times[0]) * prf
@@ -150,7 +166,7 @@ class ApertureImager:
         if cols[0] < 0 or cols[-1] >= ref.shape[1]:
             raise InputDataError("scene.ground_range_max", "reference chip leaves the reference image")
         chip = np.abs(ref.data[np.ix_(rows, cols)])
-        entry = {"times": times, "rc": rc, "chip": chip, "anchor": (fi - i0, fj - j0),
+        entry = {"times": times, "raw": raw, "chip": chip, "anchor": (fi - i0, fj - j0),
                  "seconds": time.perf_counter() - t0, "reference": ref}
         if clutter_seed is None:  # per-run scenes are used once: do not keep them
             self._cache[(u, clutter_seed)] = entry
@@ -170,6 +186,8 @@ class ApertureImager:
         R = ap_p.shape[0]
         if self.clutter_seeds is not None and len(self.clutter_seeds) != R:
             raise InputDataError("clutter_seeds", f"need one per run: {len(self.clutter_seeds)} for {R} runs")
+        if self.noise_seeds is None or len(self.noise_seeds) != R:
+            raise InputDataError("noise_seeds", f"need one per run for {R} runs")
         prf = self.params.prf
         out = {"toc": np.empty(R), "range": np.empty(R), "autofocus_dk": np.empty(R)}
         targ = self.targets[u]
@@ -180,7 +198,10 @@ class ApertureImager:
             else:
                 ap = self.aperture(u, self.clutter_seeds[r])
                 stage_seconds[r, STAGE_INDEX["echoes"]] += ap["seconds"]
-            times, rc, chip = ap["times"], ap["rc"], ap["chip"]
+            t0 = time.perf_counter()
+            times, chip = ap["times"], ap["chip"]
+            rc = self._noisy(ap["raw"], [self.noise_seeds[r], 4, u])  # the in-flight acquisition
+            stage_seconds[r, STAGE_INDEX["echoes"]] += time.perf_counter() - t0
             hi, hj = chip.shape[0] // 2, chip.shape[1] // 2
             t0 = time.perf_counter()
             p_hat = np.stack([np.interp(times, ap_t, ap_p[r, :, i]) for i in range(3)], axis=1)
