@@ -9,9 +9,11 @@ Times (wall clock, one process, after a 1-run warm-up that compiles the numba ke
 
 * ``oracle``: ``RdaNavKind.simulate`` with ``sar.measurement = "oracle"`` (INS, covariance, EKF and the
   measurement algebra, no images) — the baseline;
-* ``image``: the same runs with ``sar.measurement = "image"`` (echoes once per aperture and batch, RDA +
-  mapdrift + registration per run and image);
-* per-stage seconds per image from the ``stage_seconds`` extra (echoes charged once per batch);
+* ``image``: the same runs with ``sar.measurement = "image"`` (per run and image: echoes of the run's scene,
+  the reference pass and the in-flight pass, each with its receiver noise and range compression, RDA +
+  mapdrift + registration);
+* per-stage seconds per image from the ``stage_seconds`` extra (``echoes`` holds the echo simulation, both
+  noisy acquisitions, their range compression and the reference chip);
 
 and prints the ratio image/oracle, the cost per image of the imaging chain, and the projected time of the
 full 200-run x 50-image campaign on ``--workers`` processes (assuming linear scaling, which the campaign

@@ -1,7 +1,7 @@
 """Error-state filtering: layouts, the INS error model (F, B, Q), Van Loan, Joseph update, feedback."""
 
 from sarnav.filters.discretization import van_loan
-from sarnav.filters.ekf import joseph_update, normalized_squared, propagate_covariance, symmetrize
+from sarnav.filters.ekf import correlated_update, joseph_update, normalized_squared, propagate_covariance, symmetrize
 from sarnav.filters.error_model import ErrorStateModel, fogm_kernels
 from sarnav.filters.feedback import apply_feedback, corrupt_state, error_state
 from sarnav.filters.layout import ErrorStateLayout
@@ -13,6 +13,7 @@ __all__ = [
     "van_loan",
     "propagate_covariance",
     "joseph_update",
+    "correlated_update",
     "normalized_squared",
     "symmetrize",
     "apply_feedback",

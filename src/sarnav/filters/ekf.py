@@ -55,6 +55,32 @@ def joseph_update(P, H, R, residual):
     return dx, P_post, S
 
 
+def correlated_update(P, H, R, C, residual):
+    """Kalman update with measurement noise correlated with the state error, cov(dx, nu) = C (Brown & Hwang,
+    "correlated process and measurement noise"); C = 0 gives the Joseph update of ``filters.joseph_update``.
+
+    S = H P H^T + R + H C + C^T H^T,  K = (P H^T + C) S^-1,
+    P+ = (I - K H) P (I - K H)^T + K R K^T - (I - K H) C K^T - K C^T (I - K H)^T  (valid for any K).
+    Shapes: P (R, n, n), H (R, m, n), R (R, m, m), C (R, n, m), residual (R, m). Returns dx, P+, S.
+    Used for a delayed-state measurement whose noise includes the process noise after its epoch
+    (docs/scenarios/rda-nav.md §2).
+    """
+    residual = np.asarray(residual, dtype=float)
+    if not np.all(np.isfinite(residual)):
+        raise InputDataError("residual", "measurement residuals must be finite")
+    Ht = np.swapaxes(H, -1, -2)
+    Ct = np.swapaxes(C, -1, -2)
+    S = H @ P @ Ht + R + H @ C + Ct @ Ht
+    S = 0.5 * (S + np.swapaxes(S, -1, -2))
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(P @ Ht + C, -1, -2)), -1, -2)
+    A = np.eye(P.shape[-1]) - K @ H
+    Kt = np.swapaxes(K, -1, -2)
+    P_new = A @ P @ np.swapaxes(A, -1, -2) + K @ R @ Kt - A @ C @ Kt - K @ Ct @ np.swapaxes(A, -1, -2)
+    P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+    dx = (K @ residual[..., None])[..., 0]
+    return dx, P_new, S
+
+
 def normalized_squared(e, C):
     """e^T C^-1 e for stacks (NEES with C = P, NIS with C = S): (R, n), (R, n, n) -> (R,)."""
     e = np.asarray(e, dtype=float)

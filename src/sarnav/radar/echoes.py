@@ -136,8 +136,10 @@ def _add_noise(out: np.ndarray, amplitude: float, snr_db, rng) -> float:
     if not isinstance(rng, np.random.Generator):
         raise ConfigError("rng", "a numpy.random.Generator is required when snr_db is given")
     noise_power = float(amplitude**2 / db_to_power(snr_db))
-    noise = rng.standard_normal(out.shape + (2,))
-    out += np.sqrt(noise_power / 2.0) * (noise[..., 0] + 1j * noise[..., 1])
+    # (..., 2) normals viewed as complex: real part [..., 0], imaginary [..., 1], no temporaries
+    noise = rng.standard_normal(out.shape + (2,)).view(np.complex128)[..., 0]
+    noise *= np.sqrt(noise_power / 2.0)
+    out += noise
     return noise_power
 
 
