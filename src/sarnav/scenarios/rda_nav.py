@@ -36,17 +36,7 @@ import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.filters import (
-    ErrorStateLayout,
-    ErrorStateModel,
-    apply_feedback,
-    correlated_update,
-    corrupt_state,
-    error_state,
-    normalized_squared,
-    propagate_covariance,
-)
-from sarnav.ins import NavState, mechanize
+from sarnav.filters import ErrorStateLayout, correlated_update, normalized_squared
 from sarnav.measurements.image_shift import (
     CROSS_RANGE_MODELS,
     CrossRangeMeasurement,
@@ -65,8 +55,8 @@ from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
-from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuBlocks, ImuGrade, ImuModel
+from sarnav.scenarios.flight import ErrorStateFlight, FlightSpec
+from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
 from sarnav.trajectory import StraightLevel
 
 #: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
@@ -325,57 +315,23 @@ def _phi_back(model, T_hat, f_mean, span):
 def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     """The batched Monte Carlo of :class:`RdaNavKind` (see the module docstring)."""
     L = STATE_LAYOUT
-    rngs = [np.random.default_rng(s) for s in seeds]
-    R = len(rngs)
-    traj = prm.trajectory
-    dt = 1.0 / prm.imu_rate
-    m, c = prm.samples_per_update, prm.samples_per_step
-    steps = m // c
-    n_upd = prm.n_updates
-    t_imu = np.arange(n_upd * m + 1) * dt
-    nu_true = traj.specific_force(t_imu)
-    om_true = traj.angular_rate(t_imu)
-    t_out = np.arange(n_upd * steps + 1) * (c * dt)
-    truth_out = traj.state(t_out)
+    spec = FlightSpec(prm.trajectory, prm.imu_grade, prm.imu_rate, prm.tau_accel, prm.tau_gyro, prm.bias_sigma,
+                      prm.bias_tau, prm.p0_sigma, prm.n_updates, prm.samples_per_update, prm.samples_per_step)
+    # the clutter seed is drawn after the bias drive, before IMU sample 0; F at the step's start attitude
+    fl = ErrorStateFlight(spec, L, seeds, extra_draws=lambda rngs: [int(g.integers(2**63)) for g in rngs],
+                          covariance_attitude="start")
+    rngs, R, traj, model = fl.rngs, fl.R, prm.trajectory, fl.model
+    steps, n_upd, t_out, truth_out, bm_truth = fl.steps, prm.n_updates, fl.t_out, fl.truth_out, fl.bm_truth
     targets = reference_targets(prm)
     i_range, i_cross = L.index("b_range"), L.index("b_cross")
-
-    imu = ImuModel(prm.imu_grade, prm.imu_rate, prm.tau_accel, prm.tau_gyro)
-    model = ErrorStateModel(L, prm.imu_grade.vrw, prm.imu_grade.arw, prm.imu_grade.accel_bias,
-                            prm.imu_grade.gyro_bias, prm.tau_accel, prm.tau_gyro, prm.bias_sigma, prm.bias_tau)
     alt = AltimeterMeasurement(prm.alt_sigma, L)
-    # --- per-run draws (fixed order) ---
-    ba, bg = imu.initial_biases(rngs)
-    w0 = np.stack([g.standard_normal(3 + L.n) for g in rngs])
-    bm0 = prm.bias_sigma * w0[:, :3]
-    dx0 = prm.p0_sigma * w0[:, 3:]
-    drive = np.stack([g.standard_normal((n_upd * steps, 3)) for g in rngs])
-    clutter_seeds = [int(g.integers(2**63)) for g in rngs]
+    clutter_seeds = fl.extra
     imaging = None
     if prm.sar_enabled and prm.measurement == "image":
         from sarnav.scenarios.rda_nav_imaging import ApertureImager
 
         imaging = ApertureImager(prm, targets, clutter_seeds if prm.scene["clutter_per_run"] else None,
                                  noise_seeds=clutter_seeds)
-    bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, c * dt))
-    bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3)
-    imu_blocks = ImuBlocks(imu, nu_true, om_true, ba, bg, rngs)
-    ba_k, bg_k = imu_blocks.first[2], imu_blocks.first[3]
-
-    def truth_at(j, ba_now, bg_now):
-        return NavState(p=np.broadcast_to(truth_out.position[j], (R, 3)).copy(),
-                        v=np.broadcast_to(truth_out.velocity[j], (R, 3)).copy(),
-                        q=np.broadcast_to(truth_out.quaternion[j], (R, 4)).copy(),
-                        ba=ba_now, bg=bg_now, bm=bm_truth[:, j])
-
-    truth = truth_at(0, ba_k[:, 0], bg_k[:, 0])
-    nav = corrupt_state(truth, dx0, L)  # x_hat = m(x, dx0), G14
-    P = np.broadcast_to(np.diag(prm.p0_sigma**2), (R, L.n, L.n)).copy()
-
-    T_out = len(t_out)
-    err = np.empty((R, T_out, L.n))
-    sig = np.empty((R, T_out, L.n))
-    nees = np.empty((R, T_out))
     res = np.full((R, n_upd, 3), np.nan)
     res_sig = np.full((R, n_upd, 3), np.nan)
     nis = np.empty((R, n_upd))
@@ -384,34 +340,10 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     af_dk = np.full((R, n_upd), np.nan)
     stage_s = np.zeros((R, n_upd, len(STAGES)))
 
-    def record(j, truth_now):
-        e = error_state(truth_now, nav, L)
-        err[:, j] = e
-        sig[:, j] = np.sqrt(np.einsum("rii->ri", P))
-        nees[:, j] = normalized_squared(e, P)
-
-    record(0, truth)
-    history = None
     for u in range(n_upd):
-        k0 = u * m
-        nu_blk, om_blk, ba_blk, bg_blk = imu_blocks.next(m)
-        ap_t = t_out[u * steps:(u + 1) * steps + 1]
-        ap_p = np.empty((R, steps + 1, 3))
-        ap_v = np.empty((R, steps + 1, 3))
-        ap_p[:, 0], ap_v[:, 0] = nav.p, nav.v
-        for s in range(steps):
-            a, b = s * c, (s + 1) * c
-            T_hat = quat_to_dcm(nav.q)
-            nav, f_mean, history = mechanize(nav, t_imu[k0 + a:k0 + b + 1], nu_blk[:, a:b + 1], om_blk[:, a:b + 1],
-                                             prm.tau_accel, prm.tau_gyro, prm.bias_tau, history)
-            Phi, Qd = model.discretize(T_hat, f_mean, c * dt)
-            P = propagate_covariance(P, Phi, Qd)
-            j = u * steps + s + 1
-            ap_p[:, s + 1], ap_v[:, s + 1] = nav.p, nav.v
-            if s < steps - 1:
-                record(j, truth_at(j, ba_blk[:, b], bg_blk[:, b]))
-        j = (u + 1) * steps
-        truth = truth_at(j, ba_blk[:, m], bg_blk[:, m])
+        iv = fl.fly_interval(u)
+        j, ap_t, ap_p, ap_v, f_mean = iv["j"], iv["t"], iv["p"], iv["v"], iv["f_mean"]
+        truth, nav, P = fl.truth, fl.nav, fl.P
         t_k = t_out[j]
 
         # --- measurements at the end of the sub-aperture ---
@@ -495,13 +427,12 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
             z, z_hat, H, Rm, cols = z_alt, zh_alt, H_alt, R_alt, slice(0, 1)
             Cm = np.zeros((R, L.n, 1))
         r_vec = z - z_hat
-        dx, P, S = correlated_update(P, H, Rm, Cm, r_vec)
-        nav = apply_feedback(nav, dx, L)
-        history = None  # the three-point rule restarts after a correction
+        dx, P_post, S = correlated_update(P, H, Rm, Cm, r_vec)
+        fl.after_update(j, dx, P_post)
         res[:, u, cols] = r_vec
         res_sig[:, u, cols] = np.sqrt(np.einsum("rii->ri", S))
         nis[:, u] = normalized_squared(r_vec, S)
-        record(j, truth)
+    err, sig, nees = fl.err, fl.sig, fl.nees
 
     t_upd = t_out[steps::steps]
     dof = 3 if prm.sar_enabled else 1

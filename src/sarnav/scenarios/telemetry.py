@@ -22,29 +22,18 @@ import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.filters import (
-    ErrorStateLayout,
-    ErrorStateModel,
-    apply_feedback,
-    corrupt_state,
-    error_state,
-    joseph_update,
-    normalized_squared,
-    propagate_covariance,
-)
-from sarnav.ins import NavState, mechanize
+from sarnav.filters import ErrorStateLayout, joseph_update, normalized_squared
 from sarnav.measurements.base import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.montecarlo.record import RunRecord
-from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.scenarios.base import ErrorStateKind
 from sarnav.scenarios.config import validate_campaign
 from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
-from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuBlocks, IMU_GRADES, ImuGrade, ImuModel
+from sarnav.scenarios.flight import ErrorStateFlight, FlightSpec
+from sarnav.sensors.imu import GRADE_THREE_SIGMA, IMU_GRADES, ImuGrade
 from sarnav.trajectory import Maneuvering, StraightLevel
 
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
@@ -262,97 +251,29 @@ class TelemetryKind(ErrorStateKind):
 def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     """The batched Monte Carlo of :class:`TelemetryKind` (see the module docstring)."""
     L = STATE_LAYOUT
-    rngs = [np.random.default_rng(s) for s in seeds]
-    R = len(rngs)
-    traj = prm.trajectory
-    dt = 1.0 / prm.imu_rate
-    m = prm.samples_per_update
-    c = prm.samples_per_cov_step
-    steps = m // c
-    n_upd = prm.updates
-    dt_cov = c * dt
-    t_imu = np.arange(n_upd * m + 1) * dt
-    nu_true = traj.specific_force(t_imu)
-    om_true = traj.angular_rate(t_imu)
-    t_out = np.arange(n_upd * steps + 1) * dt_cov
-    truth_out = traj.state(t_out)
-
-    imu = ImuModel(prm.imu_grade, prm.imu_rate, prm.tau_accel, prm.tau_gyro)
-    model = ErrorStateModel(
-        L, prm.imu_grade.vrw, prm.imu_grade.arw, prm.imu_grade.accel_bias, prm.imu_grade.gyro_bias,
-        prm.tau_accel, prm.tau_gyro, prm.bias_sigma, prm.bias_tau,
-    )
+    spec = FlightSpec(prm.trajectory, prm.imu_grade, prm.imu_rate, prm.tau_accel, prm.tau_gyro, prm.bias_sigma,
+                      prm.bias_tau, prm.p0_sigma, prm.updates, prm.samples_per_update, prm.samples_per_cov_step)
+    fl = ErrorStateFlight(spec, L, seeds, covariance_attitude="mid")  # F at the mid-step attitude, mean f^n
+    R, n_upd, steps, t_out = fl.R, prm.updates, fl.steps, fl.t_out
     meas = [
         AltimeterMeasurement(prm.meas_sigma[0], L),
         RangeMeasurement(prm.target, prm.meas_sigma[1], L),
         RangeRateMeasurement(prm.target, prm.meas_sigma[2], L),
     ]
-
-    # --- per-run draws (fixed order, see module docstring) ---------------------------------
-    ba, bg = imu.initial_biases(rngs)
-    w0 = np.stack([g.standard_normal(3 + L.n) for g in rngs])
-    bm0 = prm.bias_sigma * w0[:, :3]
-    dx0 = prm.p0_sigma * w0[:, 3:]
-    drive = np.stack([g.standard_normal((n_upd * steps, 3)) for g in rngs])
-    bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(prm.bias_sigma, prm.bias_tau, dt_cov))
-    bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3) at every output epoch
-    imu_blocks = ImuBlocks(imu, nu_true, om_true, ba, bg, rngs)
-    ba_k, bg_k = imu_blocks.first[2], imu_blocks.first[3]
-
-    def truth_at(j, ba_now, bg_now):
-        return NavState(
-            p=np.broadcast_to(truth_out.position[j], (R, 3)).copy(),
-            v=np.broadcast_to(truth_out.velocity[j], (R, 3)).copy(),
-            q=np.broadcast_to(truth_out.quaternion[j], (R, 4)).copy(),
-            ba=ba_now, bg=bg_now, bm=bm_truth[:, j],
-        )
-
-    truth = truth_at(0, ba_k[:, 0], bg_k[:, 0])
-    nav = corrupt_state(truth, dx0, L)  # x_hat = m(x, dx0), thesis eq. A.5
-    P = np.broadcast_to(np.diag(prm.p0_sigma**2), (R, L.n, L.n)).copy()
-
-    T_out = len(t_out)
-    err = np.empty((R, T_out, L.n))
-    sig = np.empty((R, T_out, L.n))
-    nees = np.empty((R, T_out))
     res = np.empty((R, n_upd, 3))
     res_sig = np.empty((R, n_upd, 3))
     nis = np.empty((R, n_upd))
-
-    def record(j, truth_now):
-        e = error_state(truth_now, nav, L)
-        err[:, j] = e
-        sig[:, j] = np.sqrt(np.einsum("rii->ri", P))
-        nees[:, j] = normalized_squared(e, P)
-
-    record(0, truth)
-    history = None
     for u in range(n_upd):
-        k0 = u * m
-        nu_blk, om_blk, ba_blk, bg_blk = imu_blocks.next(m)
-        for s in range(steps):
-            a, b = s * c, (s + 1) * c
-            q_start = nav.q
-            nav, f_mean, history = mechanize(
-                nav, t_imu[k0 + a:k0 + b + 1], nu_blk[:, a:b + 1], om_blk[:, a:b + 1],
-                prm.tau_accel, prm.tau_gyro, prm.bias_tau, history,
-            )
-            T_mid = quat_to_dcm(quat_normalize(q_start + nav.q))  # F at mid-step attitude, mean f^n
-            Phi, Qd = model.discretize(T_mid, f_mean, dt_cov)
-            P = propagate_covariance(P, Phi, Qd)
-            j = u * steps + s + 1
-            truth = truth_at(j, ba_blk[:, b], bg_blk[:, b])
-            if s == steps - 1:
-                z = np.concatenate([mk.simulate(truth, bm_truth[:, j, i], rngs) for i, mk in enumerate(meas)], axis=1)
-                z_hat, H, Rm = stack_predictions(meas, nav)
-                r = z - z_hat
-                dx, P, S = joseph_update(P, H, Rm, r)
-                nav = apply_feedback(nav, dx, L)
-                history = None  # the three-point rule restarts after a correction
-                res[:, u] = r
-                res_sig[:, u] = np.sqrt(np.einsum("rii->ri", S))
-                nis[:, u] = normalized_squared(r, S)
-            record(j, truth)
+        j = fl.fly_interval(u)["j"]
+        z = np.concatenate([mk.simulate(fl.truth, fl.bm_truth[:, j, i], fl.rngs) for i, mk in enumerate(meas)], axis=1)
+        z_hat, H, Rm = stack_predictions(meas, fl.nav)
+        r = z - z_hat
+        dx, P, S = joseph_update(fl.P, H, Rm, r)
+        fl.after_update(j, dx, P)
+        res[:, u] = r
+        res_sig[:, u] = np.sqrt(np.einsum("rii->ri", S))
+        nis[:, u] = normalized_squared(r, S)
+    err, sig, nees = fl.err, fl.sig, fl.nees
 
     t_upd = t_out[steps::steps]
     return [
