@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters import correlated_update
 from sarnav.scenarios import rda_nav as rn
 
@@ -227,6 +227,23 @@ def test_image_mode_is_reproducible():
     cfg["trajectory"]["duration"] = 2.0
     a, b = _run(cfg, 1, seed=9), _run(cfg, 1, seed=9)
     assert np.array_equal(a[0].residual, b[0].residual) and np.array_equal(a[0].error, b[0].error)
+
+
+def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
+    from sarnav.scenarios.rda_nav_imaging import ApertureImager
+
+    cfg = rn.default_config()
+    cfg["trajectory"]["duration"] = 2.0
+    cfg["scene"]["clutter_per_run"] = False
+    prm = rn.parse(cfg)
+    im = ApertureImager(prm, rn.reference_targets(prm), None, noise_seeds=[11, 12])
+    assert im.aperture(1) is im.aperture(1)  # reference pass computed once for all runs
+    recs = _run(cfg, 2, seed=3)
+    reg = np.stack([r.extras["registration_error"][1][:, 1:] for r in recs])
+    assert np.all(np.isfinite(reg)) and np.all(np.abs(reg[..., 0]) < 0.01) and np.all(np.abs(reg[..., 1]) < 0.2)
+    assert not np.array_equal(reg[0], reg[1])  # same scene, different receiver noise per run
+    with pytest.raises(InputDataError, match="^noise_seeds"):
+        ApertureImager(prm, rn.reference_targets(prm)).measure(0, None, np.zeros((1, 2, 3)), None, None)
 
 
 def test_reference_targets_lie_in_the_swath_with_toc_inside_each_aperture():
