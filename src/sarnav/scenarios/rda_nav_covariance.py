@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from sarnav.errors import ConfigError
-from sarnav.filters import ErrorStateModel, propagate_covariance
+from sarnav.filters import ErrorStateModel, joseph_update, propagate_covariance
 from sarnav.measurements.image_shift import CrossRangeMeasurement, RangeMeasurement
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.rotations import quat_to_dcm
@@ -83,10 +83,7 @@ def covariance_study(prm: RdaNavParams, range_sigma: float, cross_sigma: float, 
             Hs += [rm.predict(p)[1][0], cm.predict(p, v)[1][0]]
             Rs += [range_sigma**2, cross_sigma**2]
         H, R = np.vstack(Hs), np.diag(Rs)
-        S = H @ P[0] @ H.T + R
-        K = np.linalg.solve(S, H @ P[0]).T
-        A = np.eye(L.n) - K @ H
-        P = (A @ P[0] @ A.T + K @ R @ K.T)[None]
+        _, P, _ = joseph_update(P, H[None], R[None], np.zeros((1, H.shape[0])))
         sig.append(np.sqrt(np.diag(P[0])))
     return {"time": np.arange(prm.n_updates + 1, dtype=np.float64), "sigma": np.array(sig),
             "states": L.state_names()}
