@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from sarnav.imaging.backprojection import INTERPOLATIONS, backproject, backproject_numpy
-from sarnav.imaging.data import PulseData
+from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid
 from sarnav.units import C
 

@@ -30,7 +30,7 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.fft as sfft
 
-from sarnav.imaging.data import PulseData
+from sarnav.signal.data import PulseData
 from sarnav.imaging.rda import range_doppler
 from sarnav.units import C
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError
-from sarnav.imaging import metrics
+from sarnav.signal import metrics
 from sarnav.imaging.autofocus import contrast_autofocus, mapdrift
 from sarnav.imaging.rda import range_doppler
 from test_rda import LAM, R0, V, synth_rc

@@ -17,9 +17,9 @@ import pytest
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.backprojection import (INTERPOLATIONS, PHASE_POLY_MAX_ERROR, backproject, backproject_numpy,
                                            backproject_points)
-from sarnav.imaging.data import PulseData
+from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid, SlantGrid
-from sarnav.imaging.metrics import index_to_coordinate, peak_location, point_target_metrics
+from sarnav.signal.metrics import index_to_coordinate, peak_location, point_target_metrics
 from sarnav.imaging.range_compression import range_compress
 from sarnav.radar.echoes import simulate_echoes
 from sarnav.radar.params import RadarParams

@@ -31,7 +31,7 @@ import pytest
 
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
-from sarnav.imaging.metrics import (impulse_response, index_to_coordinate, interpolate_value, irf_from_fine_cut,
+from sarnav.signal.metrics import (impulse_response, index_to_coordinate, interpolate_value, irf_from_fine_cut,
                                     peak_location)
 from sarnav.imaging.range_compression import range_compress
 from sarnav.radar.echoes import simulate_echoes

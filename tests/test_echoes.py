@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.metrics import interpolate_value, peak_location
+from sarnav.signal.metrics import interpolate_value, peak_location
 from sarnav.imaging.range_compression import range_compress
 from sarnav.radar.echoes import add_receiver_noise, simulate_echoes
 from sarnav.radar.presets import nav_paper_sim

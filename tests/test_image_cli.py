@@ -61,7 +61,7 @@ def test_bpa_and_window_options(tmp_path):
     m = json.loads((tmp_path / "metrics.json").read_text())
     assert m["algorithm"] == "bpa"
     az = m["point_target"]["along_track"]
-    # Hamming broadening 1.306 / 0.886 of the unweighted width (windows.irf_theory)
+    # Hamming broadening 1.306 / 0.886 of the unweighted width (metrics.irf_theory)
     assert az["irw_m"]["theory"] == pytest.approx(1.306 / 0.886 * 0.886 * C / 9.75e9 * 1995.0 / 120.0, rel=3e-3)
     assert az["irw_m"]["measured"] == pytest.approx(az["irw_m"]["theory"], rel=0.05)
     assert az["pslr_db"]["measured"] < -35.0

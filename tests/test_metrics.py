@@ -11,15 +11,15 @@ import pytest
 from scipy.optimize import brentq
 
 from sarnav.errors import InputDataError
-from sarnav.imaging.data import SarImage
-from sarnav.imaging.metrics import (
+from sarnav.signal.data import SarImage
+from sarnav.signal.metrics import (
     impulse_response,
     interpolate_value,
     irf_from_fine_cut,
     peak_location,
     point_target_metrics,
 )
-from sarnav.imaging.windows import PUBLISHED_IRF, irf_theory
+from sarnav.signal.metrics import PUBLISHED_IRF, irf_theory
 
 # closed forms for sinc computed independently of the package
 HALF_POWER_X = brentq(lambda x: np.sinc(x) ** 2 - 0.5, 0.1, 0.9)  # 0.44295

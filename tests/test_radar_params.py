@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError
-from sarnav.imaging.windows import Window
+from sarnav.signal.windows import Window
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import FLEXSAR_RANGES, NAV_PAPER_SIM_RANGES, flexsar, nav_paper_sim
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.metrics import impulse_response, interpolate_value, peak_location
+from sarnav.signal.metrics import impulse_response, interpolate_value, peak_location
 from sarnav.imaging.range_compression import range_compress
-from sarnav.imaging.windows import PUBLISHED_IRF
+from sarnav.signal.metrics import PUBLISHED_IRF
 from sarnav.radar.echoes import simulate_echoes
 from sarnav.radar.presets import flexsar, nav_paper_sim
 from sarnav.radar.scene import point_targets

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging import metrics, windows
-from sarnav.imaging.data import PulseData
+from sarnav.signal import metrics, windows
+from sarnav.signal.data import PulseData
 from sarnav.imaging.rda import range_doppler, rcmc_kernel_table
 from sarnav.units import C
 
@@ -47,7 +47,7 @@ def test_point_target_unweighted_matches_theory(centred):
     L = V * T  # aperture length: all pulses see the target
     assert m["x"]["irw_m"] == pytest.approx(0.886 * C / (2 * B), rel=0.03)
     assert m["y"]["irw_m"] == pytest.approx(0.886 * LAM * R0 / (2 * L), rel=0.05)
-    islr = windows.irf_theory("none", n_sidelobes=10).islr_db  # -10.11 dB, same convention
+    islr = metrics.irf_theory("none", n_sidelobes=10).islr_db  # -10.11 dB, same convention
     for ax in ("x", "y"):
         assert m[ax]["pslr_db"] == pytest.approx(-13.26, abs=0.3)
         assert m[ax]["islr_db"] == pytest.approx(islr, abs=0.5)
@@ -74,7 +74,7 @@ def test_azimuth_window_broadening_and_pslr(window, centred):
     rc, _ = centred
     img = range_doppler(rc, V, window=window)
     m = metrics.point_target_metrics(img)
-    th = windows.irf_theory(window)
+    th = metrics.irf_theory(window)
     assert m["y"]["irw_m"] == pytest.approx(th.irw_factor * LAM * R0 / (2 * V * T), rel=0.05)
     # measured: Hamming -40.2 dB (theory -42.7), Taylor -33.3 dB (-35.2): the 8-tap RCMC kernel and the
     # finite azimuth time-bandwidth product (K_a T^2 = 117) raise the far sidelobes by ~2 dB

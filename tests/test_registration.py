@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.data import SarImage
+from sarnav.signal.data import SarImage
 from sarnav.imaging.registration import register, register_axis
 
 N, CROP = 160, 16

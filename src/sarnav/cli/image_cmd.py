@@ -34,7 +34,7 @@ def _form_image(cfg, rc, sc, params):
     """Focus ``rc`` as the configuration says; returns (SarImage, autofocus dict or None)."""
     from sarnav.imaging.autofocus import contrast_autofocus, mapdrift
     from sarnav.imaging.rda import range_doppler
-    from sarnav.imaging.windows import as_window
+    from sarnav.signal.windows import as_window
 
     im = cfg["image"]
     v_true = float(cfg["trajectory"]["speed_mps"])
@@ -76,8 +76,8 @@ def _form_image(cfg, rc, sc, params):
 
 def _point_metrics(cfg, img, params) -> dict:
     """Measured point-target figures beside their theoretical values."""
-    from sarnav.imaging import metrics
-    from sarnav.imaging.windows import irf_theory
+    from sarnav.signal import metrics
+    from sarnav.signal.metrics import irf_theory
     from sarnav.units import C
 
     s = cfg["scene"]
@@ -94,7 +94,7 @@ def _point_metrics(cfg, img, params) -> dict:
     }
     out = {"target": {"along_track_m": y_t, "slant_range_m": r0},
            "note": "theory: uniform illumination over the whole block (0.886 c/2B, 0.886 lambda R0 / 2L, L = V T) "
-                   "with the window factors of sarnav.imaging.windows.irf_theory; ISLR with 10 sidelobes"}
+                   "with the window factors of sarnav.signal.metrics.irf_theory; ISLR with 10 sidelobes"}
     for ax, name in (("x", "slant_range"), ("y", "along_track")):
         out[name] = {k: {"measured": m[ax][k], "theory": theory[ax][k]} for k in ("irw_m", "pslr_db", "islr_db")}
     out["peak_position_m"] = {"measured": list(m["peak_position"]), "true": [y_t, r0]}

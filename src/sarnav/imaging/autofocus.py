@@ -34,11 +34,11 @@ from scipy.optimize import minimize_scalar
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging import quality
-from sarnav.imaging.data import PulseData, SarImage
+from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.rda import (along_track_axis, apply_azimuth_filter, azimuth_compressed_spectrum,
                                 image_from_focused, range_doppler)
 from sarnav.imaging.registration import register_axis
-from sarnav.imaging.windows import as_window
+from sarnav.signal.windows import as_window
 
 __all__ = ["MapdriftResult", "ContrastResult", "mapdrift", "contrast_autofocus", "CONTRAST_METRICS"]
 

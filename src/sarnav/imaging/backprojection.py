@@ -41,7 +41,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.data import PulseData, SarImage
+from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import as_grid
 
 __all__ = ["backproject", "backproject_numpy", "backproject_points", "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR"]

@@ -4,7 +4,7 @@
 (:func:`sarnav.radar.waveform.replica`) laid with its t = 0 sample at index 0, so the output is a
 correlation with zero lag at sample 0: the peak of a target at range R falls at the sample whose
 slant range is R (``raw.slant_range`` is kept). Zero padding to ``scipy.fft.next_fast_len(N + M)``
-avoids circular wrap. W is the spectral window (:func:`sarnav.imaging.windows.frequency_weights`).
+avoids circular wrap. W is the spectral window (:func:`sarnav.signal.windows.frequency_weights`).
 The gain ``g = sum_f W(f) |P(f)|^2 / nfft`` (the filter's response to the replica itself at zero
 lag) normalises the output so that a scatterer of amplitude a has compressed peak a exp(-j4piR/lambda)
 for any window.
@@ -18,8 +18,8 @@ import numpy as np
 import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.data import PulseData
-from sarnav.imaging.windows import as_window, frequency_weights
+from sarnav.signal.data import PulseData
+from sarnav.signal.windows import as_window, frequency_weights
 from sarnav.radar.waveform import replica
 
 

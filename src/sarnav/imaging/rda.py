@@ -30,7 +30,7 @@ Assumptions (documented limits)
   fit in the PRF, and a target must be inside the block to be focused in place.
 * The azimuth window weights the *pulses* (slow time). For a target seen by all pulses, ``f_eta =
   -K_a (eta - eta_c)`` (eq. 8) maps that weighting onto its Doppler band, i.e. it is the spectral
-  window of ``sarnav.imaging.windows`` for every target, whatever its position in the block.
+  window of ``sarnav.signal.windows`` for every target, whatever its position in the block.
 
 Image axes
 ----------
@@ -52,8 +52,8 @@ import scipy.fft as sfft
 from scipy.special import i0
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.data import PulseData, SarImage
-from sarnav.imaging.windows import as_window
+from sarnav.signal.data import PulseData, SarImage
+from sarnav.signal.windows import as_window
 from sarnav.units import C
 
 __all__ = ["range_doppler", "azimuth_compressed_spectrum", "image_from_focused", "apply_azimuth_filter", "rcmc_kernel_table", "radar_constants",
@@ -238,7 +238,7 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     ----------
     rc : range-compressed ``PulseData``.
     speed : forward speed V used for focusing [m/s] (> 0).
-    window : azimuth window (``sarnav.imaging.windows.as_window`` spec), applied over the pulses.
+    window : azimuth window (``sarnav.signal.windows.as_window`` spec), applied over the pulses.
     rcmc_kernel : one of :data:`RCMC_KERNELS`.
     azimuth_model : "parabolic" (paper eqs. 5, 11) or "hyperbolic" (exact zero-squint).
     fm_rate_scale : multiplies K_a of the matched filter (autofocus: K_amf = s K_a(V), eq. 16);

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.data import PulseData
+from sarnav.signal.data import PulseData
 from sarnav.radar.antenna import along_track_directions, look_vectors
 from sarnav.radar.scene import Scene
 from sarnav.units import C, db_to_power

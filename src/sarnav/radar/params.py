@@ -19,7 +19,7 @@ from dataclasses import MISSING, asdict, dataclass, field, fields
 import numpy as np
 
 from sarnav.errors import ConfigError, require_positive
-from sarnav.imaging.windows import Window, as_window
+from sarnav.signal.windows import Window, as_window
 from sarnav.units import C
 
 LOOK_SIDES = ("left", "right")
@@ -45,7 +45,7 @@ class RadarParams:
         of ``antenna_length`` and ``azimuth_beamwidth``.
     look_side : "left" or "right" of the velocity vector.
     range_window, azimuth_window : spectral weighting (name, tuple, dict or
-        :class:`~sarnav.imaging.windows.Window`; normalised to a ``Window``).
+        :class:`~sarnav.signal.windows.Window`; normalised to a ``Window``).
 
     Raises
     ------

@@ -38,7 +38,7 @@ from sarnav.analysis import sensitivity as sens
 from sarnav.errors import ConfigError, InputDataError, require_finite, require_positive
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
-from sarnav.imaging.metrics import impulse_response, interpolate_value, peak_location
+from sarnav.signal.metrics import impulse_response, interpolate_value, peak_location
 from sarnav.imaging.range_compression import range_compress
 from sarnav.measurements.image_shift import closest_approach
 from sarnav.montecarlo.record import RunRecord

@@ -117,7 +117,7 @@ def _choice(cfg, table, key, options):
 def validate(cfg: dict) -> None:
     """Raise :class:`ConfigError` naming the first bad field and its valid range."""
     from sarnav.imaging.rda import RCMC_KERNELS
-    from sarnav.imaging.windows import as_window
+    from sarnav.signal.windows import as_window
 
     for table in _BASE:
         if not isinstance(cfg.get(table), dict):

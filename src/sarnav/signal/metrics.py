@@ -18,18 +18,21 @@ Conventions (documented once, used everywhere; anchors-sar §3.1, isce3 practice
 * **PSLR** = max sidelobe power / peak power; **ISLR** = sidelobe energy / mainlobe energy [dB].
 
 Reference values (uniform spectrum): IRW 0.886/B, PSLR -13.26 dB, ISLR -10.11 dB with 10
-sidelobes (-9.68 dB with all); see :data:`sarnav.imaging.windows.PUBLISHED_IRF`.
+sidelobes (-9.68 dB with all); see :data:`PUBLISHED_IRF`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
 from scipy.signal import resample
 
 from sarnav.errors import InputDataError
+from sarnav.signal.windows import Window, as_window
 from sarnav.units import C, power_to_db
 
 
@@ -295,7 +298,7 @@ def index_to_coordinate(axis_values: np.ndarray, index: float) -> float:
 
 def point_target_metrics(img, near=None, *, search_radius: int | None = None, upsample: int = 32,
                          half_width: int = 64, n_sidelobes: int | None = 10) -> dict:
-    """Point-target analysis of a :class:`~sarnav.imaging.data.SarImage`.
+    """Point-target analysis of a :class:`~sarnav.signal.data.SarImage`.
 
     Parameters
     ----------
@@ -365,13 +368,67 @@ def interpolate_value(data, index, half_width: int = 16) -> complex:
 
 def theoretical_range_irw(bandwidth: float, window="none") -> float:
     """Theoretical slant-range IRW [m] = irw_factor(window) * c / (2 B) (0.886 c/2B unweighted)."""
-    from sarnav.imaging.windows import irf_theory
-
     return irf_theory(window).irw_factor * C / (2.0 * float(bandwidth))
 
 
 def theoretical_azimuth_irw(doppler_bandwidth: float, speed: float, window="none") -> float:
     """Theoretical along-track IRW [m] = irw_factor(window) * V / B_a (anchors-sar §3.1)."""
-    from sarnav.imaging.windows import irf_theory
-
     return irf_theory(window).irw_factor * float(speed) / float(doppler_bandwidth)
+
+
+# ----------------------------------------------------------------------------- theory of a window
+class IrfFigures(NamedTuple):
+    """Impulse-response figures of a weighted uniform spectrum of width B.
+
+    irw_factor : -3 dB width in units of 1/B: IRW = irw_factor / B in time, irw_factor * c/(2B) in
+        slant range, irw_factor * V / B_a along track.
+    pslr_db : peak sidelobe ratio [dB].
+    islr_db : integrated sidelobe ratio [dB] (convention of :mod:`sarnav.signal.metrics`).
+    """
+
+    irw_factor: float
+    pslr_db: float
+    islr_db: float
+
+
+#: Published reference values for a uniform band (anchors-sar §3.1; Harris 1978 Table 1 for
+#: Hamming; Cumming & Wong 2005 §2.6 for the rectangular case). ISLR with mainlobe to the first
+#: nulls and 10 sidelobes each side (isce3 convention) where marked ``islr10``; ``islr_inf`` for
+#: all sidelobes.
+PUBLISHED_IRF = {
+    "none": {"irw_factor": 0.886, "pslr_db": -13.26, "islr10_db": -10.11, "islr_inf_db": -9.68},
+    "hamming": {"irw_factor": 1.30, "pslr_db": -42.7, "islr_inf_db": -34.4},
+    "taylor(nbar=4,sll=-35)": {"irw_factor": 1.184, "pslr_db": -35.2, "islr_inf_db": -27.1},
+    "taylor(nbar=5,sll=-40)": {"irw_factor": 1.246, "pslr_db": -40.1, "islr_inf_db": -31.4},
+    "kaiser(beta=2.5)": {"irw_factor": 1.043, "pslr_db": -21.0, "islr_inf_db": -18.5},
+}
+
+
+def irf_theory(window, n_sidelobes: int | None = 10, taps: int = 256, oversample: int = 64) -> IrfFigures:
+    """Theoretical IRW factor, PSLR and ISLR of a window applied to a uniform spectrum.
+
+    Derived numerically: ``taps`` window samples across the band, zero-padded by ``oversample``,
+    inverse FFT, and the power response analysed by
+    :func:`irf_from_fine_cut` with ``n_sidelobes`` (None = whole cut).
+    For ``"none"`` this reproduces the closed forms 0.886/B and -13.26 dB.
+    """
+    w = as_window(window)
+    return _irf_theory_cached(w, n_sidelobes, int(taps), int(oversample))
+
+
+@lru_cache(maxsize=64)
+def _irf_theory_cached(w: Window, n_sidelobes, taps: int, oversample: int) -> IrfFigures:
+    n = taps * oversample
+    spec = np.zeros(n, dtype=np.complex128)
+    spec[:taps] = w.samples(taps)
+    # centre the band on 0 Hz so the response is real and even around sample 0
+    spec = np.roll(spec, -(taps // 2))
+    resp = np.fft.fftshift(np.fft.ifft(spec))
+    power = np.abs(resp) ** 2
+    if n_sidelobes is None:
+        # keep only a cut of +-taps/2 resolution cells (1/B = oversample samples) to avoid wrap-around
+        c = n // 2
+        half = (taps // 4) * oversample
+        power = power[c - half: c + half + 1]
+    ir = irf_from_fine_cut(power, spacing=1.0 / oversample, n_sidelobes=n_sidelobes)
+    return IrfFigures(ir.irw, ir.pslr_db, ir.islr_db)
