@@ -28,8 +28,8 @@ from sarnav.montecarlo.assemble import open_results
 from sarnav.montecarlo.campaign import run_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.seeding import make_chunks, run_seeds
-from sarnav.scenarios.base import ScenarioKind
-from sarnav.scenarios.config import dump_toml
+from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.tomlio import dump_toml
 
 TESTS = Path(__file__).resolve().parent
 TOY_KIND = "test_campaign:ToyKind"
@@ -113,6 +113,9 @@ class ToyKind(ScenarioKind):
         )
 
 
+TOY = ToyKind()
+
+
 def toy_cfg(runs=12, seed=7, steps=40, delay=0.0):
     return {
         "scenario": {"name": "toy", "kind": TOY_KIND, "description": "1-D random walk"},
@@ -143,7 +146,7 @@ def test_run_seeds_are_spawn_children_independent_of_n():
 # --------------------------------------------------------------------------- engine
 def test_serial_campaign_writes_schema_and_summary(tmp_path):
     cfg = toy_cfg(runs=40, steps=60)
-    res = run_campaign(cfg, tmp_path, executor="serial", quiet=True, chunk_size=7)
+    res = run_campaign(cfg, tmp_path, TOY, executor="serial", quiet=True, chunk_size=7)
     ds = open_results(tmp_path / "results.nc")
     assert dict(ds.sizes) == {"run": 40, "time": 61, "state": 1, "update": 60, "meas": 2}
     assert list(ds["state"].values) == ["x"] and list(ds["state"].attrs["units"]) == ["m"]
@@ -182,28 +185,31 @@ def _identity_cfg():
 
 def test_same_seed_bit_identical_serial_processes_dask(tmp_path):
     cfg, which = _identity_cfg()
+    from sarnav.scenarios.registry import get_kind
+
+    kind = get_kind(cfg["scenario"]["kind"])
     n = cfg["campaign"]["runs"]
-    run_campaign(cfg, tmp_path / "serial", executor="serial", quiet=True, chunk_size=n)
-    run_campaign(cfg, tmp_path / "proc", executor="processes", workers=2, quiet=True, chunk_size=(n + 2) // 3)
+    run_campaign(cfg, tmp_path / "serial", kind, executor="serial", quiet=True, chunk_size=n)
+    run_campaign(cfg, tmp_path / "proc", kind, executor="processes", workers=2, quiet=True, chunk_size=(n + 2) // 3)
     from dask.distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        run_campaign(cfg, tmp_path / "dask", executor="dask", scheduler=cluster.scheduler_address, quiet=True, chunk_size=1)
+        run_campaign(cfg, tmp_path / "dask", kind, executor="dask", scheduler=cluster.scheduler_address, quiet=True, chunk_size=1)
     variables = VARS if which == "toy" else VARS[:-1]
     assert_same_results(tmp_path / "serial", tmp_path / "proc", variables)
     assert_same_results(tmp_path / "serial", tmp_path / "dask", variables)
     other = copy.deepcopy(cfg)
     other["campaign"]["seed"] += 1
-    res = run_campaign(other, tmp_path / "seed+1", executor="serial", quiet=True)
+    res = run_campaign(other, tmp_path / "seed+1", kind, executor="serial", quiet=True)
     assert not np.array_equal(res.dataset["error"].values, open_results(tmp_path / "serial/results.nc")["error"].values)
 
 
 def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
     cfg = toy_cfg(runs=9)
     full = tmp_path / "full"
-    run_campaign(cfg, full, executor="serial", quiet=True)
+    run_campaign(cfg, full, TOY, executor="serial", quiet=True)
     part = tmp_path / "part"
-    run_campaign(cfg, part, executor="serial", quiet=True)
+    run_campaign(cfg, part, TOY, executor="serial", quiet=True)
     # simulate an interruption: drop results, some runs, mark incomplete
     for i in (2, 5, 8):
         store.run_path(part, i).unlink()
@@ -211,19 +217,19 @@ def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
     m = store.read_manifest(part)
     m["complete"] = False
     store.write_manifest(part, m)
-    res = run_campaign(cfg, part, executor="serial", quiet=True, resume=True)
+    res = run_campaign(cfg, part, TOY, executor="serial", quiet=True, resume=True)
     assert res.n_simulated == 3
     assert_same_results(full, part)
     with pytest.raises(ConfigError, match=r"--resume: .*first difference at toy\.q"):
         bad = toy_cfg(runs=9)
         bad["toy"]["q"] = 0.6
-        run_campaign(bad, part, executor="serial", quiet=True, resume=True)
+        run_campaign(bad, part, TOY, executor="serial", quiet=True, resume=True)
     # runs stored by another sarnav version are not mixed into this campaign
     m = store.read_manifest(part)
     m["sarnav_version"], m["complete"] = "0.0.0-other", False
     store.write_manifest(part, m)
     with pytest.raises(ConfigError, match=r"--resume: .*sarnav '0\.0\.0-other'"):
-        run_campaign(cfg, part, executor="serial", quiet=True, resume=True)
+        run_campaign(cfg, part, TOY, executor="serial", quiet=True, resume=True)
 
 
 def _children(pid: int) -> list[int]:
@@ -273,7 +279,7 @@ def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_p
     r = subprocess.run(cmd + ["--resume"], env=env, capture_output=True, timeout=120)
     assert r.returncode == 0, r.stderr
     ref = tmp_path / "ref"
-    run_campaign(cfg, ref, executor="serial", quiet=True)
+    run_campaign(cfg, ref, TOY, executor="serial", quiet=True)
     assert_same_results(ref, out)
     assert json.loads((out / "campaign.json").read_text())["complete"] is True
     assert not (out / store.MARKER).exists()
@@ -285,6 +291,6 @@ def test_input_error_in_a_worker_arrives_as_itself(tmp_path, executor):
     cfg = toy_cfg(runs=4)
     cfg["toy"]["fail_run"] = 2
     with pytest.raises(InputDataError, match=r"^toy\.samples: NaN in run 2$"):
-        run_campaign(cfg, tmp_path, executor=executor, workers=2, chunk_size=1, quiet=True)
+        run_campaign(cfg, tmp_path, TOY, executor=executor, workers=2, chunk_size=1, quiet=True)
     assert json.loads((tmp_path / "campaign.json").read_text())["complete"] is False
     assert not (tmp_path / "results.nc").exists() and (tmp_path / store.MARKER).exists()

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from sarnav.cli.main import COMMANDS, main
-from sarnav.scenarios.config import dump_toml, parse_toml
+from sarnav.tomlio import dump_toml, parse_toml
 from sarnav.scenarios.registry import list_scenarios
 from test_campaign import TESTS, toy_cfg
 

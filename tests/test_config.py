@@ -9,7 +9,7 @@ import pytest
 
 from sarnav.errors import ConfigError
 from sarnav.scenarios import registry
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.scenarios.config import (
     apply_overrides,
     check_finite,

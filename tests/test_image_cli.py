@@ -9,7 +9,7 @@ import pytest
 from sarnav.cli import image_cmd
 from sarnav.errors import ConfigError
 from sarnav.scenarios import imaging as scen
-from sarnav.scenarios.config import dump_toml
+from sarnav.tomlio import dump_toml
 from sarnav.units import C
 
 FAST = ["--set", "image.margin_m=2.0"]

@@ -285,7 +285,7 @@ def _campaign(tmp_path_factory, name, **sar):
     cfg = rn.default_config()
     cfg["sar"].update(sar)
     out = tmp_path_factory.mktemp(name)
-    return run_campaign(cfg, out, executor="processes", workers=2, quiet=True, kind=KIND).dataset
+    return run_campaign(cfg, out, KIND, executor="processes", workers=2, quiet=True).dataset
 
 
 def _nees_in_band(ds):

@@ -35,7 +35,7 @@ def test_capture_keeps_the_run_bit_identical_and_holds_the_images():
 
 def test_campaign_writes_image_and_ablation_figures(tmp_path):
     cfg_path = tmp_path / "short.toml"
-    from sarnav.scenarios.config import dump_toml
+    from sarnav.tomlio import dump_toml
 
     cfg_path.write_text(dump_toml(_short_cfg()))
     out = tmp_path / "out"

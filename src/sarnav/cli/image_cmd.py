@@ -191,6 +191,6 @@ def run(args) -> int:
 
 
 def _toml(cfg) -> str:
-    from sarnav.scenarios.config import dump_toml
+    from sarnav.tomlio import dump_toml
 
     return dump_toml(cfg)

@@ -5,7 +5,8 @@ simulate the runs not yet stored, chunk by chunk, storing every record at once; 
 stored, write ``results.nc`` and ``summary.json`` atomically, flip the manifest to
 ``complete: true`` and remove ``INCOMPLETE``. A campaign killed at any point leaves no
 ``results.nc``/``summary.json`` and a manifest saying ``complete: false``; ``resume=True`` finishes it.
-The engine knows nothing of the kind beyond the :class:`~sarnav.scenarios.base.ScenarioKind` contract.
+The engine knows nothing of the kind beyond the :class:`~sarnav.montecarlo.kind.ScenarioKind` contract and
+looks nothing up: the caller passes the kind instance.
 """
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
 from sarnav.montecarlo.executors import ChunkRunner
 from sarnav.montecarlo.seeding import default_chunk_size, make_chunks, run_seeds
-from sarnav.scenarios.config import dump_toml, parse_toml, validate_scenario
+from sarnav.montecarlo.kind import ScenarioKind, validate_common
+from sarnav.tomlio import dump_toml, parse_toml
 
 __all__ = ["CampaignResult", "CampaignInterrupted", "run_campaign"]
 
@@ -109,20 +111,21 @@ class _SignalsToException:
 def run_campaign(
     cfg: dict,
     out: str | os.PathLike,
+    kind: ScenarioKind,
     executor: "str | ChunkRunner" = "processes",
     workers: int | None = None,
     scheduler: str | None = None,
     resume: bool = False,
     quiet: bool = False,
     chunk_size: int | None = None,
-    kind=None,
 ) -> CampaignResult:
     """Run ``cfg['campaign']['runs']`` runs of the scenario ``cfg`` into ``out``.
 
     Parameters
     ----------
-    cfg : validated scenario dict (``[campaign] runs, seed`` plus the kind's tables).
+    cfg : scenario dict (``[campaign] runs, seed`` plus the kind's tables); validated here again.
     out : output directory (created).
+    kind : the :class:`~sarnav.montecarlo.kind.ScenarioKind` instance that simulates the runs.
     executor : ``"serial"``, ``"processes"`` (default) or ``"dask"``; or a :class:`ChunkRunner`
         to share its workers between campaigns (it is then left open).
     workers : worker processes (default: number of cores); for dask without ``scheduler``, the
@@ -133,7 +136,6 @@ def run_campaign(
         Without ``resume`` an earlier campaign's files in ``out`` are replaced.
     quiet : no progress bar (it is also off when stderr is not a terminal).
     chunk_size : runs per task (default about two tasks per worker, at most 50).
-    kind : the ScenarioKind instance (default: resolved from ``scenario.kind``).
 
     Returns
     -------
@@ -146,10 +148,8 @@ def run_campaign(
     ``if __name__ == "__main__":``. The kind instance and ``cfg`` are pickled to the workers, so a
     kind defined outside sarnav must live in an importable module.
     """
-    from sarnav.scenarios.registry import get_kind
-
-    kind = kind if kind is not None else get_kind(cfg["scenario"]["kind"])
-    validate_scenario(cfg, kind)
+    validate_common(cfg)
+    kind.validate(cfg)
     text = dump_toml(cfg)
     canonical = parse_toml(text)
     n_runs, seed = int(cfg["campaign"]["runs"]), int(cfg["campaign"]["seed"])

@@ -18,7 +18,7 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError, SarnavError
 from sarnav.montecarlo.record import RunRecord
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.montecarlo.kind import ScenarioKind
 
 __all__ = ["EXECUTORS", "simulate_chunk", "ChunkRunner", "WorkerInputError"]
 

@@ -45,7 +45,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.echoes import simulate_echoes
 from sarnav.radar.presets import nav_paper_sim
 from sarnav.radar.scene import point_targets
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.units import C, G0, us_to_s
 
 #: thesis §12.10, simulated-data column: name -> (block, axis, value, unit)

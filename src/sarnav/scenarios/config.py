@@ -18,9 +18,9 @@ import os
 import tomllib
 from typing import Any, Iterable, Sequence
 
-import tomli_w
-
 from sarnav.errors import ConfigError
+from sarnav.montecarlo.kind import validate_campaign, validate_common
+from sarnav.tomlio import check_finite, dump_toml, load_toml_file, parse_toml
 
 __all__ = [
     "parse_toml",
@@ -35,49 +35,6 @@ __all__ = [
     "validate_scenario",
     "load_scenario",
 ]
-
-
-# ----------------------------------------------------------------------------- TOML text
-def parse_toml(text: str, origin: str = "<string>") -> dict:
-    """Parse TOML text; malformed text -> ConfigError naming ``origin`` and the line."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:  # message carries "(at line L, column C)"
-        raise ConfigError(origin, f"malformed TOML: {err}") from None
-
-
-def load_toml_file(path: str | os.PathLike) -> dict:
-    """Read a ``.toml`` scenario file (UTF-8)."""
-    path = os.fspath(path)
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-    except OSError as err:
-        raise ConfigError(path, f"cannot read scenario file: {err.strerror}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(path, "scenario file is not UTF-8 text") from None
-    return parse_toml(text, origin=path)
-
-
-def dump_toml(cfg: dict) -> str:
-    """The scenario as TOML text (``parse_toml(dump_toml(cfg)) == cfg`` for finite configs)."""
-    check_finite(cfg)
-    return tomli_w.dumps(cfg)
-
-
-# ----------------------------------------------------------------------------- finiteness
-def check_finite(value: Any, field: str = "") -> None:
-    """Raise ConfigError naming the first NaN/inf number anywhere in ``value`` (nested dicts/lists)."""
-    if isinstance(value, dict):
-        for key, sub in value.items():
-            check_finite(sub, f"{field}.{key}" if field else str(key))
-    elif isinstance(value, list):
-        for i, sub in enumerate(value):
-            check_finite(sub, f"{field}[{i}]")
-    elif isinstance(value, float) and not math.isfinite(value):
-        raise ConfigError(field or "<value>", f"must be a finite number, got {value!r}")
 
 
 # ----------------------------------------------------------------------------- overrides
@@ -234,39 +191,6 @@ def _lookup(cfg: dict, field: str) -> Any:
 
 
 # ----------------------------------------------------------------------------- validation
-def validate_campaign(cfg: dict) -> tuple[int, int]:
-    """``(runs, seed)`` of the ``[campaign]`` table; ConfigError unless runs >= 1 and seed >= 0 are integers."""
-    camp = _require_table(cfg, "campaign")
-    runs = camp.get("runs")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
-    seed = camp.get("seed")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
-    return runs, seed
-
-
-def _require_table(cfg: dict, name: str) -> dict:
-    table = cfg.get(name)
-    if not isinstance(table, dict):
-        raise ConfigError(name, f"missing table [{name}]")
-    return table
-
-
-def validate_common(cfg: dict) -> None:
-    """Check the keys every scenario has: ``scenario.name``, ``scenario.kind``, ``campaign.runs/seed``."""
-    if not isinstance(cfg, dict):
-        raise ConfigError("<scenario>", "must be a table")
-    check_finite(cfg)
-    scen = _require_table(cfg, "scenario")
-    for key in ("name", "kind"):
-        if not isinstance(scen.get(key), str) or not scen.get(key):
-            raise ConfigError(f"scenario.{key}", f"must be a non-empty string, got {scen.get(key)!r}")
-    if not isinstance(scen.get("description", ""), str):
-        raise ConfigError("scenario.description", "must be a string")
-    validate_campaign(cfg)
-
-
 def validate_scenario(cfg: dict, kind=None) -> None:
     """Generic checks, then the kind's ``validate`` (kind resolved from ``scenario.kind`` if not given)."""
     from sarnav.scenarios.registry import get_kind

@@ -48,8 +48,8 @@ from sarnav.measurements.image_shift import (
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.montecarlo.record import RunRecord
 from sarnav.rotations import quat_to_dcm
-from sarnav.scenarios.base import ErrorStateKind
-from sarnav.scenarios.config import validate_campaign
+from sarnav.scenarios.error_state import ErrorStateKind
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
@@ -482,7 +482,7 @@ class RdaNavKind(ErrorStateKind):
 
         from sarnav.montecarlo.seeding import run_seeds
         from sarnav.report.rda_nav_figures import plot_aperture_images, plot_sar_ablation
-        from sarnav.scenarios.config import parse_toml
+        from sarnav.tomlio import parse_toml
         from sarnav.scenarios.rda_nav_imaging import capture_images
 
         cfg = parse_toml(results.attrs["scenario"])

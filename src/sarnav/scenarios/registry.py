@@ -14,7 +14,7 @@ import importlib
 from dataclasses import dataclass
 
 from sarnav.errors import ConfigError
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.montecarlo.kind import ScenarioKind
 
 __all__ = [
     "ScenarioEntry",

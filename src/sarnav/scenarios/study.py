@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from sarnav.errors import ConfigError
-from sarnav.scenarios.base import ScenarioKind
+from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.scenarios.config import set_value, validate_scenario
 
 __all__ = [
@@ -169,7 +169,7 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     from sarnav.montecarlo.store import atomic_write_text
     from sarnav.report.figures import write_campaign_figures
     from sarnav.report.study_figure import plot_study_comparison
-    from sarnav.scenarios.config import dump_toml
+    from sarnav.tomlio import dump_toml
 
     validate_scenario(cfg)
     out = Path(out)

@@ -26,8 +26,8 @@ from sarnav.filters import ErrorStateLayout, joseph_update, normalized_squared
 from sarnav.measurements.base import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.montecarlo.record import RunRecord
-from sarnav.scenarios.base import ErrorStateKind
-from sarnav.scenarios.config import validate_campaign
+from sarnav.scenarios.error_state import ErrorStateKind
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table

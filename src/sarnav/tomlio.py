@@ -1,0 +1,60 @@
+"""Scenario text: TOML parse and dump with NaN/inf rejection (ground floor: imports only ``errors``).
+
+Every scenario is a nested dict that round-trips through TOML; the campaign store keeps its text, the
+scenario reader parses it. Malformed text raises :class:`~sarnav.errors.ConfigError` naming the origin and line.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from typing import Any
+
+import tomli_w
+
+from sarnav.errors import ConfigError
+
+__all__ = ["parse_toml", "load_toml_file", "dump_toml", "check_finite"]
+
+
+def parse_toml(text: str, origin: str = "<string>") -> dict:
+    """Parse TOML text; malformed text -> ConfigError naming ``origin`` and the line."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:  # message carries "(at line L, column C)"
+        raise ConfigError(origin, f"malformed TOML: {err}") from None
+
+
+def load_toml_file(path: str | os.PathLike) -> dict:
+    """Read a ``.toml`` scenario file (UTF-8)."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as err:
+        raise ConfigError(path, f"cannot read scenario file: {err.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(path, "scenario file is not UTF-8 text") from None
+    return parse_toml(text, origin=path)
+
+
+def dump_toml(cfg: dict) -> str:
+    """The scenario as TOML text (``parse_toml(dump_toml(cfg)) == cfg`` for finite configs)."""
+    check_finite(cfg)
+    return tomli_w.dumps(cfg)
+
+
+# ----------------------------------------------------------------------------- finiteness
+def check_finite(value: Any, field: str = "") -> None:
+    """Raise ConfigError naming the first NaN/inf number anywhere in ``value`` (nested dicts/lists)."""
+    if isinstance(value, dict):
+        for key, sub in value.items():
+            check_finite(sub, f"{field}.{key}" if field else str(key))
+    elif isinstance(value, list):
+        for i, sub in enumerate(value):
+            check_finite(sub, f"{field}[{i}]")
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(field or "<value>", f"must be a finite number, got {value!r}")
