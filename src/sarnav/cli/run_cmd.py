@@ -63,7 +63,10 @@ def run(args) -> int:
             if not args.quiet:
                 print(f"sarnav run: default job {DEFAULT_SCENARIO} with {DEFAULT_RUNS} runs "
                       f"(the full campaign: sarnav run {DEFAULT_SCENARIO})", file=sys.stderr)
-    cfg = load_scenario(args.scenario, args.overrides, runs=args.runs, seed=args.seed)
+    notices: list[str] = []
+    cfg = load_scenario(args.scenario, args.overrides, runs=args.runs, seed=args.seed, notices=notices)
+    for line in notices:
+        print(f"sarnav: notice: {line}", file=sys.stderr)
     name = cfg["scenario"]["name"]
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / name
     executor = args.executor or ("dask" if args.scheduler else "processes")

@@ -14,11 +14,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    from sarnav.scenarios.imaging import IMAGE_SCENARIOS
-
     rows = list_scenarios()
-    # single-image scenarios (``sarnav image NAME``), not Monte Carlo campaigns
-    rows += [(name, make()["scenario"]["description"] + " [sarnav image]") for name, make in IMAGE_SCENARIOS.items()]
     width = max(len(name) for name, _ in rows)
     for name, desc in rows:
         print(f"{name:<{width}}  {desc}")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 DESCRIPTION = 'Print the full scenario as TOML (a starting point for your own file).'
 NAME = "show"
 
@@ -15,12 +17,12 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    from sarnav.scenarios.config import dump_toml, load_scenario
-    from sarnav.scenarios.imaging import IMAGE_SCENARIOS, load_image_scenario
+    from sarnav.scenarios.config import load_scenario
+    from sarnav.tomlio import dump_toml
 
-    if args.scenario in IMAGE_SCENARIOS:  # a single-image scenario (``sarnav image``)
-        cfg = load_image_scenario(args.scenario, args.overrides)
-    else:
-        cfg = load_scenario(args.scenario, args.overrides)
+    notices: list[str] = []
+    cfg = load_scenario(args.scenario, args.overrides, notices=notices)
+    for line in notices:
+        print(f"sarnav: notice: {line}", file=sys.stderr)
     print(dump_toml(cfg), end="")
     return 0

@@ -85,3 +85,12 @@ def normalized_squared(e, C):
     """e^T C^-1 e for stacks (NEES with C = P, NIS with C = S): (R, n), (R, n, n) -> (R,)."""
     e = np.asarray(e, dtype=float)
     return np.sum(e * np.linalg.solve(C, e[..., None])[..., 0], axis=-1)
+
+
+def directional_sigma(P, block: slice, direction):
+    """(R,) 1-sigma of a 3-vector block of the error state along ``direction`` (R, 3) (normalised here),
+    sqrt(u^T P_bb u), e.g. the forward-speed uncertainty along the estimated velocity."""
+    d = np.asarray(direction, dtype=float)
+    u = d / np.linalg.norm(d, axis=1, keepdims=True)
+    Pb = np.asarray(P)[:, block, block]
+    return np.sqrt(np.einsum("ri,rij,rj->r", u, Pb, u))

@@ -110,6 +110,38 @@ def _auto_padding(rc: PulseData, speed: float, bins: float = 32.0) -> float:
     return float(min(64.0, max(3.0, bins / (k * t_block**2))))
 
 
+def _rcmc_spectra(rc: PulseData, speed: float, looks: str, kw: dict):
+    """Range-migration-corrected azimuth spectra of the looks: (spec_a, spec_b, spec0 = both, freqs, info, dt_looks);
+    ``"subaperture"``: the first and second half of the pulses (dt_looks: the time between their centres);
+    ``"doppler"``: spec_a = spec_b = None and spec0 of all pulses."""
+    if looks != "subaperture":
+        spec0, freqs, info = azimuth_compressed_spectrum(rc, speed, **kw)
+        return None, None, spec0, freqs, info, None
+    n = rc.n_pulses
+    half = n // 2
+    first = np.zeros(n, dtype=bool)
+    first[:half] = True
+    parts = [replace(rc, data=np.where(m[:, None], rc.data, 0)) for m in (first, ~first)]
+    spec_a, freqs, info = azimuth_compressed_spectrum(parts[0], speed, **kw)
+    spec_b, _, _ = azimuth_compressed_spectrum(parts[1], speed, **kw)
+    dt_looks = (0.5 * (n + half) - 0.5 * half) / info["prf"]  # centre of pulses [half, n) minus [0, half)
+    return spec_a, spec_b, spec_a + spec_b, freqs, info, dt_looks
+
+
+def _doppler_looks(spec, freqs, prf: float, k_mf: float, n: int, look_bandwidth):
+    """The paper's two looks: disjoint halves of the processed Doppler band of the compressed spectrum, and
+    Delta_f_a, the difference of their energy centroids [Hz]."""
+    band = min(prf, k_mf * n / prf) if look_bandwidth is None else float(look_bandwidth)
+    if not (math.isfinite(band) and 0 < band <= prf):
+        raise ConfigError("look_bandwidth", f"must be in (0, PRF = {prf:g}] Hz, got {band!r}")
+    lo = (freqs >= -band / 2) & (freqs < 0)
+    hi = (freqs >= 0) & (freqs <= band / 2)
+    power = np.sum(np.abs(spec) ** 2, axis=1)
+    d_f = float(np.sum(freqs[hi] * power[hi]) / np.sum(power[hi])
+                - np.sum(freqs[lo] * power[lo]) / np.sum(power[lo]))
+    return sfft.ifft(spec * lo[:, None], axis=0), sfft.ifft(spec * hi[:, None], axis=0), d_f
+
+
 def mapdrift(rc: PulseData, speed: float | None = None, *, looks: str = "subaperture", max_iterations: int = 4,
              tolerance_px: float = 0.02, look_bandwidth: float | None = None, rcmc_kernel: str = "sinc8",
              azimuth_model: str = "parabolic", window=None, along_track_origin=None, upsample: int = 100,
@@ -164,17 +196,7 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, looks: str = "subaper
     kw = dict(rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model, apply_filter=False, azimuth_padding=azimuth_padding,
               band_limit=blim)
     # RCMC once (it depends on V_hat only, and is linear); the matched filter is re-applied per iteration
-    if looks == "subaperture":
-        half = n // 2
-        first = np.zeros(n, dtype=bool)
-        first[:half] = True
-        parts = [replace(rc, data=np.where(m[:, None], rc.data, 0)) for m in (first, ~first)]
-        spec_a, freqs, info = azimuth_compressed_spectrum(parts[0], speed, **kw)
-        spec_b, _, _ = azimuth_compressed_spectrum(parts[1], speed, **kw)
-        spec0 = spec_a + spec_b
-        dt_looks = (0.5 * (n + half) - 0.5 * half) / info["prf"]  # centre of pulses [half, n) minus [0, half)
-    else:
-        spec0, freqs, info = azimuth_compressed_spectrum(rc, speed, **kw)
+    spec_a, spec_b, spec0, freqs, info, dt_looks = _rcmc_spectra(rc, speed, looks, kw)
     prf, lam = info["prf"], info["wavelength"]
     r = np.asarray(rc.slant_range, dtype=np.float64)
     k0 = _mid_fm_rate(rc, speed, lam)
@@ -192,17 +214,7 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, looks: str = "subaper
             look2 = sfft.ifft(compressed(spec_b, scale), axis=0)
             d_f = -k_mf * dt_looks                 # nominal Delta_f_a (reported only)
         else:
-            spec = compressed(spec0, scale)
-            band = min(prf, k_mf * n / prf) if look_bandwidth is None else float(look_bandwidth)
-            if not (math.isfinite(band) and 0 < band <= prf):
-                raise ConfigError("look_bandwidth", f"must be in (0, PRF = {prf:g}] Hz, got {band!r}")
-            lo = (freqs >= -band / 2) & (freqs < 0)
-            hi = (freqs >= 0) & (freqs <= band / 2)
-            power = np.sum(np.abs(spec) ** 2, axis=1)
-            d_f = float(np.sum(freqs[hi] * power[hi]) / np.sum(power[hi])
-                        - np.sum(freqs[lo] * power[lo]) / np.sum(power[lo]))   # Delta_f_a [Hz]
-            look1 = sfft.ifft(spec * lo[:, None], axis=0)
-            look2 = sfft.ifft(spec * hi[:, None], axis=0)
+            look1, look2, d_f = _doppler_looks(compressed(spec0, scale), freqs, prf, k_mf, n, look_bandwidth)
         shift, _ = register_axis(look1, look2, axis=0, use_magnitude=True, upsample=upsample, circular=True)
         d_eta = shift / prf                        # eta_2 - eta_1 [s]
         dets.append(d_eta)

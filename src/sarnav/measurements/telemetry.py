@@ -7,6 +7,11 @@ With d = r - p (target minus vehicle position, NED)::
     range rate z = -v^T d/|d| + b_rate + n          dz/dp = v^T/|d| - (v^T d) d^T/|d|^3,  dz/dv = -d^T/|d|
 
 (range rate is positive when the range grows). Each bias enters H with +1 (eq. 3.16).
+
+Hessians (for second-order strategies), with rho = |d|, u = d/rho, Pi = I - u u^T, w = Pi v::
+
+    range       d2h/dp2 = Pi / rho
+    range rate  d2h/dp2 = (u w^T + w u^T + (v.u) Pi) / rho^2,   d2h/dp dv = Pi / rho,   d2h/dv2 = 0
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ import numpy as np
 
 from sarnav.errors import ConfigError
 from sarnav.filters.layout import ErrorStateLayout
-from sarnav.measurements.base import Measurement
+from sarnav.measurements.base import ScalarBiasedMeasurement
 
 
 def _target(target):
@@ -25,10 +30,23 @@ def _target(target):
     return t
 
 
-class AltimeterMeasurement(Measurement):
+def _zeros3(p):
+    return np.zeros(np.shape(p)[:-1] + (3, 3))
+
+
+def _geometry(target, p):
+    """d = target - p (R, 3), rho = |d| (R,), u = d / rho (R, 3), Pi = I - u u^T (R, 3, 3)."""
+    d = target - np.asarray(p, dtype=float)
+    rho = np.sqrt(np.sum(d * d, axis=1))
+    u = d / rho[:, None]
+    return d, rho, u, np.eye(3) - u[:, :, None] * u[:, None, :]
+
+
+class AltimeterMeasurement(ScalarBiasedMeasurement):
     """Altitude above the flat Earth, ``-p_D`` [m] (eq. 3.13, first row)."""
 
-    name = "alt"
+    names = ("alt",)
+    units = ("m",)
 
     def __init__(self, sigma: float, layout: ErrorStateLayout, bias: str = "b_alt"):
         super().__init__(sigma, layout, bias)
@@ -39,11 +57,15 @@ class AltimeterMeasurement(Measurement):
         dp[:, 2] = -1.0
         return -p[:, 2], dp, np.zeros_like(p)
 
+    def hessian_blocks(self, p, v):
+        return _zeros3(p), _zeros3(p), _zeros3(p)
 
-class RangeMeasurement(Measurement):
+
+class RangeMeasurement(ScalarBiasedMeasurement):
     """Slant range to the known target ``|r - p|`` [m] (eq. 3.13, second row)."""
 
-    name = "range"
+    names = ("range",)
+    units = ("m",)
 
     def __init__(self, target, sigma: float, layout: ErrorStateLayout, bias: str = "b_range"):
         self.target = _target(target)
@@ -54,11 +76,16 @@ class RangeMeasurement(Measurement):
         rng = np.sqrt(np.sum(d * d, axis=1))
         return rng, -d / rng[:, None], np.zeros_like(d)
 
+    def hessian_blocks(self, p, v):
+        _, rho, _, proj = _geometry(self.target, p)
+        return proj / rho[:, None, None], _zeros3(p), _zeros3(p)
 
-class RangeRateMeasurement(Measurement):
+
+class RangeRateMeasurement(ScalarBiasedMeasurement):
     """Range rate to the known target ``-v^T (r - p)/|r - p|`` [m/s] (eq. 3.13, third row)."""
 
-    name = "rate"
+    names = ("rate",)
+    units = ("m/s",)
 
     def __init__(self, target, sigma: float, layout: ErrorStateLayout, bias: str = "b_rate"):
         self.target = _target(target)
@@ -73,3 +100,11 @@ class RangeRateMeasurement(Measurement):
         dp = v / rng[:, None] - (vd / rng**3)[:, None] * d  # eq. 3.17 / B.28
         dv = -d / rng[:, None]
         return h, dp, dv
+
+    def hessian_blocks(self, p, v):
+        _, rho, u, proj = _geometry(self.target, p)
+        v = np.asarray(v, dtype=float)
+        w = np.einsum("rij,rj->ri", proj, v)
+        vu = np.sum(v * u, axis=1)
+        pp = (u[:, :, None] * w[:, None, :] + w[:, :, None] * u[:, None, :] + vu[:, None, None] * proj) / rho[:, None, None] ** 2
+        return pp, proj / rho[:, None, None], _zeros3(p)

@@ -162,7 +162,23 @@ def run_campaign(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
+    manifest, keep = _open_store(out, cfg, text, canonical, resume)
+    seeds = run_seeds(seed, n_runs)
+    done = {i for i in store.stored_runs(out) if i < n_runs} if keep else set()
+    todo = [i for i in range(n_runs) if i not in done]
+    chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
+    _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
+                      cfg["scenario"]["name"], quiet)
+    ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed)
+    manifest.update(complete=True, finished=_now())
+    store.write_manifest(out, manifest)
+    (out / store.MARKER).unlink(missing_ok=True)
+    return CampaignResult(out, out / store.RESULTS, out / store.SUMMARY, ds, summary, len(todo))
 
+
+def _open_store(out: Path, cfg: dict, text: str, canonical: dict, resume: bool) -> tuple[dict, bool]:
+    """Check a resumed store, mark the campaign incomplete, clear stale outputs and write the manifest.
+    Returns (manifest, whether stored runs are kept)."""
     old = store.read_manifest(out) if (out / store.MANIFEST).exists() else None
     if resume and old is not None:
         stored_cfg = parse_toml(old.get("scenario_toml", ""), origin=str(out / store.MANIFEST))
@@ -187,27 +203,21 @@ def run_campaign(
         "format": FORMAT,
         "scenario": cfg["scenario"]["name"],
         "kind": cfg["scenario"]["kind"],
-        "seed": seed,
-        "runs": n_runs,
+        "seed": int(cfg["campaign"]["seed"]),
+        "runs": int(cfg["campaign"]["runs"]),
         "sarnav_version": sarnav.__version__,
         "complete": False,
         "started": (old or {}).get("started", _now()) if keep else _now(),
         "scenario_toml": text,
     }
     store.write_manifest(out, manifest)
+    return manifest, keep
 
-    seeds = run_seeds(seed, n_runs)
-    done = {i for i in store.stored_runs(out) if i < n_runs} if keep else set()
-    todo = [i for i in range(n_runs) if i not in done]
-    chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
-    bar = tqdm(
-        total=n_runs,
-        initial=len(done),
-        unit="run",
-        desc=cfg["scenario"]["name"],
-        file=sys.stderr,
-        disable=quiet or not sys.stderr.isatty(),
-    )
+
+def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, n_done, name, quiet) -> None:
+    """Run the chunks, storing every record as it arrives; signals become :class:`CampaignInterrupted`."""
+    bar = tqdm(total=n_runs, initial=n_done, unit="run", desc=name, file=sys.stderr,
+               disable=quiet or not sys.stderr.isatty())
     clean = False
     try:
         with _SignalsToException():
@@ -222,6 +232,9 @@ def run_campaign(
         if own_runner:
             runner.close(abort=not clean)
 
+
+def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed):
+    """Read every stored run and write ``results.nc`` and ``summary.json``; returns (dataset, summary)."""
     missing = sorted(set(range(n_runs)) - store.stored_runs(out))
     if missing:  # cannot happen unless files were removed underneath us
         raise RuntimeError(f"runs missing after the campaign: {missing[:10]}")
@@ -235,19 +248,9 @@ def run_campaign(
         "runs": n_runs,
         "complete": 1,
     }
-    ds = assemble_results(
-        records,
-        kind.state_names(canonical),
-        kind.meas_names(canonical),
-        kind.state_units(canonical),
-        kind.meas_units(canonical),
-        attrs,
-    )
-    summary = summarize(ds)
-    summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summary}
+    ds = assemble_results(records, kind.state_names(canonical), kind.meas_names(canonical),
+                          kind.state_units(canonical), kind.meas_units(canonical), attrs)
+    summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summarize(ds)}
     write_results(ds, out / store.RESULTS)
     store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2) + "\n")
-    manifest.update(complete=True, finished=_now())
-    store.write_manifest(out, manifest)
-    (out / store.MARKER).unlink(missing_ok=True)
-    return CampaignResult(out, out / store.RESULTS, out / store.SUMMARY, ds, summary, len(todo))
+    return ds, summary

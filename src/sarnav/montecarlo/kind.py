@@ -35,6 +35,8 @@ class ScenarioKind(ABC):
 
     #: the value of ``scenario.kind`` this class handles
     kind: str = ""
+    #: whether scenarios of this kind carry the ``[campaign] runs, seed`` table (single-image kinds do not)
+    needs_campaign: bool = True
 
     @abstractmethod
     def validate(self, cfg: dict) -> None:
@@ -82,8 +84,9 @@ def _require_table(cfg: dict, name: str) -> dict:
     return table
 
 
-def validate_common(cfg: dict) -> None:
-    """Check the keys every scenario has: ``scenario.name``, ``scenario.kind``, ``campaign.runs/seed``."""
+def validate_common(cfg: dict, needs_campaign: bool = True) -> None:
+    """Check the keys every scenario has: ``scenario.name``, ``scenario.kind`` and (``needs_campaign``)
+    ``campaign.runs/seed``."""
     if not isinstance(cfg, dict):
         raise ConfigError("<scenario>", "must be a table")
     check_finite(cfg)
@@ -93,4 +96,5 @@ def validate_common(cfg: dict) -> None:
             raise ConfigError(f"scenario.{key}", f"must be a non-empty string, got {scen.get(key)!r}")
     if not isinstance(scen.get("description", ""), str):
         raise ConfigError("scenario.description", "must be a string")
-    validate_campaign(cfg)
+    if needs_campaign:
+        validate_campaign(cfg)

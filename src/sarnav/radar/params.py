@@ -69,8 +69,15 @@ class RadarParams:
     azimuth_window: Window = field(default_factory=Window)
 
     def __post_init__(self):
-        for name in ("carrier_frequency", "bandwidth", "pulse_length", "sample_rate", "prf", "near_range"):
+        for name in ("carrier_frequency", "bandwidth", "pulse_length", "sample_rate", "prf"):
             object.__setattr__(self, name, require_positive(f"radar.{name}", getattr(self, name)))
+        if self.bandwidth >= 2.0 * self.carrier_frequency:
+            raise ConfigError("radar.bandwidth", f"must be < 2 x carrier_frequency = {2.0 * self.carrier_frequency:g} Hz "
+                              f"(lowest transmitted frequency f_c - B/2 > 0), got {self.bandwidth:g} Hz")
+        if self.pulse_length >= 1.0 / self.prf:
+            raise ConfigError("radar.pulse_length", f"must be shorter than the pulse repetition interval 1/prf = "
+                              f"{1.0 / self.prf:g} s, got {self.pulse_length:g} s")
+        object.__setattr__(self, "near_range", require_positive("radar.near_range", self.near_range))
         n = self.n_range_samples
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
             raise ConfigError("radar.n_range_samples", f"must be an integer >= 2, got {n!r}")
@@ -78,12 +85,6 @@ class RadarParams:
         if (self.antenna_length is None) == (self.azimuth_beamwidth is None):
             raise ConfigError("radar.antenna_length",
                               "give exactly one of antenna_length [m] and azimuth_beamwidth [rad]")
-        if self.bandwidth >= 2.0 * self.carrier_frequency:
-            raise ConfigError("radar.bandwidth", f"must be < 2 x carrier_frequency = {2.0 * self.carrier_frequency:g} Hz "
-                              f"(lowest transmitted frequency f_c - B/2 > 0), got {self.bandwidth:g} Hz")
-        if self.pulse_length >= 1.0 / self.prf:
-            raise ConfigError("radar.pulse_length", f"must be shorter than the pulse repetition interval 1/prf = "
-                              f"{1.0 / self.prf:g} s, got {self.pulse_length:g} s")
         if self.antenna_length is not None:
             L = require_positive("radar.antenna_length", self.antenna_length, "m")
             l_min = BEAMWIDTH_FACTOR * (C / self.carrier_frequency) / math.pi

@@ -6,6 +6,7 @@ elevation pattern): ``|a|^2`` is the scatterer's power as seen in one raw sample
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -146,4 +147,33 @@ def speckle_scene(reflectivity, north_axis, east_axis, rng: np.random.Generator,
     pos = np.column_stack([nn.ravel(), ee.ravel(), np.full(nn.size, float(down))])[keep]
     z = rng.standard_normal((refl.size, 2))[keep]
     amp = np.sqrt(refl.ravel()[keep] / 2.0) * (z[:, 0] + 1j * z[:, 1])
+    return Scene(pos, amp)
+
+
+def beside_track(origin, heading: float, speed: float, tocs, ground_ranges) -> np.ndarray:
+    """(K, 3) ground points (down = 0) to the right of a straight, level track.
+
+    The track starts at ``origin`` (3,) NED [m] at t = 0 and flies at ``speed`` [m/s] along ``heading`` [rad];
+    point k has its time of closest approach ``tocs[k]`` [s] and lies ``ground_ranges[k]`` [m] to the right of
+    the track (horizontal distance).
+    """
+    origin = np.asarray(origin, dtype=np.float64)
+    u = np.array([math.cos(heading), math.sin(heading), 0.0])
+    w = np.array([-math.sin(heading), math.cos(heading), 0.0])  # right of the heading
+    ground = np.array([origin[0], origin[1], 0.0])
+    return ground + (speed * np.asarray(tocs, dtype=np.float64))[:, None] * u \
+        + np.asarray(ground_ranges, dtype=np.float64)[:, None] * w
+
+
+def clutter_beside_track(rng: np.random.Generator, origin, heading: float, speed: float, toc_start: float,
+                         toc_window, ground_range, n: int) -> Scene:
+    """``n`` unit-mean-power Rayleigh scatterers (circular complex Gaussian amplitudes) beside a straight track.
+
+    TOC = ``toc_start`` + uniform in ``toc_window`` [s], ground range uniform in ``ground_range`` [m] (right of the
+    track); draws in this order: TOCs, ground ranges, real parts, imaginary parts.
+    """
+    toc = toc_start + rng.uniform(toc_window[0], toc_window[1], n)
+    gr = rng.uniform(ground_range[0], ground_range[1], n)
+    pos = beside_track(origin, heading, speed, toc, gr)
+    amp = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2.0)
     return Scene(pos, amp)

@@ -2,28 +2,24 @@
 
 Lindstrom et al., NAVIGATION 69(3) (extraction seed-001) and thesis ch. 5; design and gap decisions in
 docs/scenarios/rda-nav.md. Scenarios ``rda-nav`` (paper sim, Tables 1-3) and ``rda-nav-flexsar``
-(simulated FlexSAR-like flight, Tables 4-6).
+(simulated FlexSAR-like flight, Tables 4-6). Configuration and wiring only; the physics is in the library:
 
-Per run: analytic truth (straight, level) -> IMU (white noise + FOGM biases) -> strapdown INS ->
-covariance propagation (Van Loan per 0.1-s step) -> at the end of every 1-s sub-aperture one stacked
-update [altimeter, range, cross-range] (Joseph form), full feedback and reset. The SAR measurement refers
-to the reference target's time of closest approach (TOC) inside the aperture; the estimate there comes
-from the INS history of the aperture and H is mapped to the update epoch by Phi(t_toc, t_k) (eq. 57).
-With ``sar.second_order`` (default) z_hat and R get the Gaussian second-order terms of the range and
-cross-range functions under the TOC covariance (the zero-Doppler lever is divided by the estimated speed).
+* the flight (truth, IMU, strapdown INS, covariance per 0.1-s step, feedback, record): ``simulation.flight``;
+* the measurements: ``measurements.telemetry.AltimeterMeasurement`` and ``measurements.sar`` (range, cross-range
+  at the reference target's time of closest approach, TOC), made from images by ``measurements.sar_image``
+  (``sar.measurement = "image"``) or synthesised from truth (``"oracle"``, the only mode in which truth enters a
+  measurement: the truth state at the true TOC plus the truth FOGM bias and Table 2's white noise);
+* the update strategies: ``filters.delayed`` (``sar.delayed_state``: H mapped from the TOC to the update epoch,
+  eq. 57, with the process noise after the TOC as correlated noise), ``filters.second_order``
+  (``sar.second_order``: Gaussian second-order terms under the TOC covariance) and ``filters.update.correlated``.
 
-``sar.measurement``:
-* ``"oracle"``: z from the truth state at the true TOC plus the truth FOGM bias and white noise
-  (the only mode in which truth enters a measurement);
-* ``"image"``: echoes -> range compression -> RDA with the estimated speed -> mapdrift -> registration
-  against the geolocated reference chip (``sarnav.scenarios.rda_nav_imaging``).
 ``sar.enabled = false`` flies with the altimeter only.
 
-Random draws, per run from its own Generator, in this order: IMU biases (6), measurement biases (3),
-initial error (18), measurement-bias drive (cov steps x 3), the clutter seed (1 integer), IMU sample 0; then
-per update the IMU block, the altimeter noise and (SAR enabled) the two SAR noises. Run i depends only on
-cfg and seeds[i]; the reference targets are drawn from ``scene.seed`` (the same world for every run), the
-clutter from the run's clutter seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
+Random draws, per run from its own Generator, in this order: IMU biases (6), measurement biases (3), initial error
+(18), measurement-bias drive (cov steps x 3), the clutter seed (1 integer), IMU sample 0; then per update the IMU
+block, the altimeter noise and (SAR enabled) the two SAR noises. Run i depends only on cfg and seeds[i]; the
+reference targets are drawn from ``scene.seed`` (the same world for every run), the clutter from the run's clutter
+seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
 """
 
 from __future__ import annotations
@@ -35,29 +31,32 @@ from dataclasses import dataclass
 import numpy as np
 
 from sarnav import units
-from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.filters import ErrorStateLayout, correlated_update, normalized_squared
-from sarnav.measurements.image_shift import (
-    CROSS_RANGE_MODELS,
-    CrossRangeMeasurement,
-    RangeMeasurement,
-    closest_approach,
-    interpolate_state,
-    second_order_terms,
-)
+from sarnav.analysis.covariance import sar_covariance_study
+from sarnav.errors import ConfigError, require_finite
+from sarnav.filters import ErrorStateLayout, ErrorStateModel, delayed, second_order, update
+from sarnav.filters.ekf import directional_sigma
+from sarnav.filters.prediction import Prediction, stack_predictions
+from sarnav.ins import NavState
+from sarnav.measurements.sar import CROSS_RANGE_MODELS, SarCrossRangeMeasurement, SarRangeMeasurement
+from sarnav.measurements.sar_image import STAGES as IMAGE_STAGES
+from sarnav.measurements.sar_image import SubApertureImager
 from sarnav.measurements.telemetry import AltimeterMeasurement
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
+from sarnav.radar.params import RadarParams
+from sarnav.radar.scene import Scene, beside_track, clutter_beside_track, point_targets
 from sarnav.rotations import quat_to_dcm
 from sarnav.scenarios.error_state import ErrorStateKind
-from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.flight import ErrorStateFlight, FlightSpec
-from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
+from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, make_radar, radar_fields,
+                                         read_filter_imu, read_imu, read_initial, read_trajectory, whole_number)
+from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.trajectory import StraightLevel
+from sarnav.trajectory.sampled import closest_approach, interpolate_state
 
 #: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
 COV_STEP = 0.1
@@ -65,8 +64,7 @@ STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("
 MEAS_NAMES = ["alt", "range", "cross"]
 MEAS_UNITS = ["m", "m", "m"]
 MEASUREMENT_MODES = ("oracle", "image")
-STAGES = ("echoes", "rda", "autofocus", "registration", "update")
-_IMU_KEYS = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
+STAGES = IMAGE_STAGES + ("update",)
 
 
 # --- configuration ------------------------------------------------------------------------------
@@ -107,7 +105,10 @@ def default_config() -> dict:
             "registration_sigma_m": [0.00125, 0.0315],
             "image_added_noise": False,  # true: also add Table 2's white noise (range/cross_3sigma) in image mode
         },
-        "radar": {"preset": "nav-paper-sim"},  # Table 3
+        "radar": {
+            "preset": "nav-paper-sim",  # Table 3
+            "snr_db": -10.0,  # receiver noise: per-sample SNR of the reflector (G5); independent per acquisition
+        },
         "scene": {
             "seed": 7,
             "ground_range_min": 1760.0,  # slant 2021 m at 1000 m altitude (window 2000-2210 m)
@@ -116,7 +117,6 @@ def default_config() -> dict:
             "clutter_per_image": 4,  # G5
             "clutter_per_run": True,  # G5: clutter redrawn per run (independent registration errors)
             "reflector_amplitude": 3.16,  # 10 dB above the unit-mean-power clutter (G4)
-            "snr_db": -10.0,  # receiver noise: per-sample SNR of the reflector (G5); independent per acquisition
         },
         "initial": {
             "p_3sigma": [1.9, 1.9, 4.4],  # Table 1
@@ -143,7 +143,9 @@ def flexsar_config() -> dict:
 
 
 def optional_keys() -> list[str]:
-    return [f"imu.{k}" for k in _IMU_KEYS]
+    """Keys accepted although the default configuration leaves them out: IMU 3-sigma overrides, [filter.imu],
+    radar fields over the preset."""
+    return [f"imu.{k}" for k in IMU_OVERRIDES] + filter_imu_keys() + [f"radar.{k}" for k in RADAR_KEYS]
 
 
 @dataclass(frozen=True)
@@ -153,10 +155,9 @@ class RdaNavParams:
     runs: int
     trajectory: StraightLevel
     altitude: float
-    imu_grade: ImuGrade
+    imu: ImuSpec  # the truth sensor
+    imu_filter: ImuSpec  # the filter's model of it
     imu_rate: float
-    tau_accel: float
-    tau_gyro: float
     alt_sigma: float
     sar_enabled: bool
     measurement: str
@@ -168,7 +169,8 @@ class RdaNavParams:
     image_added_noise: bool
     bias_sigma: np.ndarray  # (3,) b_alt, b_range, b_cross steady-state sigma [m]
     bias_tau: np.ndarray  # (3,)
-    radar_preset: str
+    radar: RadarParams
+    snr_db: float  # receiver noise: per-sample SNR of the reflector [dB]
     scene: dict
     p0_sigma: np.ndarray  # (18,)
 
@@ -185,37 +187,9 @@ class RdaNavParams:
         return int(round(self.imu_rate * COV_STEP))
 
 
-def parse(cfg: dict) -> RdaNavParams:
-    """Validate ``cfg`` and convert to SI; ConfigError names the first bad field and its range."""
-    runs, seed = validate_campaign(cfg)
-
-    start = _vector(cfg, "trajectory", "start_ned", unit="m")
-    if not start[2] < 0:
-        raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {start[2]}")
-    speed = _pos(cfg, "trajectory", "speed", "m/s")
-    heading = float(units.deg_to_rad(require_finite("trajectory.heading_deg", _get(cfg, "trajectory", "heading_deg"), -360.0, 360.0, "deg")))
-    duration = require_finite("trajectory.duration", _get(cfg, "trajectory", "duration"), 1.0, 3600.0, "s")
-    if abs(duration - round(duration)) > 1e-9:
-        raise ConfigError("trajectory.duration", f"must be a whole number of 1-s sub-apertures, got {duration}")
-    traj = StraightLevel(start, speed, heading, duration)
-
-    imu = _table(cfg, "imu")
-    grade_name = imu.get("grade")
-    if grade_name not in GRADE_THREE_SIGMA:
-        raise ConfigError("imu.grade", f"must be one of {sorted(GRADE_THREE_SIGMA)}, got {grade_name!r}")
-    vals3 = [imu.get(k, b) for k, b in zip(_IMU_KEYS, GRADE_THREE_SIGMA[grade_name])]
-    for k, v in zip(_IMU_KEYS, vals3):
-        require_positive(f"imu.{k}", v)
-    grade = ImuGrade.from_three_sigma(grade_name, *vals3)
-    imu_rate = _pos(cfg, "imu", "rate_hz", "Hz")
-    n_step = imu_rate * COV_STEP
-    if abs(n_step - round(n_step)) > 1e-9 or round(n_step) < 1:
-        raise ConfigError("imu.rate_hz", f"must be a multiple of {1 / COV_STEP:g} Hz, got {imu_rate}")
-
+def _parse_sar(cfg: dict) -> dict:
     three = units.three_sigma_to_sigma
-    alt_sigma = three(_pos(cfg, "altimeter", "sigma_3sigma", "m"))
     sar = _table(cfg, "sar")
-    enabled = _bool(cfg, "sar", "enabled")
     mode = sar.get("measurement")
     if mode not in MEASUREMENT_MODES:
         raise ConfigError("sar.measurement", f"must be one of {MEASUREMENT_MODES}, got {mode!r}")
@@ -225,18 +199,14 @@ def parse(cfg: dict) -> RdaNavParams:
     if cross_model == "paper" and mode == "image":
         raise ConfigError("sar.cross_range_model", "'paper' (eq. 48 with constant u_c, r_orig) cannot be made from "
                           "an image; use 'zero-doppler' with sar.measurement = 'image'")
-    delayed = _bool(cfg, "sar", "delayed_state")
-    second = _bool(cfg, "sar", "second_order")
-    sar_sigma = three(np.array([_pos(cfg, "sar", "range_3sigma", "m"), _pos(cfg, "sar", "cross_3sigma", "m")]))
-    reg_sigma = _vector(cfg, "sar", "registration_sigma_m", n=2, positive=True, unit="m")
-    added = _bool(cfg, "sar", "image_added_noise")
-    bias3 = np.array([_pos(cfg, "altimeter", "bias_3sigma", "m"), _pos(cfg, "sar", "bias_range_3sigma", "m"),
-                      _pos(cfg, "sar", "bias_cross_3sigma", "m")])
-    bias_tau = np.array([_pos(cfg, "altimeter", "tau", "s"), _pos(cfg, "sar", "tau_range", "s"), _pos(cfg, "sar", "tau_cross", "s")])
+    return dict(sar_enabled=_bool(cfg, "sar", "enabled"), measurement=mode, cross_model=cross_model,
+                delayed_state=_bool(cfg, "sar", "delayed_state"), second_order=_bool(cfg, "sar", "second_order"),
+                sar_sigma=three(np.array([_pos(cfg, "sar", "range_3sigma", "m"), _pos(cfg, "sar", "cross_3sigma", "m")])),
+                registration_sigma=_vector(cfg, "sar", "registration_sigma_m", n=2, positive=True, unit="m"),
+                image_added_noise=_bool(cfg, "sar", "image_added_noise"))
 
-    preset = _get(cfg, "radar", "preset")
-    if preset not in ("nav-paper-sim", "flexsar"):
-        raise ConfigError("radar.preset", f"must be 'nav-paper-sim' or 'flexsar', got {preset!r}")
+
+def _parse_scene(cfg: dict) -> dict:
     sc = _table(cfg, "scene")
     seed_s = sc.get("seed")
     if isinstance(seed_s, bool) or not isinstance(seed_s, int) or seed_s < 0:
@@ -249,23 +219,37 @@ def parse(cfg: dict) -> RdaNavParams:
     clutter = _get(cfg, "scene", "clutter_per_image")
     if isinstance(clutter, bool) or not isinstance(clutter, int) or not 0 <= clutter <= 1000:
         raise ConfigError("scene.clutter_per_image", f"must be an integer in [0, 1000], got {clutter!r}")
-    refl = _pos(cfg, "scene", "reflector_amplitude")
-    snr = require_finite("scene.snr_db", _get(cfg, "scene", "snr_db"), -60.0, 100.0, "dB")
-    scene = {"seed": seed_s, "ground_range": (gmin, gmax), "toc_jitter": jitter, "clutter": clutter,
-             "reflector_amplitude": refl, "snr_db": float(snr), "clutter_per_run": _bool(cfg, "scene", "clutter_per_run")}
+    return {"seed": seed_s, "ground_range": (gmin, gmax), "toc_jitter": jitter, "clutter": clutter,
+            "reflector_amplitude": _pos(cfg, "scene", "reflector_amplitude"),
+            "clutter_per_run": _bool(cfg, "scene", "clutter_per_run")}
 
-    p3 = _vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
-    v3 = _vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
-    th3 = _vector(cfg, "initial", "theta_3sigma", positive=True, unit="rad")
-    p0 = np.concatenate([three(p3), three(v3), three(th3), np.full(3, grade.accel_bias), np.full(3, grade.gyro_bias),
-                         three(bias3)])
-    return RdaNavParams(
-        runs=runs, trajectory=traj, altitude=float(-start[2]), imu_grade=grade, imu_rate=imu_rate,
-        tau_accel=_pos(cfg, "imu", "tau_accel", "s"), tau_gyro=_pos(cfg, "imu", "tau_gyro", "s"),
-        alt_sigma=float(alt_sigma), sar_enabled=enabled, measurement=mode, cross_model=cross_model,
-        delayed_state=delayed, second_order=second, sar_sigma=sar_sigma, registration_sigma=reg_sigma, image_added_noise=added, bias_sigma=three(bias3),
-        bias_tau=bias_tau, radar_preset=preset, scene=scene, p0_sigma=p0,
-    )
+
+def parse(cfg: dict) -> RdaNavParams:
+    """Validate ``cfg`` and convert to SI; ConfigError names the first bad field and its range."""
+    runs, seed = validate_campaign(cfg)
+    traj = read_trajectory(cfg, max_duration=3600.0)
+    if not traj.start[2] < 0:
+        raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {traj.start[2]}")
+    whole_number("trajectory.duration", traj.duration, 1.0, "1-s sub-apertures")
+    imu, imu_rate = read_imu(cfg)
+    whole_number("imu.rate_hz", imu_rate, 1.0 / COV_STEP, f"{1 / COV_STEP:g}-Hz steps (a multiple of {1 / COV_STEP:g} Hz)")
+    filt = read_filter_imu(cfg, imu)
+    three = units.three_sigma_to_sigma
+    alt_sigma = three(_pos(cfg, "altimeter", "sigma_3sigma", "m"))
+    sar = _parse_sar(cfg)
+    bias3 = np.array([_pos(cfg, "altimeter", "bias_3sigma", "m"), _pos(cfg, "sar", "bias_range_3sigma", "m"),
+                      _pos(cfg, "sar", "bias_cross_3sigma", "m")])
+    bias_tau = np.array([_pos(cfg, "altimeter", "tau", "s"), _pos(cfg, "sar", "tau_range", "s"), _pos(cfg, "sar", "tau_cross", "s")])
+    preset, fields = radar_fields(cfg)
+    if preset is None:
+        raise ConfigError("radar.preset", "is required for rda-nav (its receive window): 'nav-paper-sim' or 'flexsar'")
+    radar = make_radar(preset, fields)
+    snr = require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB")
+    ini = read_initial(cfg, filt)
+    p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"], three(bias3)])
+    return RdaNavParams(runs=runs, trajectory=traj, altitude=float(-traj.start[2]), imu=imu, imu_filter=filt,
+                        imu_rate=imu_rate, alt_sigma=float(alt_sigma), bias_sigma=three(bias3), bias_tau=bias_tau,
+                        radar=radar, snr_db=float(snr), scene=_parse_scene(cfg), p0_sigma=p0, **sar)
 
 
 def measurement_sigma(prm: RdaNavParams, image: bool):
@@ -290,164 +274,182 @@ def reference_targets(prm: RdaNavParams) -> np.ndarray:
     """
     rng = np.random.default_rng(np.random.SeedSequence(prm.scene["seed"]))
     traj = prm.trajectory
-    u = np.array([math.cos(traj.heading), math.sin(traj.heading), 0.0])
-    w = np.array([-math.sin(traj.heading), math.cos(traj.heading), 0.0])  # right of the heading
     k = np.arange(prm.n_updates)
     toc = k + 0.5 + rng.uniform(-prm.scene["toc_jitter"], prm.scene["toc_jitter"], k.size)
     gr = rng.uniform(*prm.scene["ground_range"], k.size)
-    start = traj.state(np.array([0.0])).position[0]
-    ground = np.array([start[0], start[1], 0.0])
-    return ground + (traj.speed * toc)[:, None] * u + gr[:, None] * w
+    return beside_track(traj.state(np.array([0.0])).position[0], traj.heading, traj.speed, toc, gr)
+
+
+def scene_factory(prm: RdaNavParams, targets: np.ndarray):
+    """``(u, clutter_seed) -> Scene``: the reflector of sub-aperture u plus ``scene.clutter_per_image`` Rayleigh
+    scatterers whose TOC lies in the aperture (u + 0.1 .. u + 0.9 s), drawn from ``[scene.seed, 1, u]`` (one world)
+    or ``[clutter_seed, 2, u]`` (per run)."""
+    traj = prm.trajectory
+    origin = traj.state(np.array([0.0])).position[0]
+
+    def scene_for(u: int, clutter_seed: int | None) -> Scene:
+        key = [prm.scene["seed"], 1, u] if clutter_seed is None else [clutter_seed, 2, u]
+        rng = np.random.default_rng(np.random.SeedSequence(key))
+        clutter = clutter_beside_track(rng, origin, traj.heading, traj.speed, u, (0.1, 0.9),
+                                       prm.scene["ground_range"], prm.scene["clutter"])
+        return point_targets(targets[u][None, :], prm.scene["reflector_amplitude"]) + clutter
+
+    return scene_for
 
 
 # --- the Monte Carlo ------------------------------------------------------------------------------
 
-def _phi_back(model, T_hat, f_mean, span):
-    """Phi(t_toc, t_k) = Phi(t_k, t_toc)^-1 and the process noise Q_d accumulated over [t_toc, t_k] (R, n, n)."""
-    n = model.layout.n
-    if span <= 0:
-        eye = np.broadcast_to(np.eye(n), (T_hat.shape[0], n, n))
-        return eye, np.zeros_like(eye)
-    Phi, Qd = model.discretize(T_hat, f_mean, span)
-    return np.linalg.inv(Phi), Qd
+def _toc_state(nav: NavState, iv: dict, eta) -> NavState:
+    """The INS estimate at each run's TOC ``eta`` (R,): position and velocity interpolated in the aperture's
+    history, the bias estimates of the update epoch."""
+    p = np.stack([interpolate_state(iv["t"], iv["p"][r], eta[r]) for r in range(len(eta))])
+    v = np.stack([interpolate_state(iv["t"], iv["v"][r], eta[r]) for r in range(len(eta))])
+    return NavState(p=p, v=v, q=nav.q, ba=nav.ba, bg=nav.bg, bm=nav.bm)
+
+
+class _Sar:
+    """The SAR pair of one sub-aperture: predictions, the delayed-state and second-order strategies, z."""
+
+    def __init__(self, prm: RdaNavParams, fl: ErrorStateFlight, imager):
+        self.prm, self.fl, self.imager = prm, fl, imager
+        self.targets = reference_targets(prm)
+        self.sigma, self.add_white = measurement_sigma(prm, image=imager is not None)
+
+    def models(self, u: int, iv: dict):
+        L, targ = self.fl.layout, self.targets[u]
+        kw = {}
+        if self.prm.cross_model == "paper":  # eq. 49: u_c and r_orig from each run's estimated aperture
+            kw = dict(u_c=iv["p"][:, -1] - iv["p"][:, 0], r_orig=iv["p"][:, 0])
+        return (SarRangeMeasurement(targ, self.sigma[0], L),
+                SarCrossRangeMeasurement(targ, self.sigma[1], L, model=self.prm.cross_model, **kw))
+
+    def predict(self, u: int, iv: dict, eta) -> Prediction:
+        fl, prm = self.fl, self.prm
+        nav_toc = _toc_state(fl.nav, iv, eta)
+        pred = stack_predictions([m.predict(nav_toc) for m in self.models(u, iv)])
+        if prm.delayed_state:
+            Phi_inv, Qd = delayed.back_transition(fl.model, quat_to_dcm(fl.nav.q), iv["f_mean"], iv["t"][-1] - eta)
+            if prm.second_order:
+                pred = second_order.with_second_order(pred, delayed.covariance_at(fl.P, Phi_inv, Qd))
+            return delayed.map_to_update_epoch(pred, Phi_inv, Qd)
+        if prm.second_order:
+            pred = second_order.with_second_order(pred, fl.P)
+        return pred.replace(hessians=None)
+
+    def measure(self, u: int, iv: dict, noise, record: dict):
+        """(z (R, 2), TOC used (R,)): from the images, or the oracle's truth at the true TOC."""
+        fl, prm, R = self.fl, self.prm, self.fl.R
+        targ, j = self.targets[u], iv["j"]
+        steps = fl.steps
+        eta_true, _, p_true_toc = closest_approach(targ, iv["t"], fl.truth_out.position[u * steps:j + 1])
+        v_true_toc = prm.trajectory.state(np.array([eta_true])).velocity[0]
+        bm = fl.bm_truth[:, j]
+        if self.imager is None:
+            truth_toc = NavState(p=np.broadcast_to(p_true_toc, (R, 3)), v=np.broadcast_to(v_true_toc, (R, 3)),
+                                 q=fl.nav.q, ba=fl.nav.ba, bg=fl.nav.bg, bm=bm)
+            z = np.concatenate([m.simulate(truth_toc, noise=noise[:, i:i + 1])
+                                for i, m in enumerate(self.models(u, iv))], axis=1)
+            return z, np.full(R, eta_true)
+        speed_sigma = directional_sigma(fl.P, fl.layout.slice("v"), fl.nav.v)
+        am = self.imager.measure(u, iv["t"], iv["p"], iv["v"], speed_sigma)
+        n_add = prm.sar_sigma * noise * self.add_white
+        z = np.stack([am.range + bm[:, 1] + n_add[:, 0], bm[:, 2] + n_add[:, 1]], axis=1)  # cross: 0 at zero Doppler
+        record["registration_error"][:, u, 1] = am.range - np.linalg.norm(targ - p_true_toc)
+        record["registration_error"][:, u, 2] = prm.trajectory.speed * (am.toc - eta_true)
+        record["autofocus_dk"][:, u] = am.autofocus_dk
+        record["stage_seconds"][:, u, :len(IMAGE_STAGES)] += am.seconds
+        if am.capture is not None:
+            record["capture"] = am.capture
+        return z, am.toc
+
+
+def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
+    if not (prm.sar_enabled and prm.measurement == "image"):
+        return None
+    seeds = fl.extra  # the per-run clutter seeds (also keying the in-flight receiver noise)
+    return SubApertureImager(
+        radar=prm.radar, truth=prm.trajectory, speed=prm.trajectory.speed, targets=reference_targets(prm),
+        scene_for=scene_factory(prm, reference_targets(prm)), reflector_amplitude=prm.scene["reflector_amplitude"],
+        snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
+        clutter_seeds=seeds if prm.scene["clutter_per_run"] else None, capture_aperture=capture_aperture)
 
 
 def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
-    """The batched Monte Carlo of :class:`RdaNavKind` (see the module docstring)."""
+    """The batched Monte Carlo of :class:`RdaNavKind` (module docstring)."""
+    return _simulate(prm, run_ids, seeds)[0]
+
+
+def capture_images(prm: RdaNavParams, seed, aperture: int) -> dict:
+    """The images of sub-aperture ``aperture`` of the run with ``seed`` (reference, in flight before and after
+    mapdrift, correlation surface; ``measurements.sar_image.SubApertureImager``), for figures. The run's numbers
+    are the same as without the capture."""
+    return _simulate(prm, [0], [seed], capture_aperture=aperture)[1].get("capture")
+
+
+def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
     L = STATE_LAYOUT
-    spec = FlightSpec(prm.trajectory, prm.imu_grade, prm.imu_rate, prm.tau_accel, prm.tau_gyro, prm.bias_sigma,
-                      prm.bias_tau, prm.p0_sigma, prm.n_updates, prm.samples_per_update, prm.samples_per_step)
+    spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma,
+                      prm.n_updates, prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter)
     # the clutter seed is drawn after the bias drive, before IMU sample 0; F at the step's start attitude
     fl = ErrorStateFlight(spec, L, seeds, extra_draws=lambda rngs: [int(g.integers(2**63)) for g in rngs],
                           covariance_attitude="start")
-    rngs, R, traj, model = fl.rngs, fl.R, prm.trajectory, fl.model
-    steps, n_upd, t_out, truth_out, bm_truth = fl.steps, prm.n_updates, fl.t_out, fl.truth_out, fl.bm_truth
-    targets = reference_targets(prm)
-    i_range, i_cross = L.index("b_range"), L.index("b_cross")
+    R, n_upd = fl.R, prm.n_updates
     alt = AltimeterMeasurement(prm.alt_sigma, L)
-    clutter_seeds = fl.extra
-    imaging = None
-    if prm.sar_enabled and prm.measurement == "image":
-        from sarnav.scenarios.rda_nav_imaging import ApertureImager
-
-        imaging = ApertureImager(prm, targets, clutter_seeds if prm.scene["clutter_per_run"] else None,
-                                 noise_seeds=clutter_seeds)
-    res = np.full((R, n_upd, 3), np.nan)
-    res_sig = np.full((R, n_upd, 3), np.nan)
-    nis = np.empty((R, n_upd))
-    toc_used = np.full((R, n_upd), np.nan)
-    reg_err = np.full((R, n_upd, 3), np.nan)
-    af_dk = np.full((R, n_upd), np.nan)
-    stage_s = np.zeros((R, n_upd, len(STAGES)))
-
+    sar = _Sar(prm, fl, _imager(prm, fl, capture_aperture)) if prm.sar_enabled else None
+    rec = {"residual": np.full((R, n_upd, 3), np.nan), "residual_sigma": np.full((R, n_upd, 3), np.nan),
+           "nis": np.empty((R, n_upd)), "toc": np.full((R, n_upd), np.nan),
+           "registration_error": np.full((R, n_upd, 3), np.nan), "autofocus_dk": np.full((R, n_upd), np.nan),
+           "stage_seconds": np.zeros((R, n_upd, len(STAGES)))}
     for u in range(n_upd):
         iv = fl.fly_interval(u)
-        j, ap_t, ap_p, ap_v, f_mean = iv["j"], iv["t"], iv["p"], iv["v"], iv["f_mean"]
-        truth, nav, P = fl.truth, fl.nav, fl.P
-        t_k = t_out[j]
-
-        # --- measurements at the end of the sub-aperture ---
-        z_alt = alt.simulate(truth, bm_truth[:, j, 0], rngs)
-        zh_alt, H_alt, R_alt = alt.predict(nav)
-        if prm.sar_enabled:
-            targ = targets[u]
-            eta_true, _, p_true_toc = closest_approach(targ, ap_t, truth_out.position[u * steps:j + 1])
-            v_true_toc = traj.state(np.array([eta_true])).velocity[0]
-            noise = np.stack([g.standard_normal(2) for g in rngs])  # (R, 2), drawn in every mode
-            if imaging is not None:
-                u_hat = nav.v / np.linalg.norm(nav.v, axis=1, keepdims=True)
-                vv = P[:, L.slice("v"), L.slice("v")]
-                speed_sigma = np.sqrt(np.einsum("ri,rij,rj->r", u_hat, vv, u_hat))
-                meas = imaging.measure(u, ap_t, ap_p, ap_v, stage_s[:, u], speed_sigma)
-                eta_meas = meas["toc"]
-            else:
-                eta_meas = np.full(R, eta_true)
+        z_alt = alt.simulate(fl.truth, fl.rngs)
+        pred = alt.predict(fl.nav).replace(hessians=None, C=np.zeros((R, L.n, 1)))
+        z, cols = z_alt, slice(0, 1)
+        if sar is not None:
+            noise = np.stack([g.standard_normal(2) for g in fl.rngs])  # (R, 2), drawn in every mode
+            z_sar, rec["toc"][:, u] = sar.measure(u, iv, noise, rec)
             t0 = _time.perf_counter()
-            meas_sigma, add_white = measurement_sigma(prm, image=imaging is not None)
-            z_sar = np.empty((R, 2))
-            zh_sar = np.empty((R, 2))
-            H_sar = np.empty((R, 2, L.n))
-            R_sar = np.zeros((R, 2, 2))
-            C_sar = np.zeros((R, L.n, 2))
-            T_last = quat_to_dcm(nav.q)
-            for r in range(R):
-                span = t_k - eta_meas[r]
-                phi, q_back = (_phi_back(model, T_last[r:r + 1], f_mean[r:r + 1], span)
-                               if prm.delayed_state else (None, None))
-                phi = None if phi is None else phi[0]
-                p_hat_toc = interpolate_state(ap_t, ap_p[r], eta_meas[r])
-                v_hat_toc = interpolate_state(ap_t, ap_v[r], eta_meas[r])
-                kw = {}
-                if prm.cross_model == "paper":
-                    kw = dict(u_c=ap_p[r, -1] - ap_p[r, 0], r_orig=ap_p[r, 0])
-                rm = RangeMeasurement(targ, meas_sigma[0], L.n, i_range, phi_back=phi)
-                cm = CrossRangeMeasurement(targ, meas_sigma[1], L.n, i_cross,
-                                           model_name=prm.cross_model, phi_back=phi, **kw)
-                zr, Hr, Rr = rm.predict(p_hat_toc, v_hat_toc, nav.bm[r, 1])
-                zc, Hc, Rc = cm.predict(p_hat_toc, v_hat_toc, nav.bm[r, 2])
-                zh_sar[r] = [zr[0], zc[0]]
-                H_sar[r] = np.vstack([Hr, Hc])
-                R_sar[r] = np.diag([Rr[0, 0], Rc[0, 0]])
-                if prm.second_order:
-                    # Gaussian second-order filter: E[h] and the variance of the quadratic remainder under the
-                    # error covariance at the TOC, dx(t_toc) = Phi^-1 (dx(t_k) - w): P_toc = Phi^-1 (P - Q_d) Phi^-T
-                    P_toc = P[r] if phi is None else phi @ (P[r] - q_back[0]) @ phi.T
-                    dz2, C2 = second_order_terms([rm.hessian(p_hat_toc), cm.hessian(p_hat_toc, v_hat_toc)], P_toc)
-                    zh_sar[r] += dz2
-                    R_sar[r] += C2
-                if q_back is not None:
-                    # dx(t_toc) = Phi^-1 (dx(t_k) - w), w ~ N(0, Q_d over [t_toc, t_k]): the SAR noise becomes
-                    # nu = v - H w, cov H Q_d H^T + R, correlated with dx(t_k): cov(dx_k, nu) = -Q_d H^T
-                    R_sar[r] += H_sar[r] @ q_back[0] @ H_sar[r].T
-                    C_sar[r] = -q_back[0] @ H_sar[r].T
-                b_true = bm_truth[r, j, 1:3]
-                n_add = prm.sar_sigma * noise[r] * add_white
-                if imaging is None:  # oracle: truth model at the true TOC (eqs. 47-48)
-                    z_sar[r] = [rm.model(p_true_toc, v_true_toc, b_true[0]) + n_add[0],
-                                cm.model(p_true_toc, v_true_toc, b_true[1]) + n_add[1]]
-                    toc_used[r, u] = eta_true
-                else:  # image: measured ROC, and 0 for the zero-Doppler cross-range (G1, G11)
-                    z_sar[r] = [meas["range"][r] + b_true[0] + n_add[0], b_true[1] + n_add[1]]
-                    toc_used[r, u] = eta_meas[r]
-                    # registration error: measured minus geometric truth (range, along-track)
-                    reg_err[r, u, 1] = meas["range"][r] - np.linalg.norm(targ - p_true_toc)
-                    reg_err[r, u, 2] = traj.speed * (eta_meas[r] - eta_true)
-                    af_dk[r, u] = meas["autofocus_dk"][r]
-            z = np.concatenate([z_alt, z_sar], axis=1)
-            z_hat = np.concatenate([zh_alt, zh_sar], axis=1)
-            H = np.concatenate([H_alt, H_sar], axis=1)
-            Rm = np.zeros((R, 3, 3))
-            Rm[:, :1, :1] = R_alt
-            Rm[:, 1:, 1:] = R_sar
-            Cm = np.zeros((R, L.n, 3))
-            Cm[:, :, 1:] = C_sar
-            cols = slice(0, 3)
-            stage_s[:, u, STAGES.index("update")] += (_time.perf_counter() - t0) / R
-        else:
-            z, z_hat, H, Rm, cols = z_alt, zh_alt, H_alt, R_alt, slice(0, 1)
-            Cm = np.zeros((R, L.n, 1))
-        r_vec = z - z_hat
-        dx, P_post, S = correlated_update(P, H, Rm, Cm, r_vec)
-        fl.after_update(j, dx, P_post)
-        res[:, u, cols] = r_vec
-        res_sig[:, u, cols] = np.sqrt(np.einsum("rii->ri", S))
-        nis[:, u] = normalized_squared(r_vec, S)
-    err, sig, nees = fl.err, fl.sig, fl.nees
+            pred = stack_predictions([pred.replace(C=None), sar.predict(u, iv, rec["toc"][:, u])])
+            if pred.C is None:
+                pred = pred.replace(C=np.zeros((R, L.n, 3)))
+            z, cols = np.concatenate([z_alt, z_sar], axis=1), slice(0, 3)
+            rec["stage_seconds"][:, u, -1] += (_time.perf_counter() - t0) / R
+        up = update.correlated(fl.P, pred, z)
+        fl.after_update(iv["j"], up.dx, up.P)
+        rec["residual"][:, u, cols], rec["residual_sigma"][:, u, cols], rec["nis"][:, u] = \
+            up.residual, up.residual_sigma, up.nis
+    return _records(prm, fl, run_ids, rec, image=sar is not None and sar.imager is not None), rec
 
-    t_upd = t_out[steps::steps]
+
+def _records(prm, fl, run_ids, rec, image: bool) -> list[RunRecord]:
+    n_upd, t_out = prm.n_updates, fl.t_out
+    t_upd = t_out[fl.steps::fl.steps]
     dof = 3 if prm.sar_enabled else 1
     records = []
-    for i in range(R):
-        extras = {"toc": (("update",), toc_used[i])}
-        if imaging is not None:
-            extras["registration_error"] = (("update", "meas"), reg_err[i])
-            extras["autofocus_dk"] = (("update",), af_dk[i])
-            extras["stage_seconds"] = (("update", "stage"), stage_s[i])
+    for i in range(fl.R):
+        extras = {"toc": (("update",), rec["toc"][i])}
+        if image:
+            extras["registration_error"] = (("update", "meas"), rec["registration_error"][i])
+            extras["autofocus_dk"] = (("update",), rec["autofocus_dk"][i])
+            extras["stage_seconds"] = (("update", "stage"), rec["stage_seconds"][i])
         records.append(RunRecord(
-            run=int(run_ids[i]), time=t_out.copy(), error=err[i], sigma=sig[i], nees=nees[i],
-            update_time=t_upd.copy(), residual=res[i], residual_sigma=res_sig[i], nis=nis[i],
-            nis_dof=np.full(n_upd, dof, dtype=int), extras=extras))
+            run=int(run_ids[i]), time=t_out.copy(), error=fl.err[i], sigma=fl.sig[i], nees=fl.nees[i],
+            update_time=t_upd.copy(), residual=rec["residual"][i], residual_sigma=rec["residual_sigma"][i],
+            nis=rec["nis"][i], nis_dof=np.full(n_upd, dof, dtype=int), extras=extras))
     return records
+
+
+def covariance_study(prm: RdaNavParams, range_sigma: float, cross_sigma: float, ground_ranges=None,
+                     cross_model: str | None = None) -> dict:
+    """The truth-linearised covariance study of this scenario's filter (``analysis.covariance.sar_covariance_study``)
+    for a given SAR noise: its IMU model, altimeter, biases, P0, trajectory and reference targets; ``cross_model``
+    defaults to ``sar.cross_range_model``; ``ground_ranges``: several targets per aperture (see there)."""
+    g, fi = prm.imu_filter.grade, prm.imu_filter
+    model = ErrorStateModel(STATE_LAYOUT, g.vrw, g.arw, g.accel_bias, g.gyro_bias, fi.tau_accel, fi.tau_gyro,
+                            prm.bias_sigma, prm.bias_tau)
+    return sar_covariance_study(model, prm.trajectory, prm.p0_sigma, prm.alt_sigma, reference_targets(prm),
+                                range_sigma, cross_sigma, ground_ranges=ground_ranges,
+                                cross_model=prm.cross_model if cross_model is None else cross_model, step=COV_STEP)
 
 
 class RdaNavKind(ErrorStateKind):
@@ -483,7 +485,6 @@ class RdaNavKind(ErrorStateKind):
         from sarnav.montecarlo.seeding import run_seeds
         from sarnav.report.rda_nav_figures import plot_aperture_images, plot_sar_ablation
         from sarnav.tomlio import parse_toml
-        from sarnav.scenarios.rda_nav_imaging import capture_images
 
         cfg = parse_toml(results.attrs["scenario"])
         prm = parse(cfg)
@@ -491,8 +492,7 @@ class RdaNavKind(ErrorStateKind):
         outdir = Path(outdir)
         paths = []
         if prm.sar_enabled and prm.measurement == "image":
-            with capture_images(min(10, prm.n_updates - 1)) as cap:
-                simulate_runs(prm, [0], [seed0])
+            cap = capture_images(prm, seed0, min(10, prm.n_updates - 1))
             paths.append(plot_aperture_images(cap, outdir / "sar_images_run0.png"))
         if prm.sar_enabled:
             off = copy.deepcopy(cfg)

@@ -24,6 +24,7 @@ __all__ = [
     "get_scenario",
     "get_kind",
     "template_for_kind",
+    "template_for",
     "optional_keys",
     "DEFAULT_SCENARIO",
     "DEFAULT_RUNS",
@@ -46,6 +47,7 @@ KINDS: dict[str, str] = {
     "study": "sarnav.scenarios.study:StudyKind",
     "rda-nav": "sarnav.scenarios.rda_nav:RdaNavKind",
     "bpa-sensitivity": "sarnav.scenarios.bpa_sensitivity:BpaSensitivityKind",
+    "image": "sarnav.scenarios.imaging:ImageKind",
 }
 
 # fmt: off
@@ -58,6 +60,8 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("rda-nav", "rda-nav", "NAVIGATION paper / thesis ch. 5: INS aided by range and cross-range from RDA images", "kind:"),
     ScenarioEntry("rda-nav-flexsar", "rda-nav", "Paper Tables 4-6: simulated FlexSAR-like flight at 60 m/s", "sarnav.scenarios.rda_nav:flexsar_config"),
     ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
+    ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "sarnav.scenarios.imaging:point_target_config"),
+    ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "sarnav.scenarios.imaging:scatterers_config"),
 )
 # fmt: on
 
@@ -93,10 +97,6 @@ def _entry(name: str) -> ScenarioEntry:
     for e in SCENARIOS:
         if e.name == name:
             return e
-    from sarnav.scenarios.imaging import IMAGE_SCENARIOS
-
-    if name in IMAGE_SCENARIOS:  # listed by `sarnav scenarios`, but not a campaign
-        raise ConfigError("scenario", f"{name!r} is a single-image scenario: run it with `sarnav image {name}`")
     known = ", ".join(e.name for e in SCENARIOS)
     raise ConfigError("scenario", f"unknown scenario {name!r} (known: {known}; or give a .toml file)")
 
@@ -140,11 +140,22 @@ def get_scenario(name: str) -> dict:
 
 
 def template_for_kind(kind: str) -> dict | None:
-    """Reference configuration for files of this kind: the scenario named like the kind, if any."""
+    """Reference configuration for files of this kind: the scenario named like the kind, or the kind's
+    ``default_config()``, if any."""
     for e in SCENARIOS:
         if e.name == kind and e.kind == kind:
             return get_scenario(kind)
-    return None
+    make = getattr(get_kind(kind), "default_config", None)
+    return copy.deepcopy(make()) if callable(make) else None
+
+
+def template_for(kind: str, name: str | None = None) -> dict | None:
+    """Reference configuration for a file of ``kind`` whose ``scenario.name`` is ``name``: the registered scenario
+    of that name when it is of the same kind, else :func:`template_for_kind`."""
+    for e in SCENARIOS:
+        if e.name == name and e.kind == kind:
+            return get_scenario(name)
+    return template_for_kind(kind)
 
 
 def optional_keys(kind: str) -> set[str]:

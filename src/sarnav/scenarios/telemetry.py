@@ -21,39 +21,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from sarnav import units
-from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.filters import ErrorStateLayout, joseph_update, normalized_squared
-from sarnav.measurements.base import stack_predictions
+from sarnav.errors import ConfigError, require_positive
+from sarnav.filters import ErrorStateLayout, update
+from sarnav.filters.prediction import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.error_state import ErrorStateKind
-from sarnav.montecarlo.kind import validate_campaign
-from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
-from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.flight import ErrorStateFlight, FlightSpec
-from sarnav.sensors.imu import GRADE_THREE_SIGMA, IMU_GRADES, ImuGrade
-from sarnav.trajectory import Maneuvering, StraightLevel
+from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, TRAJECTORY_TYPES, filter_imu_keys, read_filter_imu,
+                                         read_imu, read_initial, read_trajectory, result_bytes_check)
+from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
 #: dividing the update interval that does not exceed it (F is held constant over a step).
 COV_STEP_MAX = 0.1
-#: validation limits: an aircraft's speed [m/s], an IMU's sample rate [Hz], the closest approach of
-#: the track to the target [m] (range rate and its Jacobian divide by the range)
-MAX_SPEED = 1.0e4
-MAX_IMU_RATE = 1.0e4
+#: validation limit: the closest approach of the track to the target [m] (range rate and its Jacobian divide by
+#: the range)
 MIN_TARGET_RANGE = 1.0
-#: the attitude error is a small angle (thesis eq. 4.9): larger initial 3-sigma values are refused [rad]
-MAX_THETA_3SIGMA = 0.5
 #: refuse campaigns whose assembled error + sigma histories would exceed this many bytes
 MAX_RESULT_BYTES = 8 * 2**30
 
 STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_rate"), scalar_units=("m", "m", "m/s"))
 MEAS_NAMES = ["alt", "range", "rate"]
 MEAS_UNITS = ["m", "m", "m/s"]
-_IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
-_INITIAL_BIAS = ("accel_bias_3sigma", "gyro_bias_3sigma", "bias_alt_3sigma", "bias_range_3sigma", "bias_rate_3sigma")
+#: measurement-bias initial 3-sigma keys of [initial] (optional; default: the [measurements] FOGM figures)
+_MEAS_BIAS = ("bias_alt_3sigma", "bias_range_3sigma", "bias_rate_3sigma")
 
 
 @dataclass(frozen=True)
@@ -62,10 +56,9 @@ class TelemetryParams:
 
     runs: int
     trajectory: object
-    imu_grade: ImuGrade
+    imu: ImuSpec  # the truth sensor
+    imu_filter: ImuSpec  # the filter's model of it ([filter.imu], default [imu])
     imu_rate: float
-    tau_accel: float
-    tau_gyro: float
     meas_rate: float
     meas_sigma: np.ndarray  # (3,) alt [m], range [m], rate [m/s]
     bias_sigma: np.ndarray  # (3,) FOGM steady-state sigma of b_alt, b_range, b_rate
@@ -94,42 +87,10 @@ class TelemetryParams:
 def parse(cfg: dict) -> TelemetryParams:
     """Validate ``cfg`` and convert it to SI; ConfigError names the first bad field and its range."""
     runs, seed = validate_campaign(cfg)
-
-    tr = _table(cfg, "trajectory")
-    ttype = tr.get("type")
-    start = _vector(cfg, "trajectory", "start_ned", unit="m")
-    speed = require_finite("trajectory.speed", _get(cfg, "trajectory", "speed"), hi=MAX_SPEED, unit="m/s")
-    if speed <= 0:
-        raise ConfigError("trajectory.speed", f"must be in (0, {MAX_SPEED}] m/s, got {speed!r}")
-    heading = units.deg_to_rad(require_finite("trajectory.heading_deg", _get(cfg, "trajectory", "heading_deg"), lo=-360.0, hi=360.0, unit="deg"))
-    duration = _pos(cfg, "trajectory", "duration", "s")
-    if ttype == "straight":
-        traj = StraightLevel(start, speed, float(heading), duration)
-    elif ttype == "maneuver":
-        traj = Maneuvering.s_turn_climb(start, speed, float(heading), duration)
-    else:
-        raise ConfigError("trajectory.type", f"must be 'straight' or 'maneuver', got {ttype!r}")
-
-    imu = _table(cfg, "imu")
-    grade_name = imu.get("grade")
-    if grade_name == "custom":
-        missing = [k for k in _IMU_OVERRIDES if k not in imu]
-        if missing:
-            raise ConfigError(f"imu.{missing[0]}", "required when imu.grade = 'custom'")
-        base3 = [None] * 4
-    elif grade_name in IMU_GRADES:
-        base3 = list(GRADE_THREE_SIGMA[grade_name])
-    else:
-        raise ConfigError("imu.grade", f"must be one of {sorted(IMU_GRADES)} or 'custom', got {grade_name!r}")
-    vals3 = [imu.get(k, b) for k, b in zip(_IMU_OVERRIDES, base3)]
-    for k, v in zip(_IMU_OVERRIDES, vals3):
-        require_positive(f"imu.{k}", v)
-    grade = ImuGrade.from_three_sigma(grade_name, *vals3)
-    imu_rate = require_finite("imu.rate_hz", _get(cfg, "imu", "rate_hz"), hi=MAX_IMU_RATE, unit="Hz")
-    if imu_rate <= 0:
-        raise ConfigError("imu.rate_hz", f"must be in (0, {MAX_IMU_RATE}] Hz, got {imu_rate!r}")
-    tau_a = _pos(cfg, "imu", "tau_accel", "s")
-    tau_g = _pos(cfg, "imu", "tau_gyro", "s")
+    traj = read_trajectory(cfg, types=TRAJECTORY_TYPES)
+    duration = traj.duration
+    imu, imu_rate = read_imu(cfg)
+    filt = read_filter_imu(cfg, imu)
 
     meas_rate = _pos(cfg, "measurements", "rate_hz", "Hz")
     ratio = imu_rate / meas_rate
@@ -149,35 +110,14 @@ def parse(cfg: dict) -> TelemetryParams:
     if closest < MIN_TARGET_RANGE:
         raise ConfigError("target.position_ned", f"must be >= {MIN_TARGET_RANGE} m from the aircraft at every update (range "
                           f"rate is undefined at the target), comes within {closest:.3g} m")
-
-    ini = _table(cfg, "initial")
-    p3 = _vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
-    v3 = _vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
-    th3 = _vector(cfg, "initial", "theta_3sigma", positive=True, unit="rad")
-    if np.any(th3 > MAX_THETA_3SIGMA):
-        raise ConfigError("initial.theta_3sigma", f"must be <= {MAX_THETA_3SIGMA} rad on each axis (the attitude error "
-                          f"state is a small angle, thesis eq. 4.9), got {th3.tolist()}")
-    runs = cfg.get("campaign", {}).get("runs", 1)
-    n_out = math.ceil(duration / 0.1) + 1  # covariance steps are <= 0.1 s (see samples_per_cov_step)
-    need = (runs if isinstance(runs, int) and runs > 0 else 1) * n_out * 18 * 8 * 2  # error + sigma, float64
-    if need > MAX_RESULT_BYTES:
-        raise ConfigError("trajectory.duration", f"{duration} s x campaign.runs = {runs} would need "
-                          f"{need / 2**30:.1f} GiB of results (limit {MAX_RESULT_BYTES / 2**30:.0f} GiB): "
-                          "shorten the flight or run fewer runs")
-    defaults = dict(zip(_INITIAL_BIAS, [vals3[1], vals3[3], *bias3]))
-    b3 = {k: require_positive(f"initial.{k}", ini.get(k, defaults[k])) for k in _INITIAL_BIAS}
-    p0 = np.concatenate(
-        [
-            three(p3),
-            three(v3),
-            three(th3),
-            np.full(3, three(units.g_to_m_per_s2(b3["accel_bias_3sigma"]))),
-            np.full(3, three(units.deg_per_hr_to_rad_per_s(b3["gyro_bias_3sigma"]))),
-            three(np.array([b3["bias_alt_3sigma"], b3["bias_range_3sigma"], b3["bias_rate_3sigma"]])),
-        ]
-    )
+    ini = read_initial(cfg, filt)
+    result_bytes_check(cfg.get("campaign", {}).get("runs", 1), duration, COV_STEP_MAX, 18, MAX_RESULT_BYTES)
+    scalar3 = dict(zip(_MEAS_BIAS, bias3))  # the measurement biases' initial 3-sigma default to their FOGM figures
+    b3 = {k: require_positive(f"initial.{k}", cfg["initial"].get(k, scalar3[k])) for k in _MEAS_BIAS}
+    p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"],
+                         three(np.array([b3["bias_alt_3sigma"], b3["bias_range_3sigma"], b3["bias_rate_3sigma"]]))])
     return TelemetryParams(
-        runs=runs, trajectory=traj, imu_grade=grade, imu_rate=imu_rate, tau_accel=tau_a, tau_gyro=tau_g,
+        runs=runs, trajectory=traj, imu=imu, imu_filter=filt, imu_rate=imu_rate,
         meas_rate=meas_rate, meas_sigma=meas_sigma, bias_sigma=three(bias3), bias_tau=bias_tau,
         target=target, p0_sigma=p0,
     )
@@ -235,7 +175,8 @@ class TelemetryKind(ErrorStateKind):
 
     def optional_keys(self) -> list[str]:
         """Keys accepted although the default configuration leaves them out."""
-        return [f"imu.{k}" for k in _IMU_OVERRIDES] + [f"initial.{k}" for k in _INITIAL_BIAS]
+        return ([f"imu.{k}" for k in IMU_OVERRIDES] + [f"initial.{k}" for k in ("accel_bias_3sigma", "gyro_bias_3sigma")]
+                + [f"initial.{k}" for k in _MEAS_BIAS] + filter_imu_keys())
 
     layout = STATE_LAYOUT
     measurement_names = tuple(MEAS_NAMES)
@@ -251,8 +192,8 @@ class TelemetryKind(ErrorStateKind):
 def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     """The batched Monte Carlo of :class:`TelemetryKind` (see the module docstring)."""
     L = STATE_LAYOUT
-    spec = FlightSpec(prm.trajectory, prm.imu_grade, prm.imu_rate, prm.tau_accel, prm.tau_gyro, prm.bias_sigma,
-                      prm.bias_tau, prm.p0_sigma, prm.updates, prm.samples_per_update, prm.samples_per_cov_step)
+    spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma, prm.updates,
+                      prm.samples_per_update, prm.samples_per_cov_step, imu_filter=prm.imu_filter)
     fl = ErrorStateFlight(spec, L, seeds, covariance_attitude="mid")  # F at the mid-step attitude, mean f^n
     R, n_upd, steps, t_out = fl.R, prm.updates, fl.steps, fl.t_out
     meas = [
@@ -265,14 +206,10 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     nis = np.empty((R, n_upd))
     for u in range(n_upd):
         j = fl.fly_interval(u)["j"]
-        z = np.concatenate([mk.simulate(fl.truth, fl.bm_truth[:, j, i], fl.rngs) for i, mk in enumerate(meas)], axis=1)
-        z_hat, H, Rm = stack_predictions(meas, fl.nav)
-        r = z - z_hat
-        dx, P, S = joseph_update(fl.P, H, Rm, r)
-        fl.after_update(j, dx, P)
-        res[:, u] = r
-        res_sig[:, u] = np.sqrt(np.einsum("rii->ri", S))
-        nis[:, u] = normalized_squared(r, S)
+        z = np.concatenate([mk.simulate(fl.truth, fl.rngs) for mk in meas], axis=1)
+        up = update.joseph(fl.P, stack_predictions([mk.predict(fl.nav) for mk in meas]), z)
+        fl.after_update(j, up.dx, up.P)
+        res[:, u], res_sig[:, u], nis[:, u] = up.residual, up.residual_sigma, up.nis
     err, sig, nees = fl.err, fl.sig, fl.nees
 
     t_upd = t_out[steps::steps]

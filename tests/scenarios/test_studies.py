@@ -20,7 +20,7 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.assemble import open_results
 from sarnav.scenarios.config import dump_toml, parse_toml, validate_scenario
 from sarnav.scenarios.study import run_study
-from test_campaign import toy_cfg
+from toy_kind import toy_cfg
 
 
 def toy_study(runs=4):

@@ -79,21 +79,22 @@ def test_along_velocity_blur_matches_fresnel_prediction(study):
 
 def test_reference_azimuth_irw_matches_theory(study):
     cfg = bpa.default_config()
-    g = cfg["geometry"]
+    tr = cfg["trajectory"]
     lam = C / 9.75e9
-    r0 = math.hypot(g["target_ground_range"], g["altitude"])
+    r0 = math.hypot(cfg["scene"]["target_ground_range"], tr["start_ned"][2])
     # uniform aperture of length V T: 3-dB IRW 0.886 lambda R0 / (2 V T)
-    want = 0.886 * lam * r0 / (2 * g["speed"] * g["aperture"])
+    want = 0.886 * lam * r0 / (2 * tr["speed"] * tr["duration"])
     assert study[0]["yaw"]["irw_along_ref"] == pytest.approx(want, rel=0.03)
 
 
 def test_exact_kinematics_agree_with_the_linear_model_for_small_errors():
-    geo = bpa.make_geometry(bpa.default_config())
+    from sarnav.analysis import bpa_sensitivity as study
     from sarnav.analysis.sensitivity import propagate_nav_error
 
+    geo = bpa.geometry(bpa.default_config())
     for name in ("velocity_cross", "pitch", "roll"):
-        dx0 = bpa.injected_error(name, bpa.THESIS_SIM_ERRORS[name][2])
-        p_hat, _ = bpa.estimated_trajectory(geo, dx0)
+        dx0 = study.injected_error(name, study.THESIS_SIM_ERRORS[name][2])
+        p_hat, _ = study.estimated_trajectory(geo, dx0)
         lin = geo.truth_positions - propagate_nav_error(dx0, geo.times)[:, :3]
         # second-order attitude terms: g (1 - cos dth) t^2 / 2 <= 9.81 * 2e-4 * 18 = 0.036 m for pitch
         assert np.max(np.abs(p_hat - lin)) < 0.04
@@ -105,8 +106,8 @@ def test_bad_config_names_the_field():
     with pytest.raises(ConfigError, match="errors.heave"):
         bpa.validate(cfg)
     cfg = bpa.default_config()
-    cfg["geometry"]["aperture"] = -1.0
-    with pytest.raises(ConfigError, match="geometry.aperture"):
+    cfg["trajectory"]["duration"] = -1.0
+    with pytest.raises(ConfigError, match="trajectory.duration"):
         bpa.validate(cfg)
     cfg = bpa.default_config()
     cfg["image"]["interpolation"] = "sinc"

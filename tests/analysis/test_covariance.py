@@ -5,7 +5,7 @@ import pytest
 
 from sarnav.errors import ConfigError
 from sarnav.scenarios import rda_nav as rn
-from sarnav.scenarios.rda_nav_covariance import covariance_study
+from sarnav.scenarios.rda_nav import covariance_study
 
 
 def _filter_sigma(**sar):

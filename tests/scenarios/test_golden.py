@@ -1,6 +1,6 @@
 """Every scenario gives the results it gave before the restructuring (issue 8): the gate of every move.
 
-``tests/data/golden_<case>.npz`` were written by ``tests/golden_cases.py`` on the pre-restructure main. In the
+``tests/data/golden_<case>.npz`` were written by ``tests/scenarios/golden_cases.py`` on the pre-restructure main. In the
 numerical environment they were made in (same numpy / scipy / numba / BLAS kernel, ``golden_platform.json``) the
 comparison is bit for bit; elsewhere BLAS kernels may round differently, and arrays are compared to 1e-7
 relative (a moved formula or a changed draw order still fails by orders of magnitude more).

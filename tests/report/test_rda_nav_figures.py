@@ -6,8 +6,8 @@ import xarray as xr
 
 from sarnav.cli.main import main
 from sarnav.montecarlo.seeding import run_seeds
+from sarnav.scenarios import rda_nav as rn
 from sarnav.scenarios.rda_nav import RdaNavKind
-from sarnav.scenarios.rda_nav_imaging import capture_images
 from sarnav.scenarios.registry import get_scenario
 
 
@@ -22,10 +22,10 @@ def test_capture_keeps_the_run_bit_identical_and_holds_the_images():
     cfg = _short_cfg()
     seed0 = run_seeds(cfg["campaign"]["seed"], 2)[0]
     plain = RdaNavKind().simulate(cfg, [0], [seed0])[0]
-    with capture_images(3) as cap:
-        again = RdaNavKind().simulate(cfg, [0], [seed0])[0]
-    np.testing.assert_array_equal(plain.error, again.error)
-    np.testing.assert_array_equal(plain.residual, again.residual)
+    records, rec = rn._simulate(rn.parse(cfg), [0], [seed0], capture_aperture=3)
+    np.testing.assert_array_equal(plain.error, records[0].error)
+    np.testing.assert_array_equal(plain.residual, records[0].residual)
+    cap = rec["capture"]
     assert cap["aperture"] == 3 and cap["used"] in ("mapdrift", "estimate")
     for key in ("reference", "before", "after"):
         assert cap[key].data.ndim == 2 and np.all(np.isfinite(cap[key].data))

@@ -14,7 +14,7 @@ import pytest
 from sarnav.cli.main import COMMANDS, main
 from sarnav.tomlio import dump_toml, parse_toml
 from sarnav.scenarios.registry import list_scenarios
-from test_campaign import TESTS, toy_cfg
+from toy_kind import TESTS, toy_cfg
 
 
 @pytest.fixture
@@ -44,10 +44,12 @@ def test_commands_are_modules_with_parser_and_run():
 
 def test_scenarios_lists_every_registered_name(capsys):
     assert main(["scenarios"]) == 0
-    from sarnav.scenarios.imaging import IMAGE_SCENARIOS
+    from sarnav.cli.image_cmd import IMAGE_SCENARIOS
+    from sarnav.scenarios.registry import SCENARIOS
 
     out = capsys.readouterr().out.splitlines()
-    assert [line.split()[0] for line in out] == [n for n, _ in list_scenarios()] + list(IMAGE_SCENARIOS)
+    assert [line.split()[0] for line in out] == [n for n, _ in list_scenarios()]
+    assert list(IMAGE_SCENARIOS) == [e.name for e in SCENARIOS if e.kind == "image"]  # the image command's help
 
 
 def test_show_prints_toml_that_round_trips(capsys, toy_file):

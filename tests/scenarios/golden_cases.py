@@ -7,7 +7,7 @@ code today returns the same arrays.
 
 Regenerate only when a result is *meant* to change (an algorithm change, stated in the commit):
 
-    python tests/golden_cases.py --write
+    python tests/scenarios/golden_cases.py --write
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parent.parent / "data"
 #: result variables that measure wall time, not numbers (never compared)
 TIMING = ("stage_seconds",)
 
@@ -87,7 +87,7 @@ def rda_nav_flexsar_image() -> dict:
 
 def rda_nav_covariance() -> dict:
     from sarnav.scenarios import rda_nav as rn
-    from sarnav.scenarios.rda_nav_covariance import covariance_study
+    from sarnav.scenarios.rda_nav import covariance_study
 
     prm = rn.parse(_scenario("rda-nav", trajectory__duration=5.0))
     a = covariance_study(prm, 0.25, 0.25)
@@ -132,14 +132,15 @@ def image_point_target_contrast() -> dict:
 
 
 def bpa_sensitivity() -> dict:
+    from sarnav.analysis.bpa_sensitivity import CSV_FIELDS
     from sarnav.scenarios import bpa_sensitivity as bs
 
     cfg = _scenario("bpa-sensitivity")
     cfg["errors"] = {k: cfg["errors"][k] for k in ("position_cross", "velocity_along", "yaw")}
-    results, ref = bs.run_study(cfg)
+    results, ref = bs.study(cfg)
     out = {"reference": ref.data}
     for r in results:
-        for f in bs.CSV_FIELDS[1:]:
+        for f in CSV_FIELDS[1:]:
             if f != "unit":
                 out[f"{r.name}.{f}"] = np.asarray(getattr(r, f))
         out[f"{r.name}.image"] = r.image.data
@@ -217,5 +218,5 @@ def write(cases=None) -> None:
 
 if __name__ == "__main__":
     if "--write" not in sys.argv:
-        sys.exit("usage: python tests/golden_cases.py --write [CASE ...]")
+        sys.exit("usage: python tests/scenarios/golden_cases.py --write [CASE ...]")
     write([a for a in sys.argv[1:] if a != "--write"])

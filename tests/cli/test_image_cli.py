@@ -9,6 +9,7 @@ import pytest
 from sarnav.cli import image_cmd
 from sarnav.errors import ConfigError
 from sarnav.scenarios import imaging as scen
+from sarnav.scenarios.config import load_scenario
 from sarnav.tomlio import dump_toml
 from sarnav.units import C
 
@@ -79,7 +80,7 @@ def test_scatterers_are_reproducible_and_toml_round_trips(tmp_path):
     cfg["scene"]["seed"] = 4
     f = tmp_path / "field.toml"
     f.write_text(dump_toml(cfg))
-    assert scen.load_image_scenario(str(f)) == cfg
+    assert load_scenario(str(f)) == cfg
     a, b = tmp_path / "a", tmp_path / "b"
     assert _run([str(f), "--out", str(a), *FAST]) == 0
     assert _run(["scatterers", "--set", "scene.seed=4", "--out", str(b), *FAST]) == 0

@@ -1,4 +1,5 @@
-"""The error-state flight spine shared by telemetry and rda-nav."""
+"""The error-state flight spine shared by telemetry and rda-nav (sarnav.simulation.flight): records, batch
+independence, draw order, and the truth sensor apart from the filter's model of it."""
 
 import numpy as np
 import pytest
@@ -6,17 +7,17 @@ import pytest
 from sarnav.errors import ConfigError
 from sarnav.filters import joseph_update
 from sarnav.scenarios import rda_nav as rn
-from sarnav.scenarios.flight import ErrorStateFlight, FlightSpec
+from sarnav.sensors.imu import IMU_GRADES
+from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 
 
 def _spec(**kw):
     cfg = rn.default_config()
     cfg["trajectory"]["duration"] = 3.0
     prm = rn.parse(cfg)
-    args = dict(trajectory=prm.trajectory, imu_grade=prm.imu_grade, imu_rate=prm.imu_rate, tau_accel=prm.tau_accel,
-                tau_gyro=prm.tau_gyro, bias_sigma=prm.bias_sigma, bias_tau=prm.bias_tau, p0_sigma=prm.p0_sigma,
-                n_updates=prm.n_updates, samples_per_update=prm.samples_per_update,
-                samples_per_step=prm.samples_per_step)
+    args = dict(trajectory=prm.trajectory, imu_truth=prm.imu, imu_rate=prm.imu_rate, bias_sigma=prm.bias_sigma,
+                bias_tau=prm.bias_tau, p0_sigma=prm.p0_sigma, n_updates=prm.n_updates,
+                samples_per_update=prm.samples_per_update, samples_per_step=prm.samples_per_step)
     args.update(kw)
     return FlightSpec(**args)
 
@@ -68,3 +69,22 @@ def test_bad_input_names_the_field():
         ErrorStateFlight(_spec(), rn.STATE_LAYOUT, np.random.SeedSequence(1).spawn(1), covariance_attitude="end")
     with pytest.raises(ConfigError, match="^samples_per_step"):
         ErrorStateFlight(_spec(samples_per_step=7), rn.STATE_LAYOUT, np.random.SeedSequence(1).spawn(1))
+
+
+def test_the_filter_model_defaults_to_the_truth_sensor_and_can_differ_from_it():
+    seeds = np.random.SeedSequence(6).spawn(2)
+    spec = _spec()
+    same = _spec(imu_filter=spec.imu_truth)
+    nav_grade = ImuSpec(IMU_GRADES["navigation"], spec.imu_truth.tau_accel, spec.imu_truth.tau_gyro)
+    other = _spec(imu_filter=nav_grade)
+    a, b, c = (ErrorStateFlight(s, rn.STATE_LAYOUT, seeds) for s in (spec, same, other))
+    for fl in (a, b, c):
+        fl.fly_interval(0)
+    np.testing.assert_array_equal(a.P, b.P)
+    np.testing.assert_array_equal(a.nav.p, b.nav.p)
+    # the truth (and so the INS fed by the same samples) is the truth sensor's: unchanged by the filter's belief
+    np.testing.assert_array_equal(a.truth.ba, c.truth.ba)
+    np.testing.assert_array_equal(a.nav.p, c.nav.p)
+    # the filter's covariance grows with its own (smaller) noise figures
+    v = rn.STATE_LAYOUT.slice("v")
+    assert np.all(np.einsum("rii->ri", c.P[:, v, v]) < np.einsum("rii->ri", a.P[:, v, v]))

@@ -1,5 +1,10 @@
 """The spine that every error-state Monte Carlo kind shares (``telemetry``, ``rda-nav``).
 
+The truth sensor and the filter's belief about it are two objects (pyins' practice): :class:`ImuSpec` ``truth``
+corrupts the true kinematics (white noise + FOGM biases, ``sensors.ImuModel``); ``filter`` is what the INS and the
+error model assume (bias decay in the mechanization, F / Q / P0 of the biases). They are equal unless a scenario
+sets ``[filter.imu]`` (a model-mismatch study).
+
 One batch of runs flies the same analytic truth; per run, from its own Generator and in this order: IMU
 biases (6), measurement biases and initial error (3 + n), the measurement-bias drive (one 3-vector per
 covariance step), the kind's extra draws (``extra_draws``), IMU sample 0; then per update interval the IMU
@@ -39,20 +44,33 @@ COVARIANCE_ATTITUDES = ("start", "mid")
 
 
 @dataclass(frozen=True)
+class ImuSpec:
+    """An IMU error model: 1-sigma figures and bias correlation times [s] (SI)."""
+
+    grade: ImuGrade
+    tau_accel: float
+    tau_gyro: float
+
+
+@dataclass(frozen=True)
 class FlightSpec:
-    """What the spine needs of a parsed scenario (SI units)."""
+    """What the spine needs of a parsed scenario (SI units). ``imu_filter`` defaults to ``imu_truth``."""
 
     trajectory: Trajectory
-    imu_grade: ImuGrade
+    imu_truth: ImuSpec
     imu_rate: float  # [Hz]
-    tau_accel: float  # [s]
-    tau_gyro: float  # [s]
     bias_sigma: np.ndarray  # (3,) steady-state 1-sigma of the scalar measurement biases
     bias_tau: np.ndarray  # (3,)
     p0_sigma: np.ndarray  # (n,) initial 1-sigma of the error state
     n_updates: int
     samples_per_update: int  # IMU samples per update interval
     samples_per_step: int  # IMU samples per covariance step (divides samples_per_update)
+    imu_filter: ImuSpec | None = None
+
+    @property
+    def filter_imu(self) -> ImuSpec:
+        """The IMU model the filter assumes (``imu_filter``, or the truth sensor's when None)."""
+        return self.imu_truth if self.imu_filter is None else self.imu_filter
 
 
 class ErrorStateFlight:
@@ -82,9 +100,10 @@ class ErrorStateFlight:
         om_true = traj.angular_rate(self.t_imu)
         self.t_out = np.arange(n_upd * self.steps + 1) * (c * self.dt)
         self.truth_out = traj.state(self.t_out)
-        g = spec.imu_grade
-        imu = ImuModel(g, spec.imu_rate, spec.tau_accel, spec.tau_gyro)
-        self.model = ErrorStateModel(L, g.vrw, g.arw, g.accel_bias, g.gyro_bias, spec.tau_accel, spec.tau_gyro,
+        tr, fi = spec.imu_truth, spec.filter_imu
+        imu = ImuModel(tr.grade, spec.imu_rate, tr.tau_accel, tr.tau_gyro)
+        g = fi.grade
+        self.model = ErrorStateModel(L, g.vrw, g.arw, g.accel_bias, g.gyro_bias, fi.tau_accel, fi.tau_gyro,
                                      spec.bias_sigma, spec.bias_tau)
         # --- per-run draws, fixed order ---
         ba, bg = imu.initial_biases(self.rngs)
@@ -136,7 +155,7 @@ class ErrorStateFlight:
             q_start = self.nav.q
             self.nav, f_mean, self._history = mechanize(
                 self.nav, self.t_imu[k0 + a:k0 + b + 1], nu_blk[:, a:b + 1], om_blk[:, a:b + 1],
-                self.spec.tau_accel, self.spec.tau_gyro, self.spec.bias_tau, self._history)
+                self.spec.filter_imu.tau_accel, self.spec.filter_imu.tau_gyro, self.spec.bias_tau, self._history)
             q_cov = q_start if self.attitude == "start" else quat_normalize(q_start + self.nav.q)
             Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, c * self.dt)
             self.P = propagate_covariance(self.P, Phi, Qd)

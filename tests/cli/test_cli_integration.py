@@ -27,9 +27,15 @@ def test_scenarios_lists_campaigns_and_images(capsys):
 def test_show_image_scenario_is_toml(capsys):
     import tomllib
 
-    assert main(["show", "point-target", "--set", "trajectory.speed_mps=50"]) == 0
+    assert main(["show", "point-target", "--set", "trajectory.speed=50"]) == 0
     cfg = tomllib.loads(capsys.readouterr().out)
-    assert cfg["scenario"]["kind"] == "image" and cfg["trajectory"]["speed_mps"] == 50
+    assert cfg["scenario"]["kind"] == "image" and cfg["trajectory"]["speed"] == 50
+    # the 0.1 name still works, with a one-line notice naming the new key
+    assert main(["show", "point-target", "--set", "trajectory.speed_mps=40"]) == 0
+    captured = capsys.readouterr()
+    assert tomllib.loads(captured.out)["trajectory"]["speed"] == 40
+    assert captured.err.strip() == ("sarnav: notice: trajectory.speed_mps is now trajectory.speed "
+                                    "(the old name is accepted until sarnav 0.3)")
 
 
 def test_image_subcommand_is_wired(capsys):

@@ -230,20 +230,27 @@ def test_image_mode_is_reproducible():
 
 
 def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
-    from sarnav.scenarios.rda_nav_imaging import ApertureImager
+    from sarnav.measurements.sar_image import SubApertureImager
 
     cfg = rn.default_config()
     cfg["trajectory"]["duration"] = 2.0
     cfg["scene"]["clutter_per_run"] = False
     prm = rn.parse(cfg)
-    im = ApertureImager(prm, rn.reference_targets(prm), None, noise_seeds=[11, 12])
+    targets = rn.reference_targets(prm)
+
+    def imager(**kw):
+        return SubApertureImager(radar=prm.radar, truth=prm.trajectory, speed=prm.trajectory.speed, targets=targets,
+                                 scene_for=rn.scene_factory(prm, targets), reflector_amplitude=3.16,
+                                 snr_db=prm.snr_db, reference_seed=prm.scene["seed"], **kw)
+
+    im = imager(noise_seeds=[11, 12])
     assert im.aperture(1) is im.aperture(1)  # reference pass computed once for all runs
     recs = _run(cfg, 2, seed=3)
     reg = np.stack([r.extras["registration_error"][1][:, 1:] for r in recs])
     assert np.all(np.isfinite(reg)) and np.all(np.abs(reg[..., 0]) < 0.01) and np.all(np.abs(reg[..., 1]) < 0.2)
     assert not np.array_equal(reg[0], reg[1])  # same scene, different receiver noise per run
     with pytest.raises(InputDataError, match="^noise_seeds"):
-        ApertureImager(prm, rn.reference_targets(prm)).measure(0, None, np.zeros((1, 2, 3)), None, None)
+        imager(noise_seeds=[11, 12]).measure(0, None, np.zeros((1, 2, 3)), None, None)
 
 
 def test_reference_targets_lie_in_the_swath_with_toc_inside_each_aperture():
@@ -260,13 +267,15 @@ def test_reference_targets_lie_in_the_swath_with_toc_inside_each_aperture():
     ("sar.measurement", "radar"), ("sar.cross_range_model", "doppler"), ("trajectory.duration", 2.5),
     ("imu.rate_hz", 105.0), ("scene.toc_jitter_s", 0.6), ("radar.preset", "xband"), ("sar.enabled", "yes"),
     ("sar.second_order", 1), ("sar.registration_sigma_m", 0.02), ("sar.registration_sigma_m", [0.0, 0.02]),
-    ("sar.image_added_noise", "no"), ("scene.snr_db", float("nan")), ("scene.snr_db", 200.0),
+    ("sar.image_added_noise", "no"), ("radar.snr_db", float("nan")), ("radar.snr_db", 200.0),
+    ("radar.carrier_ghz", -1.0), ("imu.grade", "military"), ("filter.imu", {"grade": "military"}),
 ])
 def test_bad_config_names_the_field(field, value):
     cfg = rn.default_config()
     t, k = field.split(".")
-    cfg[t][k] = value
-    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+    cfg.setdefault(t, {})[k] = value
+    want = "filter.imu.grade" if t == "filter" else field
+    with pytest.raises(ConfigError, match=want.replace(".", r"\.")):
         KIND.validate(cfg)
 
 

@@ -1,0 +1,250 @@
+"""One configuration vocabulary: the tables every kind shares, read in one place (docs/scenarios/vocabulary.md).
+
+========================= ==================================================================================
+``[trajectory]``          ``type`` ("straight" | "maneuver"; where the kind offers both), ``start_ned`` [m]
+                          (position at t = 0), ``speed`` [m/s], ``heading_deg``, ``duration`` [s]
+``[imu]``                 the truth sensor: ``grade`` (a preset of ``sensors.imu.GRADE_THREE_SIGMA`` or
+                          "custom"), ``rate_hz``, ``tau_accel``, ``tau_gyro`` [s]; optional 3-sigma overrides
+                          ``vrw_3sigma`` [m/s/sqrt(hr)], ``accel_bias_3sigma`` [g], ``arw_3sigma`` [deg/sqrt(hr)],
+                          ``gyro_bias_3sigma`` [deg/hr] (required with "custom")
+``[filter.imu]``          the filter's model of that sensor: the same keys (no ``rate_hz``), each defaulting to
+                          ``[imu]``'s; a ``grade`` given here drops ``[imu]``'s 3-sigma overrides
+``[initial]``             3-sigma initial uncertainty: ``p_3sigma`` [m], ``v_3sigma`` [m/s], ``theta_3sigma``
+                          [rad] (each 3 numbers); optional ``accel_bias_3sigma`` [g], ``gyro_bias_3sigma``
+                          [deg/hr] (default: the filter's IMU figures)
+``[radar]``               ``preset`` ("nav-paper-sim" | "flexsar") and/or the fields with their units in the key:
+                          ``carrier_ghz``, ``bandwidth_mhz``, ``sample_rate_mhz``, ``pulse_length_us``,
+                          ``prf_hz``, ``antenna_length_m``, ``look_side``, ``range_window``, ``azimuth_window``;
+                          ``snr_db`` (receiver noise), ``range_margin_m`` (receive-window margin) where used
+========================= ==================================================================================
+
+Values are validated where they are used (``RadarParams`` validates the radar, ``StraightLevel`` the track); a
+:class:`~sarnav.errors.ConfigError` always names the user's key.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sarnav import units
+from sarnav.errors import ConfigError, require_finite, require_positive
+from sarnav.radar import presets
+from sarnav.radar.params import RadarParams
+from sarnav.scenarios.fields import get, positive, table, vector
+from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
+from sarnav.simulation.flight import ImuSpec
+from sarnav.trajectory import Maneuvering, StraightLevel
+
+__all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "read_filter_imu", "read_initial",
+           "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys"]
+
+#: optional 3-sigma overrides of an IMU grade, in source units (``sensors.imu.ImuGrade.from_three_sigma``)
+IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
+TRAJECTORY_TYPES = ("straight", "maneuver")
+#: an aircraft's speed [m/s] and an IMU's sample rate [Hz]: validation limits
+MAX_SPEED = 1.0e4
+MAX_IMU_RATE = 1.0e4
+#: the attitude error is a small angle (thesis eq. 4.9): larger initial 3-sigma values are refused [rad]
+MAX_THETA_3SIGMA = 0.5
+
+
+# ----------------------------------------------------------------------------- trajectory
+def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None = None):
+    """The truth trajectory of ``[trajectory]``: ``StraightLevel`` or ``Maneuvering`` (``type``, when offered).
+
+    ``types``: the trajectory types the kind accepts; with a single type the ``type`` key may be absent.
+    """
+    tr = table(cfg, "trajectory")
+    ttype = tr.get("type", types[0] if len(types) == 1 else None)
+    if ttype not in types:
+        raise ConfigError("trajectory.type", f"must be one of {list(types)}, got {ttype!r}")
+    start = vector(cfg, "trajectory", "start_ned", unit="m")
+    speed = require_finite("trajectory.speed", get(cfg, "trajectory", "speed"), hi=MAX_SPEED, unit="m/s")
+    if speed <= 0:
+        raise ConfigError("trajectory.speed", f"must be in (0, {MAX_SPEED}] m/s, got {speed!r}")
+    heading = float(units.deg_to_rad(require_finite("trajectory.heading_deg", get(cfg, "trajectory", "heading_deg"),
+                                                    lo=-360.0, hi=360.0, unit="deg")))
+    if max_duration is None:
+        duration = positive(cfg, "trajectory", "duration", "s")
+    else:
+        duration = require_finite("trajectory.duration", get(cfg, "trajectory", "duration"), 1.0, max_duration, "s")
+    if ttype == "maneuver":
+        return Maneuvering.s_turn_climb(start, speed, heading, duration)
+    return StraightLevel(start, speed, heading, duration)
+
+
+# ----------------------------------------------------------------------------- IMU
+def _grade(t: dict, prefix: str, inherit: dict | None = None) -> ImuGrade:
+    name = t.get("grade")
+    if name == "custom":
+        base3 = [None] * 4
+    elif name in GRADE_THREE_SIGMA:
+        base3 = list(GRADE_THREE_SIGMA[name])
+    else:
+        raise ConfigError(f"{prefix}.grade", f"must be one of {sorted(GRADE_THREE_SIGMA)} or 'custom', got {name!r}")
+    inherit = inherit or {}
+    vals3 = [t.get(k, inherit.get(k, b)) for k, b in zip(IMU_OVERRIDES, base3)]
+    for k, v in zip(IMU_OVERRIDES, vals3):
+        if v is None:
+            raise ConfigError(f"{prefix}.{k}", f"required when {prefix}.grade = 'custom'")
+        require_positive(f"{prefix}.{k}", v)
+    return ImuGrade.from_three_sigma(name, *vals3)
+
+
+def read_imu(cfg: dict) -> tuple[ImuSpec, float]:
+    """(the truth IMU, its sample rate [Hz]) of ``[imu]``."""
+    t = table(cfg, "imu")
+    grade = _grade(t, "imu")
+    rate = require_finite("imu.rate_hz", get(cfg, "imu", "rate_hz"), hi=MAX_IMU_RATE, unit="Hz")
+    if rate <= 0:
+        raise ConfigError("imu.rate_hz", f"must be in (0, {MAX_IMU_RATE}] Hz, got {rate!r}")
+    return ImuSpec(grade, positive(cfg, "imu", "tau_accel", "s"), positive(cfg, "imu", "tau_gyro", "s")), rate
+
+
+def filter_imu_keys() -> list[str]:
+    """Dotted keys of ``[filter.imu]`` (accepted although a default scenario leaves the table out)."""
+    return ["filter", "filter.imu"] + [f"filter.imu.{k}" for k in ("grade", "tau_accel", "tau_gyro", *IMU_OVERRIDES)]
+
+
+def read_filter_imu(cfg: dict, truth: ImuSpec) -> ImuSpec:
+    """The filter's IMU model: ``[filter.imu]`` over ``[imu]`` (module docstring); ``truth`` itself when absent."""
+    f = cfg.get("filter")
+    if f is None:
+        return truth
+    if not isinstance(f, dict) or not isinstance(f.get("imu", {}), dict):
+        raise ConfigError("filter", "must be a table with an [filter.imu] table")
+    unknown = set(f) - {"imu"}
+    if unknown:
+        raise ConfigError(f"filter.{sorted(unknown)[0]}", "unknown key (known: imu)")
+    fi = f.get("imu", {})
+    known = {"grade", "tau_accel", "tau_gyro", *IMU_OVERRIDES}
+    unknown = set(fi) - known
+    if unknown:
+        raise ConfigError(f"filter.imu.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(known))})")
+    if not fi:
+        return truth
+    imu = cfg["imu"]
+    merged = {"grade": fi.get("grade", imu.get("grade"))}
+    inherit = {} if "grade" in fi else {k: imu[k] for k in IMU_OVERRIDES if k in imu}
+    merged.update({k: fi[k] for k in IMU_OVERRIDES if k in fi})
+    grade = _grade(merged, "filter.imu", inherit)
+    taus = [require_positive(f"filter.imu.{k}", fi[k], "s") if k in fi else getattr(truth, k)
+            for k in ("tau_accel", "tau_gyro")]
+    return ImuSpec(grade, *taus)
+
+
+# ----------------------------------------------------------------------------- initial uncertainty
+def read_initial(cfg: dict, filter_imu: ImuSpec) -> dict:
+    """1-sigma SI initial uncertainty of ``[initial]``: ``p``, ``v``, ``th`` (3,) and ``ba``, ``bg`` (3,).
+
+    The bias entries default to the filter's IMU grade (its steady-state sigma); ``initial.accel_bias_3sigma``
+    [g] and ``initial.gyro_bias_3sigma`` [deg/hr] override them.
+    """
+    three = units.three_sigma_to_sigma
+    ini = table(cfg, "initial")
+    p3 = vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
+    v3 = vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
+    th3 = vector(cfg, "initial", "theta_3sigma", positive=True, unit="rad")
+    if np.any(th3 > MAX_THETA_3SIGMA):
+        raise ConfigError("initial.theta_3sigma", f"must be <= {MAX_THETA_3SIGMA} rad on each axis (the attitude error "
+                          f"state is a small angle, thesis eq. 4.9), got {th3.tolist()}")
+    g = filter_imu.grade
+    if "accel_bias_3sigma" in ini:
+        ba = float(three(units.g_to_m_per_s2(require_positive("initial.accel_bias_3sigma", ini["accel_bias_3sigma"]))))
+    else:
+        ba = g.accel_bias
+    if "gyro_bias_3sigma" in ini:
+        bg = float(three(units.deg_per_hr_to_rad_per_s(require_positive("initial.gyro_bias_3sigma",
+                                                                         ini["gyro_bias_3sigma"]))))
+    else:
+        bg = g.gyro_bias
+    return {"p": three(p3), "v": three(v3), "th": three(th3), "ba": np.full(3, ba), "bg": np.full(3, bg)}
+
+
+# ----------------------------------------------------------------------------- radar
+#: ``[radar]`` key -> (RadarParams field, conversion to SI)
+RADAR_KEYS = {
+    "carrier_ghz": ("carrier_frequency", units.ghz_to_hz),
+    "bandwidth_mhz": ("bandwidth", units.mhz_to_hz),
+    "sample_rate_mhz": ("sample_rate", units.mhz_to_hz),
+    "pulse_length_us": ("pulse_length", units.us_to_s),
+    "prf_hz": ("prf", float),
+    "antenna_length_m": ("antenna_length", float),
+    "look_side": ("look_side", str),
+    "range_window": ("range_window", None),
+    "azimuth_window": ("azimuth_window", None),
+}
+PRESETS = {"nav-paper-sim": presets.nav_paper_sim, "flexsar": presets.flexsar}
+#: RadarParams field -> [radar] key (for error messages)
+_KEY_OF = {f: k for k, (f, _) in RADAR_KEYS.items()}
+
+
+def radar_fields(cfg: dict, ignore=("snr_db", "range_margin_m", "antenna_pattern")) -> tuple[str | None, dict]:
+    """(preset name or None, RadarParams fields in SI) of ``[radar]``; keys in ``ignore`` are the kind's."""
+    r = table(cfg, "radar")
+    preset = r.get("preset")
+    if preset is not None and preset not in PRESETS:
+        raise ConfigError("radar.preset", f"must be one of {sorted(PRESETS)}, got {preset!r}")
+    out = {}
+    for key, value in r.items():
+        if key == "preset" or key in ignore:
+            continue
+        if key not in RADAR_KEYS:
+            raise ConfigError(f"radar.{key}", f"unknown key (known: preset, {', '.join(sorted(RADAR_KEYS))})")
+        field, conv = RADAR_KEYS[key]
+        if conv is None:
+            out[field] = value
+        elif conv is str:
+            if not isinstance(value, str):
+                raise ConfigError(f"radar.{key}", f"must be a string, got {value!r}")
+            out[field] = value
+        else:
+            out[field] = float(conv(require_finite(f"radar.{key}", value)))
+    return preset, out
+
+
+def make_radar(preset: str | None, fields: dict, **window) -> RadarParams:
+    """``RadarParams`` from a preset (or none) and SI fields; ``window``: ``near_range``, ``n_range_samples``.
+
+    Validation is RadarParams' own; its errors are re-raised naming the ``[radar]`` key.
+    """
+    kw = dict(fields, **window)
+    try:
+        if preset is not None:
+            return PRESETS[preset](**kw)
+        return RadarParams(**kw)
+    except ConfigError as err:
+        field = err.field.removeprefix("radar.")
+        if field in _KEY_OF:
+            raise ConfigError(f"radar.{_KEY_OF[field]}", err.message) from None
+        raise
+    except TypeError as err:  # a field the preset or RadarParams lacks
+        raise ConfigError("radar", f"incomplete radar: {err}") from None
+
+
+def doppler_prf_check(params: RadarParams, speed: float) -> None:
+    """The PRF must cover the -3 dB Doppler band at ``speed`` (azimuth Nyquist), named as ``radar.prf_hz``."""
+    try:
+        params.validate(speed=speed)
+    except ConfigError as err:
+        raise ConfigError("radar.prf_hz" if err.field == "radar.prf" else err.field, err.message) from None
+
+
+def whole_number(field: str, value: float, step: float, what: str) -> int:
+    """``value / step`` as an integer, or a ConfigError naming ``field`` (e.g. whole sub-apertures)."""
+    n = value / step
+    if abs(n - round(n)) > 1e-9 * max(1.0, abs(n)) or round(n) < 1:
+        raise ConfigError(field, f"must be a whole number of {what}, got {value}")
+    return int(round(n))
+
+
+def result_bytes_check(runs, duration: float, step: float, n_states: int, limit: int) -> None:
+    """Refuse a campaign whose error + sigma histories (float64) would exceed ``limit`` bytes."""
+    n_out = math.ceil(duration / step) + 1
+    need = (runs if isinstance(runs, int) and runs > 0 else 1) * n_out * n_states * 8 * 2
+    if need > limit:
+        raise ConfigError("trajectory.duration", f"{duration} s x campaign.runs = {runs} would need "
+                          f"{need / 2**30:.1f} GiB of results (limit {limit / 2**30:.0f} GiB): "
+                          "shorten the flight or run fewer runs")

@@ -1,0 +1,137 @@
+"""One contract test over every measurement model (Stone Soup's practice): shapes of the Prediction, H against
+central differences, Hessians against second differences, and ``simulate``'s noise statistics.
+
+Add a model to ``MODELS`` and it is checked like the others. dx = truth - estimate: the truth is the estimate
+corrected by dx (``filters.apply_feedback``), so z(truth) - z_hat = H dx + dx^T A dx / 2 + ...
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sarnav.filters import ErrorStateLayout, Prediction, apply_feedback
+from sarnav.ins import NavState
+from sarnav.measurements.base import Measurement
+from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
+from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
+from sarnav.rotations import quat_normalize
+
+TELEMETRY = ErrorStateLayout(("b_alt", "b_range", "b_rate"))
+SAR = ErrorStateLayout(("b_alt", "b_range", "b_cross"))
+TARGET = np.array([1000.0, 0.0, 0.0])
+SAR_TARGET = np.array([120.0, 1850.0, 0.0])  # 1.85 km east of a north track, on the ground
+
+
+def _telemetry_nav(rng, runs):
+    p = np.array([0.0, -200.0, -500.0]) + rng.uniform(-300, 300, (runs, 3))
+    v = np.array([50.0, 0.0, 0.0]) + rng.uniform(-10, 10, (runs, 3))
+    return NavState(p, v, quat_normalize(rng.standard_normal((runs, 4))), 0.01 * rng.standard_normal((runs, 3)),
+                    1e-5 * rng.standard_normal((runs, 3)), 0.1 * rng.standard_normal((runs, 3)))
+
+
+def _sar_nav(rng, runs):
+    p = np.array([118.0, 3.0, -1000.0]) + rng.uniform(-5, 5, (runs, 3))
+    v = np.array([10.0, 0.07, -0.02]) + rng.uniform(-0.5, 0.5, (runs, 3))
+    return NavState(p, v, np.tile([1.0, 0, 0, 0], (runs, 1)), np.zeros((runs, 3)), np.zeros((runs, 3)),
+                    0.1 * rng.standard_normal((runs, 3)))
+
+
+#: name -> (factory(runs) -> model, layout, nav factory, finite-difference step)
+MODELS = {
+    "altimeter": (lambda runs: AltimeterMeasurement(0.07, TELEMETRY), TELEMETRY, _telemetry_nav, 1e-2),
+    "range": (lambda runs: RangeMeasurement(TARGET, 0.07, TELEMETRY), TELEMETRY, _telemetry_nav, 1e-2),
+    "range-rate": (lambda runs: RangeRateMeasurement(TARGET, 0.07, TELEMETRY), TELEMETRY, _telemetry_nav, 1e-2),
+    "sar-range": (lambda runs: SarRangeMeasurement(SAR_TARGET, 0.25, SAR), SAR, _sar_nav, 1e-2),
+    "sar-cross-zero-doppler": (lambda runs: SarCrossRangeMeasurement(SAR_TARGET, 0.25, SAR), SAR, _sar_nav, 1e-3),
+    "sar-cross-paper": (lambda runs: SarCrossRangeMeasurement(
+        SAR_TARGET, 0.25, SAR, model="paper", u_c=np.tile([10.0, 0.1, 0.0], (runs, 1)),
+        r_orig=np.tile([113.0, 3.0, -1000.0], (runs, 1))), SAR, _sar_nav, 1e-2),
+}
+
+
+def _stack_runs(nav: NavState, k: int) -> NavState:
+    """Each run of ``nav`` repeated k times (run-major): perturbations become runs of one batched call."""
+    return NavState(*(np.repeat(getattr(nav, f), k, axis=0) for f in ("p", "v", "q", "ba", "bg", "bm")))
+
+
+@pytest.fixture(params=sorted(MODELS))
+def case(request):
+    make, layout, nav_of, step = MODELS[request.param]
+    runs = 3
+    nav = nav_of(np.random.default_rng(len(request.param)), runs)
+    return request.param, make, layout, nav, step
+
+
+def test_prediction_shapes_and_names(case):
+    name, make, layout, nav, _ = case
+    m = make(nav.runs)
+    assert isinstance(m, Measurement) and m.dim == len(m.names) == len(m.units)
+    pred = m.predict(nav)
+    assert isinstance(pred, Prediction)
+    assert pred.z_hat.shape == (nav.runs, m.dim) and pred.H.shape == (nav.runs, m.dim, layout.n)
+    assert pred.R.shape == (nav.runs, m.dim, m.dim) and np.all(np.linalg.eigvalsh(pred.R) > 0)
+    assert pred.hessians.shape == (nav.runs, m.dim, layout.n, layout.n)
+    assert pred.names == m.names
+
+
+def test_jacobian_matches_central_differences(case):
+    name, make, layout, nav, step = case
+    n, runs = layout.n, nav.runs
+    m = make(runs)
+    H = m.predict(nav).H
+    # all 2n perturbations of every run in one batched call: run r, state j, sign s at row (r * n + j) * 2 + s
+    big = _stack_runs(nav, 2 * n)
+    dx = np.zeros((runs * 2 * n, n))
+    for j in range(n):
+        dx[j * 2::2 * n, j] = step
+        dx[j * 2 + 1::2 * n, j] = -step
+    z = make(runs * 2 * n).predict(apply_feedback(big, dx, layout)).z_hat.reshape(runs, n, 2, m.dim)
+    J = np.moveaxis((z[:, :, 0] - z[:, :, 1]) / (2 * step), 1, 2)  # (runs, m, n)
+    scale = np.max(np.abs(H), axis=-1, keepdims=True)
+    np.testing.assert_allclose(J / scale, H / scale, atol=1e-5)
+
+
+def test_hessian_matches_second_differences(case):
+    name, make, layout, nav, step = case
+    n, runs = layout.n, nav.runs
+    m = make(runs)
+    A = m.predict(nav).hessians
+    assert np.allclose(A, np.swapaxes(A, -1, -2))
+    idx = [layout.slice("p").start + k for k in range(3)] + [layout.slice("v").start + k for k in range(3)]
+    # everything outside the position and velocity blocks is linear (biases) or absent (attitude)
+    others = [j for j in range(n) if j not in idx]
+    assert np.all(A[..., others, :] == 0) and np.all(A[..., :, others] == 0)
+    h = 10 * step
+    pairs = [(i, j) for i in idx for j in idx]
+    signs = [(1, 1), (1, -1), (-1, 1), (-1, -1)]
+    k = len(pairs) * 4
+    dx = np.zeros((runs * k, n))
+    for r in range(runs):
+        for q, (i, j) in enumerate(pairs):
+            for s, (a, b) in enumerate(signs):
+                dx[r * k + q * 4 + s, i] += a * h
+                dx[r * k + q * 4 + s, j] += b * h
+    z = make(runs * k).predict(apply_feedback(_stack_runs(nav, k), dx, layout)).z_hat.reshape(runs, len(pairs), 4, m.dim)
+    fd = (z[:, :, 0] - z[:, :, 1] - z[:, :, 2] + z[:, :, 3]) / (4 * h * h)  # (runs, pairs, m)
+    want = np.stack([A[:, :, i, j] for i, j in pairs], axis=1)
+    roundoff = 16 * np.finfo(float).eps * np.max(np.abs(z)) / h**2  # of the second difference itself
+    np.testing.assert_allclose(fd, want, rtol=0, atol=2e-3 * np.max(np.abs(want)) + roundoff)
+
+
+def test_simulate_has_the_stated_noise_and_reads_the_truth_bias(case):
+    name, make, layout, nav, _ = case
+    runs = 4000
+    truth = _stack_runs(NavState(*(getattr(nav, f)[:1] for f in ("p", "v", "q", "ba", "bg", "bm"))), runs)
+    m = make(runs)
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(9).spawn(runs)]
+    z = m.simulate(truth, rngs)
+    e = z - m.predict(truth).z_hat  # the prediction at the truth: model + truth bias
+    sigma = np.sqrt(np.diag(m.predict(truth).R[0]))
+    assert z.shape == (runs, m.dim)
+    assert np.all(np.abs(e.mean(axis=0)) < 4 * sigma / np.sqrt(runs))
+    assert np.all(np.abs(e.std(axis=0) - sigma) < 4 * sigma / np.sqrt(2 * runs))
+    # the same unit normals given explicitly give the same measurement (kinds with a fixed draw order)
+    noise = np.random.default_rng(3).standard_normal((runs, m.dim))
+    np.testing.assert_allclose(m.simulate(truth, noise=noise), m.predict(truth).z_hat + sigma * noise, rtol=0,
+                               atol=1e-9 * np.max(np.abs(z)))
