@@ -54,7 +54,6 @@ def test_image_unknown_scenario_is_one_line_error(capsys):
 def test_plain_run_is_a_reduced_default_campaign(monkeypatch, tmp_path):
     """``sarnav run`` with no scenario runs DEFAULT_SCENARIO with DEFAULT_RUNS runs (the README's main
     job); an explicit --runs wins. The campaign itself is replaced by a recorder here."""
-    from sarnav.cli import run_cmd
     from sarnav.scenarios import registry
 
     seen = {}

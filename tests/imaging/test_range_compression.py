@@ -98,7 +98,6 @@ def test_weighted_range_irf_matched(sim_raw):
     """Matched filter + Hamming at TB = 500: broadening 1.30 within 1 %, PSLR within 1.2 dB of
     -42.7 dB (Fresnel ripple of the finite time-bandwidth chirp raises the sidelobes; docs/radar.md)."""
     raw, _ = sim_raw
-    p = raw.params
     ir = impulse_response(range_compress(raw, "hamming").data[0])
     none = impulse_response(range_compress(raw, "none").data[0])
     assert ir.irw / none.irw == pytest.approx(1.306 / 0.886, rel=0.01)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.signal import metrics, windows
+from sarnav.signal import metrics
 from sarnav.signal.data import PulseData
 from sarnav.imaging.rda import range_doppler, rcmc_kernel_table
 from sarnav.units import C

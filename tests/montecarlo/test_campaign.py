@@ -28,9 +28,7 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import open_results
 from sarnav.montecarlo.campaign import run_campaign
-from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.seeding import make_chunks, run_seeds
-from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.tomlio import dump_toml
 
 VARS = ("error", "sigma", "nees", "residual", "residual_sigma", "nis", "nis_dof", "truth_x_final")

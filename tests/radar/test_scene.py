@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.radar.scene import Scene, point_targets, random_scatterers, speckle_scene
+from sarnav.radar.scene import point_targets, random_scatterers, speckle_scene
 
 
 def _rng(seed=1):

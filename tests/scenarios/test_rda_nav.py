@@ -4,7 +4,6 @@ on the full 200-run campaigns (``slow``):
     python -m pytest -q -m slow tests/test_rda_nav.py        # or: sarnav run rda-nav
 """
 
-import copy
 
 import numpy as np
 import pytest

@@ -88,3 +88,16 @@ def test_the_filter_model_defaults_to_the_truth_sensor_and_can_differ_from_it():
     # the filter's covariance grows with its own (smaller) noise figures
     v = rn.STATE_LAYOUT.slice("v")
     assert np.all(np.einsum("rii->ri", c.P[:, v, v]) < np.einsum("rii->ri", a.P[:, v, v]))
+
+
+def test_a_short_flight_of_the_paper_scenario_runs_unaided(short_flight):
+    prm = short_flight
+    spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma,
+                      prm.n_updates, prm.samples_per_update, prm.samples_per_step)
+    fl = ErrorStateFlight(spec, rn.STATE_LAYOUT, np.random.SeedSequence(3).spawn(4))
+    for u in range(prm.n_updates):
+        iv = fl.fly_interval(u)
+        fl.after_update(iv["j"], np.zeros((4, rn.STATE_LAYOUT.n)), fl.P)
+    assert fl.err.shape == (4, prm.n_updates * fl.steps + 1, rn.STATE_LAYOUT.n)
+    # the velocity error grows like the accelerometer bias times t: within the filter's own 3 sigma
+    assert np.all(np.abs(fl.err[:, -1, 3:6]) < 3 * fl.sig[:, -1, 3:6])

@@ -75,6 +75,11 @@ class Geometry:
     aperture: float
 
     @property
+    def mid_aperture_range(self) -> float:
+        """Range from the mid-aperture position to the target [m]."""
+        return float(np.linalg.norm(self.target - (self.p0 + self.v0 * self.aperture / 2)))
+
+    @property
     def truth_positions(self) -> np.ndarray:
         return self.p0 + self.times[:, None] * self.v0
 

@@ -24,6 +24,8 @@ __all__ = [
     "residual_statistics",
     "final_sigma",
     "summarize",
+    "mean_three_sigma",
+    "case_statistics",
 ]
 
 
@@ -256,3 +258,18 @@ def registration_statistics(reg: np.ndarray, meas: list[str], units: list[str] |
             "max_abs": float(np.max(np.abs(e))),
         }
     return out
+
+
+def mean_three_sigma(ds) -> tuple:
+    """(time (T,), 3 x the filter 1-sigma averaged over runs (T, S), state names) of a campaign's results."""
+    return ds["time"].values, 3.0 * ds["sigma"].values.mean(axis=0), [str(s) for s in ds["state"].values]
+
+
+def case_statistics(summary: dict, curve: tuple) -> dict:
+    """Per state: final 1-sigma and 3-sigma, time-averaged 3-sigma, fraction of errors inside 3-sigma (a study case)."""
+    _, sig3, states = curve
+    return {s: {"final_sigma": summary["states"][s]["final_sigma"],
+                "final_3sigma": summary["states"][s]["final_3sigma"],
+                "mean_3sigma": float(np.mean(sig3[:, j])),
+                "fraction_inside_3sigma": summary["states"][s]["fraction_inside_3sigma"]}
+            for j, s in enumerate(states)}

@@ -12,7 +12,6 @@ import xarray as xr
 import sarnav
 from sarnav.errors import InputDataError
 from sarnav.montecarlo.record import RunRecord
-from sarnav.montecarlo.store import atomic_write_bytes
 
 __all__ = ["assemble_results", "write_results", "open_results"]
 

@@ -1,5 +1,5 @@
-"""Study comparison figure: the filter 3σ of each case on one set of panels (thesis Figs 3.8-3.11,
-where line styles tell the cases apart)."""
+"""Study outputs: the comparison figure of the filter 3σ of each case on one set of panels (thesis Figs 3.8-3.11,
+where line styles tell the cases apart) and ``study.json``."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from sarnav.report.figures import save_png
 
-__all__ = ["plot_study_comparison"]
+__all__ = ["plot_study_comparison", "write_study_json"]
 
 
 def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], states: Sequence[str], title: str, path) -> str:
@@ -37,3 +37,12 @@ def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], st
     axes[-1].set_xlabel("time [s]")
     fig.suptitle(title)
     return save_png(fig, path)
+
+
+def write_study_json(path, result: dict) -> None:
+    """``study.json`` (atomic): each case's final 1-sigma / 3-sigma and time-averaged 3-sigma per state."""
+    import json
+
+    from sarnav.montecarlo.store import atomic_write_text
+
+    atomic_write_text(path, json.dumps(result, indent=2) + "\n")

@@ -14,8 +14,6 @@ import math
 import os
 from pathlib import Path
 
-import numpy as np
-
 from sarnav.analysis.bpa_sensitivity import THESIS_SIM_ERRORS, ImageSettings, make_geometry, run_study
 from sarnav.errors import ConfigError, require_finite, require_positive
 from sarnav.montecarlo.kind import ScenarioKind
@@ -87,7 +85,7 @@ def radar(cfg: dict, geo):
     """The nav-paper radar with the study's PRF and chirp; receive window R0 - margin - cT/4 .. R0 + margin + cT/4."""
     preset, fields = radar_fields(cfg)
     params = make_radar(preset, fields)
-    r0 = float(np.linalg.norm(geo.target - (geo.p0 + geo.v0 * geo.aperture / 2)))
+    r0 = geo.mid_aperture_range
     margin = float(cfg["radar"]["range_margin_m"])
     pad = C * params.pulse_length / 4.0
     n = int(math.ceil((2 * (margin + pad)) / (C / (2 * params.sample_rate)))) + 1

@@ -13,7 +13,6 @@ TOML, the file and line.
 from __future__ import annotations
 
 import copy
-import math
 import os
 import tomllib
 from typing import Any, Iterable, Sequence
@@ -210,8 +209,8 @@ def _rename_overrides(overrides: Sequence[str], kind_name: str, notices: list) -
         if note:
             notices.append(note)
             item = f"{new}={text}"
-            if new == "trajectory.start_ned":  # an altitude given under its old name
-                item = f"{new}=[0.0, 0.0, -({text})]" if _is_number(text) else item
+            if new == "trajectory.start_ned" and _is_number(text):  # an altitude given under its old name
+                item = f"{new}=[0.0, 0.0, {-float(text)!r}]"
         out.append(item)
     return out
 

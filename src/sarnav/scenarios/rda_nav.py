@@ -341,7 +341,7 @@ class _Sar:
         fl, prm, R = self.fl, self.prm, self.fl.R
         targ, j = self.targets[u], iv["j"]
         steps = fl.steps
-        eta_true, _, p_true_toc = closest_approach(targ, iv["t"], fl.truth_out.position[u * steps:j + 1])
+        eta_true, r_true, p_true_toc = closest_approach(targ, iv["t"], fl.truth_out.position[u * steps:j + 1])
         v_true_toc = prm.trajectory.state(np.array([eta_true])).velocity[0]
         bm = fl.bm_truth[:, j]
         if self.imager is None:
@@ -354,7 +354,7 @@ class _Sar:
         am = self.imager.measure(u, iv["t"], iv["p"], iv["v"], speed_sigma)
         n_add = prm.sar_sigma * noise * self.add_white
         z = np.stack([am.range + bm[:, 1] + n_add[:, 0], bm[:, 2] + n_add[:, 1]], axis=1)  # cross: 0 at zero Doppler
-        record["registration_error"][:, u, 1] = am.range - np.linalg.norm(targ - p_true_toc)
+        record["registration_error"][:, u, 1] = am.range - r_true
         record["registration_error"][:, u, 2] = prm.trajectory.speed * (am.toc - eta_true)
         record["autofocus_dk"][:, u] = am.autofocus_dk
         record["stage_seconds"][:, u, :len(IMAGE_STAGES)] += am.seconds

@@ -18,11 +18,9 @@ and time-averaged 3σ per state. The three chapter 3 studies of Lindstrom (2020)
 from __future__ import annotations
 
 import copy
-import json
 import re
 from pathlib import Path
 
-import numpy as np
 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
@@ -166,9 +164,9 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     """
     from sarnav.montecarlo.campaign import run_campaign
     from sarnav.montecarlo.executors import ChunkRunner
-    from sarnav.montecarlo.store import atomic_write_text
+    from sarnav.analysis.consistency import case_statistics, mean_three_sigma
     from sarnav.report.figures import write_campaign_figures
-    from sarnav.report.study_figure import plot_study_comparison
+    from sarnav.report.study_figure import plot_study_comparison, write_study_json
     from sarnav.tomlio import dump_toml
 
     validate_scenario(cfg)
@@ -193,19 +191,9 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
         ]
     for case, res in zip(cfg["cases"], results):
         ds = res.dataset
-        states = [str(s) for s in ds["state"].values]
-        sig3 = 3.0 * ds["sigma"].values.mean(axis=0)  # (T, S), mean over runs
-        curves[case["label"]] = (ds["time"].values, sig3, states)
-        per_state = {
-            s: {
-                "final_sigma": res.summary["states"][s]["final_sigma"],
-                "final_3sigma": res.summary["states"][s]["final_3sigma"],
-                "mean_3sigma": float(np.mean(sig3[:, j])),
-                "fraction_inside_3sigma": res.summary["states"][s]["fraction_inside_3sigma"],
-            }
-            for j, s in enumerate(states)
-        }
-        cases_out.append({"label": case["label"], "set": case.get("set", {}), "dir": case["label"], "states": per_state})
+        curves[case["label"]] = mean_three_sigma(ds)
+        cases_out.append({"label": case["label"], "set": case.get("set", {}), "dir": case["label"],
+                          "states": case_statistics(res.summary, curves[case["label"]])})
         if figures:
             write_campaign_figures(ds, out / case["label"], kind=kind)
     fig_paths = []
@@ -224,7 +212,7 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
         "figures": [Path(p).name for p in fig_paths],
         "scenario_toml": dump_toml(cfg),
     }
-    atomic_write_text(out / "study.json", json.dumps(result, indent=2) + "\n")
+    write_study_json(out / "study.json", result)
     return result
 
 

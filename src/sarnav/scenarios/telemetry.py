@@ -33,6 +33,7 @@ from sarnav.scenarios.fields import vector as _vector
 from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, TRAJECTORY_TYPES, filter_imu_keys, read_filter_imu,
                                          read_imu, read_initial, read_trajectory, result_bytes_check)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
+from sarnav.trajectory.sampled import min_distance
 
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
 #: dividing the update interval that does not exceed it (F is held constant over a step).
@@ -106,7 +107,7 @@ def parse(cfg: dict) -> TelemetryParams:
     # range and range rate (and H, eq. 3.17) divide by |r - p|: no update epoch may be at the target
     n_upd = int(math.floor(duration * meas_rate + 1e-9))
     track = traj.state(np.arange(1, n_upd + 1) / meas_rate).position
-    closest = float(np.min(np.linalg.norm(track - target, axis=-1)))
+    closest = min_distance(track, target)
     if closest < MIN_TARGET_RANGE:
         raise ConfigError("target.position_ned", f"must be >= {MIN_TARGET_RANGE} m from the aircraft at every update (range "
                           f"rate is undefined at the target), comes within {closest:.3g} m")

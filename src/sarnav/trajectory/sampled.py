@@ -10,7 +10,7 @@ import numpy as np
 
 from sarnav.errors import InputDataError
 
-__all__ = ["closest_approach", "interpolate_state", "closest_sample_is_inside"]
+__all__ = ["closest_approach", "interpolate_state", "closest_sample_is_inside", "min_distance"]
 
 
 def _vec3(name: str, value) -> np.ndarray:
@@ -63,3 +63,8 @@ def closest_sample_is_inside(p_targ, times, positions) -> bool:
     d = np.sum((np.asarray(positions) - p_targ) ** 2, axis=1)
     k = int(np.argmin(d))
     return 0 < k < len(times) - 1
+
+
+def min_distance(positions, point) -> float:
+    """Smallest distance [m] from sampled positions (..., 3) to a point (3,)."""
+    return float(np.min(np.linalg.norm(np.asarray(positions, dtype=np.float64) - point, axis=-1)))

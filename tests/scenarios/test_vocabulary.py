@@ -1,0 +1,85 @@
+"""The shared configuration vocabulary (sarnav.scenarios.vocabulary): [filter.imu] apart from [imu] (the
+model-mismatch study), [radar] validated by RadarParams with errors naming the user's key."""
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from sarnav.cli.main import main
+from sarnav.errors import ConfigError
+from sarnav.scenarios import vocabulary as voc
+from sarnav.scenarios.registry import get_kind, get_scenario
+from sarnav.sensors.imu import IMU_GRADES
+
+
+def test_a_filter_that_assumes_a_better_imu_than_it_has_is_inconsistent(tmp_path):
+    """``sarnav run telemetry --set filter.imu.grade=navigation``: tactical truth, navigation-grade belief."""
+    out = {}
+    for label, extra in (("matched", []), ("mismatch", ["--set", "filter.imu.grade=navigation"])):
+        out[label] = tmp_path / label
+        assert main(["run", "telemetry", "--runs", "40", "--executor", "serial", "--no-figures", "--quiet",
+                     "--out", str(out[label]), *extra]) == 0
+    nees = {k: json.loads((v / "summary.json").read_text())["nees"] for k, v in out.items()}
+    lo, hi = nees["matched"]["band"]
+    assert lo <= nees["matched"]["time_average"] <= hi
+    assert nees["mismatch"]["time_average"] > hi  # measured 24.0 against [16.2, 19.9]
+    assert nees["mismatch"]["fraction_in_band"] < 0.5 < nees["matched"]["fraction_in_band"]
+
+
+def test_filter_imu_defaults_to_imu_bit_for_bit_and_a_grade_there_drops_the_imu_overrides():
+    cfg = get_scenario("telemetry")
+    cfg["trajectory"]["duration"] = 2.0
+    cfg["imu"]["gyro_bias_3sigma"] = 2.0
+    kind = get_kind("telemetry")
+    seeds = np.random.SeedSequence(1).spawn(2)
+    plain = kind.simulate(cfg, [0, 1], seeds)
+    same = copy.deepcopy(cfg)
+    same["filter"] = {"imu": {"tau_gyro": cfg["imu"]["tau_gyro"]}}
+    again = kind.simulate(same, [0, 1], seeds)
+    for a, b in zip(plain, again):
+        np.testing.assert_array_equal(a.nees, b.nees)
+    truth, _ = voc.read_imu(cfg)
+    assert truth.grade.gyro_bias == pytest.approx(2.0 / 3 * np.pi / 180 / 3600)
+    inherited = voc.read_filter_imu({"imu": cfg["imu"], "filter": {"imu": {"tau_accel": 60.0}}}, truth)
+    assert inherited.grade == truth.grade and inherited.tau_accel == 60.0 and inherited.tau_gyro == truth.tau_gyro
+    nav = voc.read_filter_imu({"imu": cfg["imu"], "filter": {"imu": {"grade": "navigation"}}}, truth)
+    assert nav.grade.gyro_bias == IMU_GRADES["navigation"].gyro_bias  # the [imu] override is not inherited
+
+
+@pytest.mark.parametrize("table,value,field", [
+    ({"imu": {"grade": "military"}}, None, "filter.imu.grade"),
+    ({"imu": {"wobble": 1.0}}, None, "filter.imu.wobble"),
+    ({"gps": {}}, None, "filter.gps"),
+    ({"imu": {"grade": "custom"}}, None, "filter.imu.vrw_3sigma"),
+])
+def test_bad_filter_imu_names_the_key(table, value, field):
+    cfg = get_scenario("telemetry")
+    truth, _ = voc.read_imu(cfg)
+    with pytest.raises(ConfigError) as err:
+        voc.read_filter_imu(dict(cfg, filter=table), truth)
+    assert err.value.field == field
+
+
+@pytest.mark.parametrize("key,value,field", [
+    ("carrier_ghz", 0.0, "radar.carrier_ghz"),
+    ("bandwidth_mhz", 30000.0, "radar.bandwidth_mhz"),  # >= 2 x carrier
+    ("pulse_length_us", 1.0e5, "radar.pulse_length_us"),  # longer than the PRI
+    ("sample_rate_mhz", 100.0, "radar.sample_rate_mhz"),  # below the bandwidth
+    ("antenna_length_m", 1e-6, "radar.antenna_length_m"),
+    ("look_side", "up", "radar.look_side"),
+    ("colour", "red", "radar.colour"),
+])
+def test_radar_errors_come_from_radar_params_and_name_the_config_key(key, value, field):
+    cfg = get_scenario("rda-nav")
+    cfg["radar"][key] = value
+    with pytest.raises(ConfigError) as err:
+        get_kind("rda-nav").validate(cfg)
+    assert err.value.field == field
+
+
+def test_radar_preset_with_overrides():
+    preset, fields = voc.radar_fields({"radar": {"preset": "flexsar", "prf_hz": 2000.0, "carrier_ghz": 9.6}})
+    params = voc.make_radar(preset, fields)
+    assert params.prf == 2000.0 and params.carrier_frequency == 9.6e9 and params.bandwidth == 500e6

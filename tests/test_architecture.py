@@ -1,0 +1,159 @@
+"""The package's shape (issue 8, docs/architecture.md): every import goes down the layer list below, no import
+circles between modules (lazy in-function imports included), ``scenarios/`` holds configuration and wiring only,
+and no function is longer than 80 lines except numba kernels. Read from the source with ``ast``; nothing runs."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "sarnav"
+
+#: lowest first; a package may import only from layers strictly below its own (and from itself)
+LAYERS = [
+    ("errors",),
+    ("units", "tomlio"),
+    ("rotations", "frames"),
+    ("signal",),
+    ("trajectory", "sensors"),
+    ("ins",),
+    ("filters",),
+    ("radar",),
+    ("imaging",),
+    ("io",),
+    ("measurements",),
+    ("simulation",),
+    ("analysis",),
+    ("montecarlo",),
+    ("report",),
+    ("scenarios",),
+    ("cli",),
+]
+RANK = {pkg: i for i, layer in enumerate(LAYERS) for pkg in layer}
+MAX_FUNCTION_LINES = 80
+
+
+def _modules():
+    for f in sorted(SRC.rglob("*.py")):
+        rel = f.relative_to(SRC).with_suffix("")
+        parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+        yield f, ".".join(("sarnav",) + parts), f.relative_to(SRC).parts[0].removesuffix(".py")
+
+
+def _imports(tree: ast.AST, module: str, is_package: bool):
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            yield from (a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = module.split(".") if is_package else module.split(".")[:-1]
+                base = base[: len(base) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            yield mod
+            for a in node.names:  # "from sarnav.filters import update" imports the module sarnav.filters.update
+                yield f"{mod}.{a.name}"
+
+
+MODULES = {mod: (f, pkg) for f, mod, pkg in _modules()}
+
+
+def _graph():
+    graph = {}
+    for mod, (f, pkg) in MODULES.items():
+        tree = ast.parse(f.read_text())
+        targets = set()
+        for name in _imports(tree, mod, f.name == "__init__.py"):
+            while name and name not in MODULES:
+                name = name.rpartition(".")[0]
+            if name and name != mod and name != "sarnav":
+                targets.add(name)
+        graph[mod] = targets
+    return graph
+
+
+GRAPH = _graph()
+
+
+def test_every_package_is_in_the_layer_list():
+    pkgs = {pkg for _, pkg in MODULES.values()} - {"__init__"}
+    assert pkgs <= set(RANK), f"add {sorted(pkgs - set(RANK))} to LAYERS"
+
+
+def test_no_package_imports_one_at_or_above_its_layer():
+    bad = []
+    for mod, targets in GRAPH.items():
+        pkg = MODULES[mod][1]
+        for t in targets:
+            tp = MODULES[t][1]
+            if tp != pkg and tp != "__init__" and RANK[tp] >= RANK[pkg]:
+                bad.append(f"{mod} -> {t}")
+    assert not bad, "imports upward or sideways:\n" + "\n".join(sorted(bad))
+
+
+def _cycles(graph):
+    """Strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in list(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_circles_between_modules():
+    # a package's __init__ re-exporting its modules is not a circle of the design: drop package -> own child edges
+    graph = {m: {t for t in ts if not (MODULES[m][0].name == "__init__.py" and t.startswith(m + "."))}
+             for m, ts in GRAPH.items()}
+    assert not _cycles(graph)
+
+
+@pytest.mark.parametrize("needle", ["numba", "njit", "fft", "np.linalg", "einsum", "scipy.linalg"])
+def test_scenarios_hold_configuration_and_wiring_only(needle):
+    hits = [f"{f.name}:{i}" for f in (SRC / "scenarios").glob("*.py")
+            for i, line in enumerate(f.read_text().splitlines(), 1) if needle in line]
+    assert not hits, f"{needle} in scenarios/: {hits}"
+
+
+def _function_lengths():
+    rows = []
+    for mod, (f, _) in MODULES.items():
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                if any("jit" in ast.unparse(d) or "vectorize" in ast.unparse(d) for d in node.decorator_list):
+                    continue  # numba kernels are written out for speed
+                body = node.body
+                start = body[1].lineno if (len(body) > 1 and isinstance(body[0], ast.Expr)
+                                           and isinstance(body[0].value, ast.Constant)) else body[0].lineno
+                rows.append((node.end_lineno - start + 1, f"{mod}.{node.name}"))
+    return sorted(rows, reverse=True)
+
+
+def test_no_function_is_longer_than_80_lines():
+    rows = _function_lengths()
+    assert rows[0][0] <= MAX_FUNCTION_LINES, f"longest: {rows[:5]}"
