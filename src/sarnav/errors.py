@@ -73,3 +73,16 @@ def require_finite(field: str, value, lo=None, hi=None, unit: str = "") -> float
     if (lo is not None and v < lo) or (hi is not None and v > hi):
         raise ConfigError(field, f"must be in {rng}, got {v!r}")
     return v
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived; what was stored is kept (a campaign: ``--resume`` finishes it).
+
+    The CLI prints one line and exits with 128 + the signal number (130 for SIGINT, 143 for SIGTERM)."""
+
+    def __init__(self, signum: int):
+        super().__init__(f"interrupted by signal {signum}")
+        self.signum = signum
+
+    def __reduce__(self):
+        return (type(self), (self.signum,))

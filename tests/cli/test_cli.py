@@ -72,14 +72,14 @@ def test_run_writes_results_summary_figures(capsys, toy_file, tmp_path):
 @pytest.mark.parametrize(
     "extra, pattern",
     [
-        (["--runs", "-3"], "campaign.runs: must be an integer >= 1, got -3"),
+        (["--runs", "-3"], "campaign.runs: must be an integer in [1, 100000], got -3"),
         (["--set", "toy.nope=1"], "toy.nope: unknown key"),
         (["--set", "toy.q=-1"], "toy.q: must be > 0"),
         (["--set", "toy.q=nan"], "toy.q: must be a finite number"),
         (["--set", "toy.q"], "--set: expected key=value"),
         (["--workers", "0"], "--workers: must be an integer >= 1"),
         (["--chunk-size", "0"], "--chunk-size: must be an integer >= 1"),
-        (["--out", "/dev/null/x"], "--out: cannot create output directory"),
+        (["--out", "/dev/null/x"], "--out: cannot create or write in output directory"),
         (["--scheduler", "tcp://127.0.0.1:9", "--executor", "serial"], "--scheduler: needs --executor dask"),
     ],
 )
@@ -105,7 +105,7 @@ def test_real_subprocess_bad_input_and_help(tmp_path, toy_file):
     bad.write_text("[scenario]\nname = \n")
     out = ["--out", str(tmp_path / "o")]
     cases = [
-        (["run", str(toy_file), "--runs", "-3"] + out, "sarnav: error: campaign.runs: must be an integer >= 1, got -3"),
+        (["run", str(toy_file), "--runs", "-3"] + out, "sarnav: error: campaign.runs: must be an integer in [1, 100000], got -3"),
         (["run", "no-such-scenario"] + out, "sarnav: error: scenario: unknown scenario 'no-such-scenario'"),
         (["run", str(toy_file), "--set", "toy.nope=1"] + out, "sarnav: error: toy.nope: unknown key"),
         (["run", str(toy_file), "--set", "toy.q=0"] + out, "sarnav: error: toy.q: must be > 0"),
@@ -130,7 +130,7 @@ def test_telemetry_bad_values_through_main(capsys, tmp_path):
         (["--set", "measurements.tau_range=-5"], "measurements.tau_range:"),
         (["--set", "imu.tau_gyro=nan"], "imu.tau_gyro: must be a finite number"),
         (["--set", "imu.no_such_key=1"], "imu.no_such_key: unknown key"),
-        (["--runs", "0"], "campaign.runs: must be an integer >= 1, got 0"),
+        (["--runs", "0"], "campaign.runs: must be an integer in [1, 100000], got 0"),
     ]:
         one_error_line(capsys, main(["run", "--out", str(tmp_path / "o"), "--quiet"] + extra), pattern)
 

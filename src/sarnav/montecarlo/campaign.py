@@ -25,12 +25,13 @@ from tqdm import tqdm
 
 import sarnav
 from sarnav.analysis.consistency import summarize
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, Interrupted
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
 from sarnav.montecarlo.executors import ChunkRunner
 from sarnav.montecarlo.seeding import default_chunk_size, make_chunks, run_seeds
 from sarnav.montecarlo.kind import ScenarioKind, validate_common
+from sarnav.montecarlo.outdir import OutputFolder, fingerprint, identity
 from sarnav.tomlio import dump_toml, parse_toml
 
 __all__ = ["CampaignResult", "CampaignInterrupted", "run_campaign"]
@@ -38,12 +39,8 @@ __all__ = ["CampaignResult", "CampaignInterrupted", "run_campaign"]
 FORMAT = "sarnav-campaign-1"
 
 
-class CampaignInterrupted(KeyboardInterrupt):
-    """SIGTERM/SIGINT arrived; the stored runs are kept and ``--resume`` finishes the campaign."""
-
-    def __init__(self, signum: int):
-        super().__init__(f"interrupted by signal {signum}")
-        self.signum = signum
+#: SIGTERM/SIGINT arrived; the stored runs are kept and ``--resume`` finishes the campaign
+CampaignInterrupted = Interrupted
 
 
 @dataclass
@@ -118,6 +115,8 @@ def run_campaign(
     resume: bool = False,
     quiet: bool = False,
     chunk_size: int | None = None,
+    redo_runs=(),
+    overwrite: bool = False,
 ) -> CampaignResult:
     """Run ``cfg['campaign']['runs']`` runs of the scenario ``cfg`` into ``out``.
 
@@ -132,8 +131,12 @@ def run_campaign(
         size of the LocalCluster started.
     scheduler : dask scheduler address (``tcp://host:port``).
     resume : keep the runs stored in ``out`` by an earlier call with the same scenario and simulate
-        only the missing ones; a different stored scenario is a :class:`ConfigError`.
-        Without ``resume`` an earlier campaign's files in ``out`` are replaced.
+        only the missing ones (also to extend a finished campaign to more runs: ``campaign.runs`` may grow);
+        a different stored scenario is a :class:`ConfigError`. Every kept run file is verified (stamp and
+        checksum). Without ``resume`` an earlier campaign of the same scenario is replaced.
+    redo_runs : with ``resume``: run indices whose stored files are discarded and simulated again (the repair a
+        damaged run file's error message names).
+    overwrite : replace whatever another scenario left in ``out`` (otherwise refused, ``montecarlo.outdir``).
     quiet : no progress bar (it is also off when stderr is not a terminal).
     chunk_size : runs per task (default about two tasks per worker, at most 50).
 
@@ -158,43 +161,70 @@ def run_campaign(
     else:  # checks executor, workers, scheduler before anything is written
         runner, own_runner = ChunkRunner(executor, workers, scheduler), True
     out = Path(out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
-    manifest, keep = _open_store(out, cfg, text, canonical, resume)
-    seeds = run_seeds(seed, n_runs)
-    done = {i for i in store.stored_runs(out) if i < n_runs} if keep else set()
-    todo = [i for i in range(n_runs) if i not in done]
-    chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
-    _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
-                      cfg["scenario"]["name"], quiet)
-    ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed)
-    manifest.update(complete=True, finished=_now())
-    store.write_manifest(out, manifest)
-    (out / store.MARKER).unlink(missing_ok=True)
+    redo = _redo_runs(redo_runs, n_runs, resume)
+    stamp = {"fingerprint": fingerprint(canonical), "seed": seed, "sarnav_version": sarnav.__version__}
+    if resume and (out / store.MANIFEST).exists():
+        _check_resumable(out, canonical)
+    with OutputFolder(out, identity(canonical), resume=resume, overwrite=overwrite):
+        manifest, keep = _open_store(out, cfg, text, resume)
+        for i in redo:
+            store.run_path(out, i).unlink(missing_ok=True)
+        done = _verified_runs(out, n_runs, stamp) if keep else set()
+        seeds = run_seeds(seed, n_runs)
+        todo = [i for i in range(n_runs) if i not in done]
+        chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
+        _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
+                          cfg["scenario"]["name"], quiet, stamp)
+        ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed, stamp)
+        manifest.update(complete=True, finished=_now())
+        store.write_manifest(out, manifest)
+        (out / store.MARKER).unlink(missing_ok=True)
     return CampaignResult(out, out / store.RESULTS, out / store.SUMMARY, ds, summary, len(todo))
 
 
-def _open_store(out: Path, cfg: dict, text: str, canonical: dict, resume: bool) -> tuple[dict, bool]:
-    """Check a resumed store, mark the campaign incomplete, clear stale outputs and write the manifest.
-    Returns (manifest, whether stored runs are kept)."""
-    old = store.read_manifest(out) if (out / store.MANIFEST).exists() else None
-    if resume and old is not None:
-        stored_cfg = parse_toml(old.get("scenario_toml", ""), origin=str(out / store.MANIFEST))
-        where = _diff_path(stored_cfg, canonical)
-        if where is not None:
-            raise ConfigError(
-                "--resume",
-                f"{out / store.MANIFEST} holds a different scenario (first difference at {where}); "
-                "run without --resume or choose another --out",
-            )
-        if old.get("sarnav_version") != sarnav.__version__:  # runs by other code must not be mixed in
-            raise ConfigError(
-                "--resume",
-                f"{out / store.MANIFEST} was written by sarnav {old.get('sarnav_version')!r}, this is "
-                f"{sarnav.__version__!r}; run without --resume or choose another --out",
-            )
+def _redo_runs(redo_runs, n_runs: int, resume: bool) -> list[int]:
+    redo = sorted({int(i) for i in redo_runs})
+    if redo and not resume:
+        raise ConfigError("--redo-run", "needs --resume (without it every run is simulated anyway)")
+    bad = [i for i in redo if not 0 <= i < n_runs]
+    if bad:
+        raise ConfigError("--redo-run", f"must be run indices in [0, {n_runs - 1}], got {bad[0]}")
+    return redo
+
+
+def _check_resumable(out: Path, canonical: dict) -> None:
+    """The stored scenario must equal the requested one (``campaign.runs`` aside: a campaign may be extended)."""
+    old = store.read_manifest(out)
+    stored_cfg = parse_toml(old.get("scenario_toml", ""), origin=str(out / store.MANIFEST))
+    a, b = (dict(c, campaign={k: v for k, v in c.get("campaign", {}).items() if k != "runs"})
+            for c in (stored_cfg, canonical))
+    where = _diff_path(a, b)
+    if where is not None:
+        raise ConfigError(
+            "--resume",
+            f"{out / store.MANIFEST} holds a different scenario (first difference at {where}); "
+            "run without --resume (with --overwrite to replace it) or choose another --out",
+        )
+    if old.get("sarnav_version") != sarnav.__version__:  # runs by other code must not be mixed in
+        raise ConfigError(
+            "--resume",
+            f"{out / store.MANIFEST} was written by sarnav {old.get('sarnav_version')!r}, this is "
+            f"{sarnav.__version__!r}; run without --resume or choose another --out",
+        )
+
+
+def _verified_runs(out: Path, n_runs: int, stamp: dict) -> set[int]:
+    """Indices < n_runs of the stored runs, each verified (stamp, checksum); a bad file raises StoredRunError."""
+    done = {i for i in store.stored_runs(out) if i < n_runs}
+    for i in sorted(done):
+        store.load_record(store.run_path(out, i), expect=stamp)
+    return done
+
+
+def _open_store(out: Path, cfg: dict, text: str, resume: bool) -> tuple[dict, bool]:
+    """Mark the campaign incomplete, clear stale outputs and write the manifest. Returns (manifest, whether stored
+    runs are kept)."""
+    old = store.read_manifest(out) if resume else None
     keep = resume and old is not None
     # Mark incomplete before anything else can be half-written.
     store.atomic_write_text(out / store.MARKER, "campaign in progress or interrupted; rerun with --resume\n")
@@ -214,7 +244,8 @@ def _open_store(out: Path, cfg: dict, text: str, canonical: dict, resume: bool) 
     return manifest, keep
 
 
-def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, n_done, name, quiet) -> None:
+def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, n_done, name, quiet,
+                      stamp) -> None:
     """Run the chunks, storing every record as it arrives; signals become :class:`CampaignInterrupted`."""
     bar = tqdm(total=n_runs, initial=n_done, unit="run", desc=name, file=sys.stderr,
                disable=quiet or not sys.stderr.isatty())
@@ -224,7 +255,7 @@ def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n
             if chunks:
                 for ids, records in runner.run(kind, canonical, chunks, seeds):
                     for rec in records:
-                        store.save_record(out, rec)
+                        store.save_record(out, rec, stamp)
                     bar.update(len(ids))
             clean = True
     finally:
@@ -233,12 +264,12 @@ def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n
             runner.close(abort=not clean)
 
 
-def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed):
+def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed, stamp):
     """Read every stored run and write ``results.nc`` and ``summary.json``; returns (dataset, summary)."""
     missing = sorted(set(range(n_runs)) - store.stored_runs(out))
     if missing:  # cannot happen unless files were removed underneath us
         raise RuntimeError(f"runs missing after the campaign: {missing[:10]}")
-    records = [store.load_record(store.run_path(out, i)) for i in range(n_runs)]
+    records = [store.load_record(store.run_path(out, i), expect=stamp) for i in range(n_runs)]
     attrs = {
         "scenario": text,
         "scenario_name": cfg["scenario"]["name"],

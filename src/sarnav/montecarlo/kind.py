@@ -13,6 +13,7 @@ it. Each :meth:`ScenarioKind.simulate` returns one :class:`~sarnav.montecarlo.re
 
 from __future__ import annotations
 
+import re
 from abc import ABC, abstractmethod
 from typing import Sequence
 
@@ -22,7 +23,7 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.record import RunRecord
 from sarnav.tomlio import check_finite
 
-__all__ = ["ScenarioKind", "validate_campaign", "validate_common"]
+__all__ = ["ScenarioKind", "validate_campaign", "validate_common", "validate_name", "MAX_RUNS", "MAX_SEED"]
 
 
 class ScenarioKind(ABC):
@@ -65,16 +66,32 @@ class ScenarioKind(ABC):
         return []
 
 
+#: largest campaign (runs) and seed accepted: seeds are stored as signed 64-bit integers (netCDF attributes)
+MAX_RUNS = 100_000
+MAX_SEED = 2**63 - 1
+#: a scenario name is an identifier: it names the output folder ``sarnav-out/<name>``
+NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
 def validate_campaign(cfg: dict) -> tuple[int, int]:
-    """``(runs, seed)`` of the ``[campaign]`` table; ConfigError unless runs >= 1 and seed >= 0 are integers."""
+    """``(runs, seed)`` of the ``[campaign]`` table: integers, 1 <= runs <= MAX_RUNS, 0 <= seed < 2^63."""
     camp = _require_table(cfg, "campaign")
     runs = camp.get("runs")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError("campaign.runs", f"must be an integer >= 1, got {runs!r}")
+    if isinstance(runs, bool) or not isinstance(runs, int) or not 1 <= runs <= MAX_RUNS:
+        raise ConfigError("campaign.runs", f"must be an integer in [1, {MAX_RUNS}], got {runs!r}")
     seed = camp.get("seed")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfigError("campaign.seed", f"must be an integer >= 0, got {seed!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ConfigError("campaign.seed", f"must be an integer in [0, 2^63 - 1], got {seed!r}")
     return runs, seed
+
+
+def validate_name(name, field: str = "scenario.name") -> str:
+    """A scenario name: letters, digits and ``_.-``, starting with a letter or digit, no ``..`` (it becomes a folder
+    name: never a path)."""
+    if not isinstance(name, str) or not NAME_PATTERN.match(name) or ".." in name or len(name) > 128:
+        raise ConfigError(field, f"must be a name of letters, digits and '_.-' (no path, no '..', at most 128 "
+                          f"characters), got {name!r}")
+    return name
 
 
 def _require_table(cfg: dict, name: str) -> dict:
@@ -91,9 +108,9 @@ def validate_common(cfg: dict, needs_campaign: bool = True) -> None:
         raise ConfigError("<scenario>", "must be a table")
     check_finite(cfg)
     scen = _require_table(cfg, "scenario")
-    for key in ("name", "kind"):
-        if not isinstance(scen.get(key), str) or not scen.get(key):
-            raise ConfigError(f"scenario.{key}", f"must be a non-empty string, got {scen.get(key)!r}")
+    if not isinstance(scen.get("kind"), str) or not scen.get("kind"):
+        raise ConfigError("scenario.kind", f"must be a non-empty string, got {scen.get('kind')!r}")
+    validate_name(scen.get("name"))
     if not isinstance(scen.get("description", ""), str):
         raise ConfigError("scenario.description", "must be a string")
     if needs_campaign:

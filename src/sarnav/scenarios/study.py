@@ -62,7 +62,7 @@ def case_config(cfg: dict, index: int) -> dict:
     case = cfg["cases"][index]
     out = copy.deepcopy(cfg["base"])
     out["campaign"] = copy.deepcopy(cfg["campaign"])
-    out["scenario"]["name"] = f"{cfg['scenario']['name']}/{case['label']}"
+    out["scenario"]["name"] = f"{cfg['scenario']['name']}.{case['label']}"
     opt = optional_keys(out["scenario"]["kind"])
     for key, value in case.get("set", {}).items():
         try:
