@@ -4,4 +4,4 @@ See docs/architecture.md for the package layout and docs/conventions.md for fram
 units, attitude and error-state conventions.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -86,3 +86,41 @@ class Interrupted(KeyboardInterrupt):
 
     def __reduce__(self):
         return (type(self), (self.signum,))
+
+
+class deferred_signals:
+    """``with deferred_signals():`` SIGINT/SIGTERM arriving inside the block are recorded, not raised, and raised as
+    :class:`Interrupted` when the block ends. For imports of C extensions (numpy, xarray, dask...): an exception
+    raised by a signal handler inside them can surface as an unrelated ImportError. A no-op outside the main thread
+    or when the current handlers are Python's defaults (a library caller's process is left alone)."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.pending, self.saved = [], {}
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            current = signal.getsignal(sig)
+            if getattr(current, "raises_interrupted", False):
+                self.saved[sig] = current
+                signal.signal(sig, lambda signum, frame: self.pending.append(signum))
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        import signal
+
+        for sig, handler in self.saved.items():
+            signal.signal(sig, handler)
+        if self.pending and exc_type is None:
+            raise Interrupted(self.pending[0])
+        return False
+
+
+def raise_interrupted(signum, frame):
+    """Signal handler of the ``sarnav`` command: SIGINT/SIGTERM become :class:`Interrupted`."""
+    raise Interrupted(signum)
+
+
+raise_interrupted.raises_interrupted = True

@@ -15,7 +15,10 @@ import tomli_w
 
 from sarnav.errors import ConfigError
 
-__all__ = ["parse_toml", "load_toml_file", "dump_toml", "check_finite"]
+__all__ = ["parse_toml", "load_toml_file", "dump_toml", "check_finite", "MAX_FILE_BYTES"]
+
+#: largest scenario file read [bytes]
+MAX_FILE_BYTES = 10 * 2**20
 
 
 def parse_toml(text: str, origin: str = "<string>") -> dict:
@@ -27,11 +30,18 @@ def parse_toml(text: str, origin: str = "<string>") -> dict:
 
 
 def load_toml_file(path: str | os.PathLike) -> dict:
-    """Read a ``.toml`` scenario file (UTF-8)."""
+    """Read a ``.toml`` scenario file (UTF-8, a regular file: never a FIFO or device, which could block)."""
+    import stat
+
     path = os.fspath(path)
     try:
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise ConfigError(path, "is not a regular file (a scenario is a .toml file)")
+        if st.st_size > MAX_FILE_BYTES:
+            raise ConfigError(path, f"is {st.st_size} bytes; a scenario file is at most {MAX_FILE_BYTES} bytes")
         with open(path, "rb") as fh:
-            raw = fh.read()
+            raw = fh.read(MAX_FILE_BYTES + 1)
     except OSError as err:
         raise ConfigError(path, f"cannot read scenario file: {err.strerror}") from None
     try:

@@ -30,7 +30,12 @@ def add_parser(subparsers) -> None:
     p.add_argument("--workers", type=int, help="worker processes (default: number of cores)")
     p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address, e.g. tcp://host:8786")
     p.add_argument("--chunk-size", type=int, help="runs per task (default: about 2 tasks per worker, <= 50)")
-    p.add_argument("--resume", action="store_true", help="keep the runs already stored in --out and finish")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the runs already stored in --out and finish (or extend: a larger --runs)")
+    p.add_argument("--redo-run", dest="redo_runs", type=int, action="append", default=[], metavar="K",
+                   help="with --resume: simulate run K again (repairs a damaged run file), repeatable")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results of another scenario found in --out")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, TOML value), repeatable")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary lines")
@@ -48,8 +53,25 @@ def _print_summary(summary: dict, out: Path) -> None:
     print(f"  mean NEES (time average) {n['time_average']:.3g}, dof {n['dof']}, 95% band of the run mean [{n['band'][0]:.3g}, {n['band'][1]:.3g}]")
 
 
+def _import_engine() -> None:
+    """The campaign engine's C-extension dependencies, imported while signals are deferred (errors.deferred_signals)."""
+    import matplotlib.figure  # noqa: F401
+    import netCDF4  # noqa: F401
+    import numba  # noqa: F401
+    import scipy.linalg  # noqa: F401
+    import scipy.stats  # noqa: F401
+    import xarray  # noqa: F401
+
+    import sarnav.montecarlo.campaign  # noqa: F401
+    import sarnav.report.figures  # noqa: F401
+    import sarnav.scenarios.config  # noqa: F401
+
+
 def run(args) -> int:
-    from sarnav.errors import ConfigError
+    from sarnav.errors import ConfigError, deferred_signals
+
+    with deferred_signals():
+        _import_engine()
     from sarnav.montecarlo.campaign import CampaignInterrupted, run_campaign
     from sarnav.montecarlo.store import stored_runs
     from sarnav.scenarios.config import load_scenario
@@ -73,7 +95,9 @@ def run(args) -> int:
     if args.scheduler and executor != "dask":
         raise ConfigError("--scheduler", f"needs --executor dask, got --executor {executor}")
     opts = dict(executor=executor, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
-                quiet=args.quiet, chunk_size=args.chunk_size)
+                quiet=args.quiet, chunk_size=args.chunk_size, overwrite=args.overwrite)
+    if args.redo_runs:
+        opts["redo_runs"] = args.redo_runs
     from sarnav.scenarios.registry import get_kind
 
     kind = get_kind(cfg["scenario"]["kind"])

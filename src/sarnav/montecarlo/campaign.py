@@ -25,7 +25,7 @@ from tqdm import tqdm
 
 import sarnav
 from sarnav.analysis.consistency import summarize
-from sarnav.errors import ConfigError, Interrupted
+from sarnav.errors import ConfigError, Interrupted, raise_interrupted
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
 from sarnav.montecarlo.executors import ChunkRunner
@@ -92,12 +92,8 @@ class _SignalsToException:
         self.saved = {}
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGTERM, signal.SIGINT):
-                self.saved[sig] = signal.signal(sig, self._raise)
+                self.saved[sig] = signal.signal(sig, raise_interrupted)
         return self
-
-    @staticmethod
-    def _raise(signum, frame):
-        raise CampaignInterrupted(signum)
 
     def __exit__(self, *exc):
         for sig, handler in self.saved.items():

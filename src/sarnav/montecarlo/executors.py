@@ -49,6 +49,16 @@ def reraise_input_error(err: WorkerInputError):
     raise SarnavError(message) from None
 
 
+def _check_address(address: str) -> None:
+    """A dask scheduler address must be ``protocol://host:port`` (e.g. tcp://10.0.0.5:8786)."""
+    import re
+
+    m = re.match(r"^(tcp|tls|ucx|ws|wss)://([^/:\s]+|\[[0-9a-fA-F:]+\]):(\d{1,5})$", str(address))
+    if not m or not 0 < int(m.group(3)) < 65536:
+        raise ConfigError("--scheduler", f"must be an address like tcp://host:8786 (protocol tcp, tls, ucx, ws or wss; "
+                          f"port 1-65535), got {address!r}")
+
+
 def simulate_chunk(
     kind: ScenarioKind, cfg: dict, run_ids: Sequence[int], seeds: Sequence[np.random.SeedSequence]
 ) -> list[RunRecord]:
@@ -86,8 +96,13 @@ def _limit_worker_threads(threads: int) -> None:
     processes on K cores do not oversubscribe them (each would otherwise start one thread per core;
     small complex matrix products then ran ~50x slower on a loaded 2-core machine). Thread counts
     do not change any run's numbers: kinds never reduce across threads."""
+    import signal
+
     from threadpoolctl import threadpool_limits
 
+    # the main process decides what a SIGINT means (it terminates the workers): a ^C to the process group must
+    # not print a KeyboardInterrupt traceback from every worker
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     threadpool_limits(threads)
     try:
         import numba
@@ -128,6 +143,8 @@ class ChunkRunner:
             raise ConfigError("--workers", f"must be an integer >= 1, got {workers!r}")
         if scheduler and executor != "dask":
             raise ConfigError("--scheduler", f"needs --executor dask, got --executor {executor}")
+        if scheduler:
+            _check_address(scheduler)
         self.executor = executor
         self.workers = 1 if executor == "serial" else workers
         self.scheduler = scheduler
@@ -167,7 +184,10 @@ class ChunkRunner:
 
     def _ensure_client(self):
         if self._client is None:
-            from dask.distributed import Client, LocalCluster
+            from sarnav.errors import deferred_signals
+
+            with deferred_signals():
+                from dask.distributed import Client, LocalCluster
 
             try:
                 if self.scheduler:

@@ -11,7 +11,6 @@ chirp and a receive window R0 +- ``radar.range_margin_m`` (plus the pulse half-e
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 from sarnav.analysis.bpa_sensitivity import THESIS_SIM_ERRORS, ImageSettings, make_geometry, run_study
@@ -102,16 +101,19 @@ def study(cfg: dict, names=None):
                      ImageSettings(float(im["spacing"]), float(im["margin"]), im["interpolation"]))
 
 
-def run_sensitivity(cfg: dict, out_dir, figures: bool = True) -> Path:
-    """Run the study, write ``sensitivity.csv`` and (``figures``) ``sensitivity.png`` into ``out_dir``; return the CSV."""
+def run_sensitivity(cfg: dict, out_dir, figures: bool = True, overwrite: bool = False) -> Path:
+    """Run the study, write ``sensitivity.csv`` and (``figures``) ``sensitivity.png`` into ``out_dir`` (claimed as
+    ``montecarlo.outdir.OutputFolder``); return the CSV."""
+    from sarnav.montecarlo.outdir import OutputFolder, identity
     from sarnav.report.sensitivity import plot_grid, write_csv
 
     out = Path(out_dir)
-    os.makedirs(out, exist_ok=True)
-    results, ref = study(cfg)
-    path = write_csv(results, out / "sensitivity.csv")
-    if figures:
-        plot_grid(results, ref, out / "sensitivity.png")
+    validate(cfg)
+    with OutputFolder(out, identity(cfg), overwrite=overwrite):
+        results, ref = study(cfg)
+        path = write_csv(results, out / "sensitivity.csv")
+        if figures:
+            plot_grid(results, ref, out / "sensitivity.png")
     return path
 
 
@@ -135,7 +137,7 @@ class BpaSensitivityKind(ScenarioKind):
     def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
         """``sarnav run bpa-sensitivity``: the deterministic study (executor options do not apply);
         writes ``sensitivity.csv`` and, unless ``figures`` is False, ``sensitivity.png``."""
-        return run_sensitivity(cfg, out, figures=figures)
+        return run_sensitivity(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False))
 
     def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
         raise ConfigError("scenario.kind", "bpa-sensitivity is a deterministic study: run it with "

@@ -317,17 +317,19 @@ def image_report(cfg: dict, img, sc, params, af) -> dict:
     return report
 
 
-def run_image(cfg: dict, out) -> dict:
-    """Simulate, focus, measure; write ``image.npz``, ``image.png`` and ``metrics.json`` into ``out``; return the
-    metrics."""
+def run_image(cfg: dict, out, overwrite: bool = False) -> dict:
+    """Simulate, focus, measure; write ``image.npz``, ``image.png`` and ``metrics.json`` into ``out`` (claimed as
+    ``montecarlo.outdir.OutputFolder``: ``overwrite`` replaces another scenario's results); return the metrics."""
+    from sarnav.montecarlo.outdir import OutputFolder, identity
+
+    with OutputFolder(out, identity(cfg), overwrite=overwrite):
+        return _image_files(cfg, Path(out))
+
+
+def _image_files(cfg: dict, out: Path) -> dict:
     from sarnav.report.image_files import write_image_npz, write_image_png, write_json
     from sarnav.tomlio import dump_toml
 
-    out = Path(out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:  # one line like ``sarnav run --out``
-        raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
     rc, sc, params = build_pulses(cfg)
     img, af = form_image(cfg, rc)
     write_image_npz(img, params, out / "image.npz", speed=float(cfg["trajectory"]["speed"]),
@@ -363,4 +365,4 @@ class ImageKind(ScenarioKind):
 
     def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> dict:
         """``sarnav run point-target``: the same as ``sarnav image point-target`` (executor options do not apply)."""
-        return run_image(cfg, out)
+        return run_image(cfg, out, overwrite=campaign_opts.get("overwrite", False))

@@ -140,13 +140,18 @@ def get_scenario(name: str) -> dict:
 
 
 def template_for_kind(kind: str) -> dict | None:
-    """Reference configuration for files of this kind: the scenario named like the kind, or the kind's
-    ``default_config()``, if any."""
+    """Reference configuration for files of this kind: the scenario named like the kind, the kind's
+    ``default_config()``, or the first registered scenario of the kind, if any."""
     for e in SCENARIOS:
         if e.name == kind and e.kind == kind:
             return get_scenario(kind)
     make = getattr(get_kind(kind), "default_config", None)
-    return copy.deepcopy(make()) if callable(make) else None
+    if callable(make):
+        return copy.deepcopy(make())
+    for e in SCENARIOS:  # else the first registered scenario of the kind
+        if e.kind == kind:
+            return get_scenario(e.name)
+    return None
 
 
 def template_for(kind: str, name: str | None = None) -> dict | None:

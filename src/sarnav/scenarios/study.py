@@ -160,22 +160,26 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     """Run every case of the study ``cfg`` into ``out/<label>/`` and write ``out/study.json``.
 
     ``campaign_options`` go to :func:`sarnav.montecarlo.campaign.run_campaign` (executor, workers,
-    scheduler, resume, quiet, chunk_size). Returns the ``study.json`` content.
+    scheduler, resume, quiet, chunk_size, overwrite). Returns the ``study.json`` content.
     """
+    from sarnav.montecarlo.outdir import OutputFolder, identity
+
+    validate_scenario(cfg)
+    out = Path(out)
+    with OutputFolder(out, identity(cfg), resume=campaign_options.get("resume", False),
+                      overwrite=campaign_options.get("overwrite", False)):
+        (out / "study.json").unlink(missing_ok=True)
+        return _run_cases(cfg, out, figures, campaign_options)
+
+
+def _run_cases(cfg: dict, out: Path, figures: bool, campaign_options: dict) -> dict:
+    from sarnav.analysis.consistency import case_statistics, mean_three_sigma
     from sarnav.montecarlo.campaign import run_campaign
     from sarnav.montecarlo.executors import ChunkRunner
-    from sarnav.analysis.consistency import case_statistics, mean_three_sigma
     from sarnav.report.figures import write_campaign_figures
     from sarnav.report.study_figure import plot_study_comparison, write_study_json
     from sarnav.tomlio import dump_toml
 
-    validate_scenario(cfg)
-    out = Path(out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:  # one line, as run_campaign does
-        raise ConfigError("--out", f"cannot create output directory {str(out)!r}: {err.strerror}") from None
-    (out / "study.json").unlink(missing_ok=True)
     kind = _base_kind(cfg)
     curves = {}
     cases_out = []
