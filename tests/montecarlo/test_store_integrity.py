@@ -49,11 +49,11 @@ def test_two_concurrent_campaigns_into_one_folder_one_is_refused(tmp_path):
     files = []
     for seed in (3, 99):
         f = tmp_path / f"toy{seed}.toml"
-        f.write_text(dump_toml(toy_cfg(runs=8, seed=seed, delay=1.0)))
+        f.write_text(dump_toml(toy_cfg(runs=30, seed=seed, delay=0.5)))
         files.append(f)
     env = {"PYTHONPATH": str(TESTS), "PATH": "/usr/bin:/bin"}
     cmd = [sys.executable, "-m", "sarnav.cli.main", "run", "--out", str(tmp_path / "out"), "--executor", "serial",
-           "--quiet", "--no-figures"]
+           "--chunk-size", "1", "--quiet", "--no-figures"]
     first = subprocess.Popen(cmd[:3] + [cmd[3], str(files[0])] + cmd[4:], env=env, stderr=subprocess.PIPE)
     deadline = time.time() + 30
     while time.time() < deadline and not store.stored_runs(tmp_path / "out"):

@@ -26,6 +26,9 @@ __all__ = [
     "summarize",
     "mean_three_sigma",
     "case_statistics",
+    "consistency_verdict",
+    "strict",
+    "MIN_POOLED_CONTAINMENT",
 ]
 
 
@@ -231,7 +234,61 @@ def summarize(ds, confidence: float = 0.95) -> dict:
         }
     if "registration_error" in ds:
         out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units)
-    return out
+    out.update(consistency_verdict(error, sigma, out["nees"]))
+    return strict(out)
+
+
+#: a campaign whose pooled fraction of error samples inside +-3 sigma is below this is reported inconsistent
+MIN_POOLED_CONTAINMENT = 0.90
+
+
+def consistency_verdict(error, sigma, nees: dict) -> dict:
+    """``{"consistent": bool, "pooled_fraction_inside_3sigma": f, "inconsistency": [reasons]}``: inconsistent when the
+    pooled fraction of error samples inside +-3 sigma is below :data:`MIN_POOLED_CONTAINMENT` (0.9973 expected) or
+    the time-averaged mean NEES is beyond twice its band (above 2 x its upper bound or below half its lower one)."""
+    pooled = float(sigma_containment(np.reshape(error, (-1, 1)), np.reshape(sigma, (-1, 1)), 3.0)[0])
+    reasons = []
+    if not pooled >= MIN_POOLED_CONTAINMENT:
+        reasons.append(f"{100 * pooled:.1f} % of error samples inside 3 sigma (< {100 * MIN_POOLED_CONTAINMENT:.0f} %)")
+    lo, hi = nees["band"]
+    t = nees["time_average"]
+    if not (lo / 2 <= t <= 2 * hi):
+        reasons.append(f"mean NEES {t:.4g} beyond twice its 95 % band [{lo:.4g}, {hi:.4g}]")
+    return {"consistent": not reasons, "pooled_fraction_inside_3sigma": pooled, "inconsistency": reasons}
+
+
+def strict(obj, path: str = ""):
+    """``obj`` as strict JSON: numpy values as Python numbers, NaN / inf as null, and every dict that had an undefined
+    statistic gets ``"undefined": {key: reason}`` (no samples, one sample, absent measurement)."""
+    if isinstance(obj, dict):
+        out, why = {}, {}
+        for k, v in obj.items():
+            out[k] = strict(v, f"{path}.{k}")
+            if out[k] is None and v is not None:
+                why[k] = _reason(obj, k)
+        if why:
+            out["undefined"] = why
+        return out
+    if isinstance(obj, (list, tuple)):
+        return [strict(v, path) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return strict(obj.tolist(), path)
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        obj = obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def _reason(parent: dict, key: str) -> str:
+    count = parent.get("count")
+    if count == 0:
+        return "no samples (the measurement is absent in every update)"
+    if count == 1 and key in ("stderr", "std", "normalized_std"):
+        return "one sample: no spread"
+    if "total_dof" in parent and not parent.get("total_dof"):
+        return "no measurements were fused"
+    return "not finite (undefined for these data)"
 
 
 def registration_statistics(reg: np.ndarray, meas: list[str], units: list[str] | None = None) -> dict:

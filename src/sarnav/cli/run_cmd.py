@@ -123,4 +123,7 @@ def run(args) -> int:
         write_campaign_figures(res.dataset, out, kind=kind)
     if not args.quiet:
         _print_summary(res.summary, out)
+    if res.summary.get("consistent") is False:  # the run itself succeeded: exit 0
+        print(f"sarnav: warning: the filter is inconsistent ({'; '.join(res.summary['inconsistency'])}); "
+              f"see {out / 'summary.json'}", file=sys.stderr)
     return 0

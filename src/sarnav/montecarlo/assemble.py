@@ -27,11 +27,14 @@ def assemble_results(
     state_units: Sequence[str],
     meas_units: Sequence[str],
     attrs: dict,
+    extra_attrs: dict | None = None,
+    extra_coords: dict | None = None,
 ) -> xr.Dataset:
     """Stack run records (sorted by run) into a Dataset with dims ``run, time, state, update, meas``.
 
     ``time`` and ``update_time`` must be identical in every run (RunRecord contract); a mismatch is
-    an :class:`InputDataError`.
+    an :class:`InputDataError`. Every variable and coordinate gets ``units`` and ``description`` attributes
+    (``extra_attrs``: those of the kind's extras; ``extra_coords``: labels of the kind's own dimensions).
     """
     records = sorted(records, key=lambda r: r.run)
     if not records:
@@ -69,16 +72,40 @@ def assemble_results(
         "state_units": ("state", np.array(list(state_units), dtype=str)),
         "meas_units": ("meas", np.array(list(meas_units), dtype=str)),
     }
+    for dim, (values, cattrs) in (extra_coords or {}).items():
+        coords[dim] = (dim, np.asarray(values), dict(cattrs))
     ds = xr.Dataset(data, coords=coords, attrs=dict(attrs))
     ds.attrs.setdefault("sarnav_version", sarnav.__version__)
-    ds["error"].attrs["description"] = "truth minus estimate (error-state coordinates)"
-    ds["sigma"].attrs["description"] = "filter 1-sigma, sqrt(diag P)"
-    ds["nees"].attrs["description"] = "normalised estimation error squared, dof = number of states"
-    ds["residual"].attrs["description"] = "measurement residual z - z_hat, NaN where absent"
-    ds["residual_sigma"].attrs["description"] = "sqrt(diag(H P- H^T + R)), NaN where absent"
-    ds["nis"].attrs["description"] = "normalised innovation squared over the measurements present"
-    ds["nis_dof"].attrs["description"] = "number of measurements in nis"
+    for name, (units, description) in STANDARD_ATTRS.items():
+        if name in ds.variables:
+            ds[name].attrs.setdefault("units", units)  # state and meas keep their list of units
+            ds[name].attrs["description"] = description
+    for name, a in (extra_attrs or {}).items():
+        if name in ds.variables:
+            ds[name].attrs.update(a)
+    for name in ds.variables:  # kinds outside sarnav may not describe their extras
+        ds[name].attrs.setdefault("units", "")
+        ds[name].attrs.setdefault("description", f"kind-specific variable {name!r}")
     return ds
+
+
+#: units and description of every standard variable and coordinate of results.nc (docs/results.md)
+STANDARD_ATTRS = {
+    "error": ("per state: see state_units", "truth minus estimate (error-state coordinates)"),
+    "sigma": ("per state: see state_units", "filter 1-sigma, sqrt(diag P)"),
+    "nees": ("1", "normalised estimation error squared e^T P^-1 e, dof = number of states"),
+    "residual": ("per measurement: see meas_units", "measurement residual z - z_hat, NaN where absent"),
+    "residual_sigma": ("per measurement: see meas_units", "sqrt(diag(H P- H^T + R)), NaN where absent"),
+    "nis": ("1", "normalised innovation squared over the measurements present"),
+    "nis_dof": ("1", "number of measurements in nis"),
+    "run": ("1", "Monte Carlo run index (seed: SeedSequence(campaign seed).spawn(runs)[run])"),
+    "time": ("s", "output epochs"),
+    "update_time": ("s", "epochs of the measurement updates"),
+    "state": ("", "names of the error states (attribute units: one per state)"),
+    "meas": ("", "names of the measurement components (attribute units: one per component)"),
+    "state_units": ("1", "units of each error state"),
+    "meas_units": ("1", "units of each measurement component"),
+}
 
 
 def write_results(ds: xr.Dataset, path: str | os.PathLike) -> None:

@@ -276,8 +276,9 @@ def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed, stamp):
         "complete": 1,
     }
     ds = assemble_results(records, kind.state_names(canonical), kind.meas_names(canonical),
-                          kind.state_units(canonical), kind.meas_units(canonical), attrs)
+                          kind.state_units(canonical), kind.meas_units(canonical), attrs,
+                          extra_attrs=kind.extra_attrs(canonical), extra_coords=kind.extra_coords(canonical))
     summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summarize(ds)}
     write_results(ds, out / store.RESULTS)
-    store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2) + "\n")
+    store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return ds, summary

@@ -61,6 +61,14 @@ class ScenarioKind(ABC):
     def simulate(self, cfg: dict, run_ids: Sequence[int], seeds: Sequence[np.random.SeedSequence]) -> list[RunRecord]:
         """Simulate the given runs (batched as the kind likes) and return one record per run."""
 
+    def extra_attrs(self, cfg: dict) -> dict[str, dict]:
+        """``units`` and ``description`` of each extra variable the kind's records carry (results.nc attributes)."""
+        return {}
+
+    def extra_coords(self, cfg: dict) -> dict[str, tuple[list, dict]]:
+        """Labels of the kind's own dimensions: dim -> (values, attributes), e.g. the names of the ``stage`` axis."""
+        return {}
+
     def figures(self, results, outdir) -> list[str]:
         """Optional kind-specific figures beyond the standard ones; returns written paths."""
         return []

@@ -65,6 +65,16 @@ MEAS_NAMES = ["alt", "range", "cross"]
 MEAS_UNITS = ["m", "m", "m"]
 MEASUREMENT_MODES = ("oracle", "image")
 STAGES = IMAGE_STAGES + ("update",)
+#: units and descriptions of the extra results.nc variables
+EXTRA_ATTRS = {
+    "toc": {"units": "s", "description": "time of closest approach of the reference target each SAR update refers "
+                                         "to: measured from the image (image mode) or the truth (oracle)"},
+    "registration_error": {"units": "m", "description": "image-derived minus geometric truth: range of closest "
+                                                        "approach (meas range), along-track V x TOC error (meas cross); "
+                                                        "NaN for the altimeter"},
+    "autofocus_dk": {"units": "Hz/s", "description": "mapdrift correction of the azimuth FM rate, K_a - K_amf"},
+    "stage_seconds": {"units": "s", "description": "wall time per stage of each image and update (per run)"},
+}
 
 
 # --- configuration ------------------------------------------------------------------------------
@@ -472,6 +482,14 @@ class RdaNavKind(ErrorStateKind):
 
     def simulate_runs(self, prm, run_ids, seeds) -> list[RunRecord]:
         return simulate_runs(prm, run_ids, seeds)
+
+    def extra_attrs(self, cfg: dict) -> dict[str, dict]:
+        return EXTRA_ATTRS
+
+    def extra_coords(self, cfg: dict) -> dict:
+        return {"stage": (list(STAGES), {"units": "", "description": "stages of the imaging chain and the update, "
+                                         "timed per image (echoes: simulation, both noisy acquisitions, range "
+                                         "compression, reference chip)"})}
 
     def figures(self, results, outdir) -> list[str]:
         """Paper-style extras: the images of sub-aperture 10 of run 0 (reference, in flight before and
