@@ -84,7 +84,9 @@ def test_lvlh_and_antenna_frames():
     T = lvlh_dcm(r0, v0)
     assert np.allclose(T @ T.T, np.eye(3), atol=1e-15) and np.isclose(np.linalg.det(T), 1.0)
     assert np.allclose(T[2], -r0 / np.linalg.norm(r0))  # z_b nadir
-    assert np.dot(T[0], v0) / np.linalg.norm(v0) > 0.999  # x_b ~ along the (ECEF) velocity
+    v_in = v0 + np.cross([0, 0, 7.292115e-5], r0)
+    assert np.dot(T[0], v_in) / np.linalg.norm(v_in) > 0.9999  # x_b ~ along the inertial velocity
+    assert abs(np.dot(T[1], np.cross(r0, v_in))) / np.linalg.norm(np.cross(r0, v_in)) == pytest.approx(1.0)
     th = math.radians(34.3)
     A = antenna_dcm(th)
     assert np.allclose(A, [[1, 0, 0], [0, math.cos(th), -math.sin(th)], [0, math.sin(th), math.cos(th)]])

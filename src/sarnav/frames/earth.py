@@ -51,7 +51,8 @@ def ecef_to_geodetic(r):
 
     r = np.asarray(r, dtype=float)
     lat, lon, h = pymap3d.ecef2geodetic(r[..., 0], r[..., 1], r[..., 2], ell=_wgs84(), deg=False)
-    return np.asarray(lat, float), np.asarray(lon, float), np.asarray(h, float)
+    shape = r.shape[:-1]
+    return tuple(np.asarray(a, dtype=float).reshape(shape) for a in (lat, lon, h))
 
 
 # --- ECI <-> ECEF -------------------------------------------------------------------------------------------

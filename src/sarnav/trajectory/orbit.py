@@ -7,9 +7,9 @@ Frames: ``frames.earth`` (ECI = ECEF frozen at t = 0; ECEF rotates at omega_ie a
 ECI (no fictitious forces; J2 is zonal, so the same gravitation formula holds) and returned in ECEF.
 
 Attitude (gaps G3/G4): the body is exactly LVLH at every instant (the paper fits a constant body rate to 5 Wahba
-solutions; with a perfect ADS shared by truth and filter, exact LVLH is the accepted simplification), built from the
-ECEF position and velocity: z_b = -r/|r| (nadir), y_b = -(r x v)/|r x v| (right of the ground track), x_b = y_b x z_b
-(along the Earth-relative velocity). Antenna: look angle theta from nadir toward +y_b (right-looking), squint toward
+solutions; with a perfect ADS shared by truth and filter, exact LVLH is the accepted simplification), the LVLH of the
+orbit (inertial velocity v_i = v + w x r, expressed in ECEF; no yaw steering): z_b = -r/|r| (nadir),
+y_b = -(r x v_i)/|r x v_i| (right of the orbit), x_b = y_b x z_b (along the inertial velocity). Antenna: look angle theta from nadir toward +y_b (right-looking), squint toward
 +x_b; T_b^s rows x_s = [1, 0, 0], y_s = [0, cos th, -sin th], z_s = [0, sin th, cos th] at zero squint (z_s = boresight,
 x_s = azimuth, y_s = elevation). The misalignment T_mu rotates the nominal antenna frame into the true one, so
 r^s = T_mu T_b^s T_e^b r (paper eq. 19), with T_mu = quat_to_dcm(q_mu) (Hamilton; rotations.py for the paper's
@@ -25,7 +25,7 @@ import numba
 import numpy as np
 
 from sarnav.errors import ConfigError
-from sarnav.frames.earth import GM_EARTH, WGS84_A, eci_to_ecef
+from sarnav.frames.earth import GM_EARTH, OMEGA_EARTH, WGS84_A, eci_to_ecef
 from sarnav.frames.gravity import J2_COEFF, gravitation_vec
 from sarnav.rotations import quat_to_dcm
 
@@ -186,10 +186,14 @@ def right_ascension_of_node(r_eci, v_eci):
     return np.unwrap(np.arctan2(h[..., 0], -h[..., 1]), axis=0)
 
 
-def lvlh_dcm(r, v):
-    """T_e^b (..., 3, 3): ECEF -> LVLH body, rows x_b, y_b, z_b (module docstring; gaps G3/G4)."""
+def lvlh_dcm(r, v, omega: float = OMEGA_EARTH):
+    """T_e^b (..., 3, 3): ECEF -> LVLH body, rows x_b, y_b, z_b (module docstring; gaps G3/G4).
+
+    r, v : ECEF position and velocity (..., 3). The LVLH frame is the orbit's: it uses the inertial velocity
+    v + w x r (the orbital plane), expressed in ECEF; pass ``omega=0`` for inputs already in ECI.
+    """
     r = np.asarray(r, dtype=float)
-    v = np.asarray(v, dtype=float)
+    v = np.asarray(v, dtype=float) + np.cross([0.0, 0.0, omega], r)
     z = -r / np.linalg.norm(r, axis=-1, keepdims=True)
     h = np.cross(r, v)
     y = -h / np.linalg.norm(h, axis=-1, keepdims=True)
