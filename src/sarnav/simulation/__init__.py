@@ -1,0 +1,1 @@
+"""Simulation spines: truth, sensors or simulated measurements, and the filter between updates, batched over runs."""
