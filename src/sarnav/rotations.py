@@ -177,3 +177,54 @@ def corrupt_attitude(q_true, dtheta):
     dtheta = np.asarray(dtheta, dtype=float)
     dq = np.concatenate([np.ones(dtheta.shape[:-1] + (1,)), 0.5 * dtheta], axis=-1)
     return quat_normalize(quat_multiply(dq, q_true))
+
+
+# --- Shuster scalar-last quaternions (Pogorelsky et al. 2022, eqs. 4-7, 29, 41) ---------------------------------
+#
+# The spacecraft source writes q_a^b = [q_v; q_s] (scalar LAST, eq. 4), composes with Shuster's product (eq. 5)
+#     p (x)_S q = [p_s q_v + q_s p_v - p_v x q_v ; p_s q_s - p_v . q_v]
+# and maps a quaternion to the passive DCM (eq. 6) T(q) = (q_s^2 - q_v.q_v) I + 2 q_v q_v^T - 2 q_s [q_v x],
+# v^b = T(q_a^b) v^a. The ONE mapping onto sarnav's scalar-first Hamilton convention is
+#     shuster_to_hamilton([q_v; q_s]) = [q_s; -q_v]
+# It keeps the DCM, shuster_dcm(q) == quat_to_dcm(shuster_to_hamilton(q)), so the Hamilton quaternion "rotates a-frame
+# vectors into b" exactly as q_b^n does for body -> nav, and it is a homomorphism:
+#     shuster_to_hamilton(p (x)_S q) = shuster_to_hamilton(p) (x)_H shuster_to_hamilton(q),
+# hence T(p (x)_S q) = T(p) T(q) in both conventions (claim T2). The paper's error quaternion (eq. 41)
+# dq = [dmu/|dmu| sin(|dmu|/2); cos(|dmu|/2)] maps to rotvec_to_quat(-dmu), and T(dq) = I - [dmu x] + O(dmu^2)
+# (eq. 29): the same small-angle convention as attitude_error / apply_attitude_error above.
+
+
+def shuster_to_hamilton(q):
+    """[q_v; q_s] (Shuster, scalar last) -> [q_s; -q_v] (Hamilton, scalar first); same DCM. Shape (..., 4)."""
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([q[..., 3:], -q[..., :3]], axis=-1)
+
+
+def hamilton_to_shuster(q):
+    """Inverse of :func:`shuster_to_hamilton`: [w; x] -> [-x; w]."""
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([-q[..., 1:], q[..., :1]], axis=-1)
+
+
+def shuster_product(p, q):
+    """Shuster's (passive) product p (x)_S q of scalar-last quaternions (paper eq. 5)."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    pv, ps = p[..., :3], p[..., 3:]
+    qv, qs = q[..., :3], q[..., 3:]
+    vec = ps * qv + qs * pv - np.cross(pv, qv)
+    scal = ps * qs - np.sum(pv * qv, axis=-1, keepdims=True)
+    return np.concatenate([vec, scal], axis=-1)
+
+
+def shuster_dcm(q):
+    """Passive DCM of a scalar-last quaternion (paper eq. 6): (q_s^2 - q_v.q_v) I + 2 q_v q_v^T - 2 q_s [q_v x]."""
+    q = np.asarray(q, dtype=float)
+    qv, qs = q[..., :3], q[..., 3]
+    a = (qs * qs - np.sum(qv * qv, axis=-1))[..., None, None]
+    return a * np.eye(3) + 2.0 * qv[..., :, None] * qv[..., None, :] - 2.0 * qs[..., None, None] * skew(qv)
+
+
+def shuster_error_quaternion(dmu):
+    """Paper eq. 41: [dmu/|dmu| sin(|dmu|/2); cos(|dmu|/2)] (scalar last); the limit [dmu/2; 1] at dmu = 0."""
+    return hamilton_to_shuster(rotvec_to_quat(-np.asarray(dmu, dtype=float)))

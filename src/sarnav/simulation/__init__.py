@@ -2,4 +2,6 @@
 
 - ``flight``: the error-state flight spine (truth, truth IMU, INS and covariance with the filter's IMU model,
   feedback, the error / sigma / NEES record) shared by ``telemetry`` and ``rda-nav``
+- ``spacecraft``: the batched open-loop Monte Carlo of the spacecraft SAR terrain-relative navigation (Pogorelsky et
+  al. §VI.B): RK4 truth, the filter's orbital mechanization, MEKF updates from geolocated centre pixels
 """

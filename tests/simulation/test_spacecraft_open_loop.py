@@ -1,0 +1,74 @@
+"""Open-loop spacecraft campaign (simulation.spacecraft): short runs only (the 100-run campaigns are in
+tests/simulation/test_spacecraft_campaign.py, marked slow)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from sarnav.errors import ConfigError
+from sarnav.simulation.spacecraft import OpenLoopParams, orbit_frame_dcm, radial_intrack_crosstrack, run_open_loop
+
+
+def _seeds(n, seed=9):
+    return np.random.SeedSequence(seed).spawn(n)
+
+
+@pytest.fixture(scope="module")
+def short():
+    p = OpenLoopParams.tc1(duration=50.0, truth_misalignment_psd=3.4e-13)
+    return p, run_open_loop(p, _seeds(4))
+
+
+def test_update_count_g11():
+    assert OpenLoopParams.tc2().update_steps().size == 73  # t = 8.2 k <= 600 s
+    assert OpenLoopParams.tc2().update_steps()[-1] * 0.01 == pytest.approx(598.6)
+    assert OpenLoopParams.tc2(n_updates=72).update_steps().size == 72  # the paper's count
+
+
+def test_shapes_and_records(short):
+    p, res = short
+    U = 6  # 8.2 .. 49.2 s
+    assert res.update_time.shape == (U,) and res.residual.shape == (4, U, 4) and res.nis.shape == (4, U)
+    assert res.error.shape == res.sigma.shape == (4, res.time.size, 9)
+    assert np.all(np.diff(res.time) > 0) and res.time[0] == 0 and res.time[-1] == pytest.approx(50.0)
+    assert set(np.round(res.update_time, 6)) <= set(np.round(res.time, 6))
+    assert np.allclose(res.sigma[:, 0], p.sigma0)  # t = 0: the initial P
+    assert np.all(res.beta == 0.2)  # TC-1: underweighted (first 10 updates)
+    # the updates shrink the position sigma from 1000 m
+    assert np.all(res.sigma[:, -1, :3] < 1000.0) and np.all(np.isfinite(res.nees))
+
+
+def test_runs_do_not_depend_on_batching(short):
+    p, res = short
+    alone = run_open_loop(p, _seeds(4)[2:3])
+    for name in ("error", "sigma", "nees", "residual", "nis", "residual_sigma"):
+        assert np.array_equal(getattr(alone, name)[0], getattr(res, name)[2]), name
+
+
+def test_radial_intrack_crosstrack_helper(short):
+    _, res = short
+    err, sig = radial_intrack_crosstrack(res)
+    C = orbit_frame_dcm(res.truth_r, res.truth_v)
+    assert np.allclose(C @ np.swapaxes(C, -1, -2), np.eye(3), atol=1e-12)
+    assert np.allclose(C[:, 0], res.truth_r / np.linalg.norm(res.truth_r, axis=1, keepdims=True))
+    assert np.allclose(np.linalg.norm(err[..., :3], axis=-1), np.linalg.norm(res.error[..., :3], axis=-1))
+    k = 7
+    cov = C[k] @ res.cov_blocks[1, k, 0] @ C[k].T
+    assert np.allclose(sig[1, k, :3], np.sqrt(np.diag(cov)))
+    # the weak direction is in-track after a few updates (sigma_mu x slant range)
+    assert np.all(sig[:, -1, 1] > sig[:, -1, 0]) and np.all(sig[:, -1, 1] > sig[:, -1, 2])
+
+
+@pytest.mark.parametrize("changes,field", [({"sigma_r0": 0.0}, "initial.sigma_r0"),
+                                           ({"update_interval": 8.205}, "simulation.update_interval"),
+                                           ({"look_angle": math.radians(95)}, "antenna.look_angle"),
+                                           ({"truth_misalignment_psd": -1.0}, "truth.misalignment_psd")])
+def test_bad_parameters(changes, field):
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        OpenLoopParams.tc2(**changes)
+
+
+def test_look_angle_beyond_the_limb_is_a_one_line_error():
+    with pytest.raises(ConfigError, match="antenna.look_angle"):
+        run_open_loop(OpenLoopParams.tc2(duration=10.0, look_angle=math.radians(75.0)), _seeds(1))
