@@ -17,7 +17,7 @@ def study(tmp_path_factory):
     out = tmp_path_factory.mktemp("bpa")
     path = bpa.run_sensitivity(bpa.default_config(), out)
     with open(path) as fh:
-        rows = {r["name"]: {k: (v if k in ("name", "unit") else float(v)) for k, v in r.items()}
+        rows = {r["name"]: {k: (v if k in ("name", "unit") else float(v) if v else math.nan) for k, v in r.items()}
                 for r in csv.DictReader(fh)}
     return rows, out
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from sarnav import rotations
 from sarnav.analysis import sensitivity as sens
-from sarnav.errors import InputDataError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.range_compression import range_compress
@@ -192,8 +192,13 @@ def run_case(name: str, value: float, geo: Geometry, rc, ref_peak_amp: float, ir
     half = np.abs(geo.target - q_pred)[:2] / 2 + image.margin
     img = _image_around(rc, p_hat, centre, half[0], half[1], image.spacing, image.interpolation)
     pk, p_img, amp = _peak(img)
-    eta_img, r_img, _ = closest_approach(p_img, geo.times, p_hat)
-    eta_ref, r_ref, _ = closest_approach(geo.target, geo.times, p_hat)
+    try:
+        eta_img, r_img, _ = closest_approach(p_img, geo.times, p_hat)
+        eta_ref, r_ref, _ = closest_approach(geo.target, geo.times, p_hat)
+    except InputDataError:
+        raise ConfigError(f"errors.{name}", f"{value:g} {THESIS_SIM_ERRORS[name][3]} moves the target's closest approach "
+                          f"to the estimated track outside the {geo.aperture:g}-s aperture: the shift is not measurable "
+                          "(smaller error or longer trajectory.duration)") from None
     speed_hat = float(np.linalg.norm(_interp3(eta_ref, geo.times, v_hat)))
     return CaseResult(
         name=name, value=value, unit=THESIS_SIM_ERRORS[name][3],

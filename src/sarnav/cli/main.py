@@ -109,6 +109,9 @@ def _main(argv) -> int:
 
 def entry() -> None:
     """The console script: :func:`main`, then exit; after a signal, exit at once (``os._exit``)."""
+    # leaving with os._exit after an interruption skips the pool's clean-up; the resource tracker (a helper process
+    # started later, which takes its warning options from here) would then report the pool's semaphores as leaked
+    sys.warnoptions.append("ignore::UserWarning:multiprocessing.resource_tracker")
     code = main()
     if _INTERRUPTED:
         for stream in (sys.stdout, sys.stderr):

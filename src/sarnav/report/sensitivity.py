@@ -16,14 +16,21 @@ from sarnav.report.figures import save_png
 __all__ = ["write_csv", "plot_grid"]
 
 
+def _cell(v) -> str:
+    if isinstance(v, str):
+        return v
+    return f"{v:.6g}" if np.isfinite(v) else ""  # undefined (e.g. no IRW of a response without nulls): empty
+
+
 def write_csv(results, path, fields=CSV_FIELDS) -> Path:
-    """One row per case, the attributes named in ``fields`` (numbers with 6 significant digits)."""
+    """One row per case, the attributes named in ``fields`` (numbers with 6 significant digits; an undefined value,
+    such as the IRW of a response too blurred to have -3 dB points inside the image, is an empty cell)."""
     path = Path(path)
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(fields)
         for r in results:
-            w.writerow([getattr(r, f) if isinstance(getattr(r, f), str) else f"{getattr(r, f):.6g}" for f in fields])
+            w.writerow([_cell(getattr(r, f)) for f in fields])
     return path
 
 

@@ -52,7 +52,7 @@ from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, make_radar, radar_fields,
+from sarnav.scenarios.vocabulary import (flight_size_check, IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, make_radar, radar_fields,
                                          read_filter_imu, read_imu, read_initial, read_trajectory, whole_number)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.trajectory import StraightLevel
@@ -242,6 +242,7 @@ def parse(cfg: dict) -> RdaNavParams:
         raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {traj.start[2]}")
     whole_number("trajectory.duration", traj.duration, 1.0, "1-s sub-apertures")
     imu, imu_rate = read_imu(cfg)
+    flight_size_check(traj.duration, imu_rate)
     whole_number("imu.rate_hz", imu_rate, 1.0 / COV_STEP, f"{1 / COV_STEP:g}-Hz steps (a multiple of {1 / COV_STEP:g} Hz)")
     filt = read_filter_imu(cfg, imu)
     three = units.three_sigma_to_sigma

@@ -21,16 +21,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from sarnav import units
-from sarnav.errors import ConfigError, require_positive
+from sarnav.errors import ConfigError
 from sarnav.filters import ErrorStateLayout, update
 from sarnav.filters.prediction import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.error_state import ErrorStateKind
+from sarnav.scenarios.fields import bounded_positive
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, TRAJECTORY_TYPES, filter_imu_keys, read_filter_imu,
+from sarnav.scenarios.vocabulary import (flight_size_check, IMU_OVERRIDES, TRAJECTORY_TYPES, filter_imu_keys, read_filter_imu,
                                          read_imu, read_initial, read_trajectory, result_bytes_check)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.trajectory.sampled import min_distance
@@ -91,6 +92,7 @@ def parse(cfg: dict) -> TelemetryParams:
     traj = read_trajectory(cfg, types=TRAJECTORY_TYPES)
     duration = traj.duration
     imu, imu_rate = read_imu(cfg)
+    flight_size_check(traj.duration, imu_rate)
     filt = read_filter_imu(cfg, imu)
 
     meas_rate = _pos(cfg, "measurements", "rate_hz", "Hz")
@@ -114,7 +116,7 @@ def parse(cfg: dict) -> TelemetryParams:
     ini = read_initial(cfg, filt)
     result_bytes_check(cfg.get("campaign", {}).get("runs", 1), duration, COV_STEP_MAX, 18, MAX_RESULT_BYTES)
     scalar3 = dict(zip(_MEAS_BIAS, bias3))  # the measurement biases' initial 3-sigma default to their FOGM figures
-    b3 = {k: require_positive(f"initial.{k}", cfg["initial"].get(k, scalar3[k])) for k in _MEAS_BIAS}
+    b3 = {k: bounded_positive(f"initial.{k}", cfg["initial"].get(k, scalar3[k])) for k in _MEAS_BIAS}
     p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"],
                          three(np.array([b3["bias_alt_3sigma"], b3["bias_range_3sigma"], b3["bias_rate_3sigma"]]))])
     return TelemetryParams(

@@ -29,16 +29,16 @@ import math
 import numpy as np
 
 from sarnav import units
-from sarnav.errors import ConfigError, require_finite, require_positive
+from sarnav.errors import ConfigError, require_finite
 from sarnav.radar import presets
 from sarnav.radar.params import RadarParams
-from sarnav.scenarios.fields import get, positive, table, vector
+from sarnav.scenarios.fields import bounded_positive, get, positive, table, vector
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
 from sarnav.simulation.flight import ImuSpec
 from sarnav.trajectory import Maneuvering, StraightLevel
 
 __all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "read_filter_imu", "read_initial",
-           "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys"]
+           "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys", "flight_size_check", "MAX_IMU_SAMPLES"]
 
 #: optional 3-sigma overrides of an IMU grade, in source units (``sensors.imu.ImuGrade.from_three_sigma``)
 IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
@@ -89,7 +89,7 @@ def _grade(t: dict, prefix: str, inherit: dict | None = None) -> ImuGrade:
     for k, v in zip(IMU_OVERRIDES, vals3):
         if v is None:
             raise ConfigError(f"{prefix}.{k}", f"required when {prefix}.grade = 'custom'")
-        require_positive(f"{prefix}.{k}", v)
+        bounded_positive(f"{prefix}.{k}", v, hi=1e4)
     return ImuGrade.from_three_sigma(name, *vals3)
 
 
@@ -130,7 +130,7 @@ def read_filter_imu(cfg: dict, truth: ImuSpec) -> ImuSpec:
     inherit = {} if "grade" in fi else {k: imu[k] for k in IMU_OVERRIDES if k in imu}
     merged.update({k: fi[k] for k in IMU_OVERRIDES if k in fi})
     grade = _grade(merged, "filter.imu", inherit)
-    taus = [require_positive(f"filter.imu.{k}", fi[k], "s") if k in fi else getattr(truth, k)
+    taus = [bounded_positive(f"filter.imu.{k}", fi[k], "s") if k in fi else getattr(truth, k)
             for k in ("tau_accel", "tau_gyro")]
     return ImuSpec(grade, *taus)
 
@@ -152,12 +152,13 @@ def read_initial(cfg: dict, filter_imu: ImuSpec) -> dict:
                           f"state is a small angle, thesis eq. 4.9), got {th3.tolist()}")
     g = filter_imu.grade
     if "accel_bias_3sigma" in ini:
-        ba = float(three(units.g_to_m_per_s2(require_positive("initial.accel_bias_3sigma", ini["accel_bias_3sigma"]))))
+        ba = float(three(units.g_to_m_per_s2(bounded_positive("initial.accel_bias_3sigma", ini["accel_bias_3sigma"],
+                                                               hi=1e4))))
     else:
         ba = g.accel_bias
     if "gyro_bias_3sigma" in ini:
-        bg = float(three(units.deg_per_hr_to_rad_per_s(require_positive("initial.gyro_bias_3sigma",
-                                                                         ini["gyro_bias_3sigma"]))))
+        bg = float(three(units.deg_per_hr_to_rad_per_s(bounded_positive("initial.gyro_bias_3sigma",
+                                                                         ini["gyro_bias_3sigma"], hi=1e6))))
     else:
         bg = g.gyro_bias
     return {"p": three(p3), "v": three(v3), "th": three(th3), "ba": np.full(3, ba), "bg": np.full(3, bg)}
@@ -230,6 +231,21 @@ def doppler_prf_check(params: RadarParams, speed: float) -> None:
         params.validate(speed=speed)
     except ConfigError as err:
         raise ConfigError("radar.prf_hz" if err.field == "radar.prf" else err.field, err.message) from None
+
+
+#: the longest flight a campaign integrates: IMU samples per run (the INS steps through them one at a time, batched
+#: over runs: about 10 us each, so 2e6 samples cost ~20 s per batch) — 100 Hz for 5.5 hours
+MAX_IMU_SAMPLES = 2_000_000
+
+
+def flight_size_check(duration: float, imu_rate: float) -> int:
+    """IMU samples of the flight (duration x rate); refused beyond :data:`MAX_IMU_SAMPLES` before anything is
+    allocated."""
+    n = duration * imu_rate
+    if not n <= MAX_IMU_SAMPLES:
+        raise ConfigError("trajectory.duration", f"{duration:g} s at imu.rate_hz = {imu_rate:g} Hz is {n:.3g} IMU "
+                          f"samples per run; at most {MAX_IMU_SAMPLES:.0e}: shorten the flight or lower the rate")
+    return int(n)
 
 
 def whole_number(field: str, value: float, step: float, what: str) -> int:
