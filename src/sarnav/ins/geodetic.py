@@ -14,9 +14,10 @@ body rate ``w_ib^b`` and specific force ``f^b`` held (or averaged) over the step
 7. ``lambda(k) = lambda(k-1) + dt/2 [v_E(k-1)/((R_E(L(k-1)) + h(k-1)) cos L(k-1))
    + v_E(k)/((R_E(L(k)) + h(k)) cos L(k))]`` (eqs. 2.56-2.59).
 
-Steps 4-7 (the translational part, what a particle carries) are one numba kernel,
-:func:`translational_step_inplace`, used by the particle filters for every particle; the numpy front end
-:func:`translational_step` works on any leading shape. The flat, non-rotating mechanization of
+Steps 4-7 (the translational part, what a particle carries) are one numba function,
+:func:`translational_step_inplace`, used by the particle filters for every particle; steps 1-7 are
+:func:`strapdown_step_inplace`. The numpy front ends :func:`translational_step`, :func:`attitude_step` and
+:func:`mechanize_geodetic` work on any number of runs. The flat, non-rotating mechanization of
 ``sarnav.ins.strapdown`` is untouched; this module is the Earth-rate / Coriolis variant the flat-Earth switch
 (``sarnav.frames.EARTH_ROTATION``) was waiting for.
 """
@@ -106,6 +107,91 @@ def translational_step(x, f_n, dt: float, earth_rate: bool = True) -> np.ndarray
     return flat.reshape(x.shape)
 
 
+@numba.njit(cache=True)
+def navigation_rate_inplace(x, omega_e, out):
+    """omega_in^n of state ``x`` (6,) into ``out`` (3,) (eqs. 2.48 + Earth rate)."""
+    lat, h, vn, ve = x[0], x[2], x[3], x[4]
+    sl, cl = math.sin(lat), math.cos(lat)
+    w = 1.0 - WGS84_E2 * sl * sl
+    rn = WGS84_A * (1.0 - WGS84_E2) / (w * math.sqrt(w))
+    re = WGS84_A / math.sqrt(w)
+    out[0] = omega_e * cl + ve / (re + h)
+    out[1] = -vn / (rn + h)
+    out[2] = -omega_e * sl - ve * (sl / cl) / (re + h)
+
+
+@numba.njit(cache=True, inline="always")
+def _rotvec_quat(ax, ay, az, out):
+    ang = math.sqrt(ax * ax + ay * ay + az * az)
+    k = math.sin(0.5 * ang) / ang if ang > 1e-8 else 0.5 - ang * ang / 48.0
+    out[0], out[1], out[2], out[3] = math.cos(0.5 * ang), k * ax, k * ay, k * az
+
+
+@numba.njit(cache=True, inline="always")
+def _qmul(a, b, out):
+    out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]
+    out[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2]
+    out[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1]
+    out[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]
+
+
+@numba.njit(cache=True)
+def attitude_step_inplace(q, w_b, w_n, dt):
+    """Step 2 in place: q <- rotvec(-w_n dt) (x) q (x) rotvec(w_b dt), normalised; q (4,), w_b, w_n (3,)."""
+    db = np.empty(4)
+    dn = np.empty(4)
+    t1 = np.empty(4)
+    t2 = np.empty(4)
+    _rotvec_quat(w_b[0] * dt, w_b[1] * dt, w_b[2] * dt, db)
+    _rotvec_quat(-w_n[0] * dt, -w_n[1] * dt, -w_n[2] * dt, dn)
+    _qmul(q, db, t1)
+    _qmul(dn, t1, t2)
+    nrm = math.sqrt(t2[0] ** 2 + t2[1] ** 2 + t2[2] ** 2 + t2[3] ** 2)
+    for i in range(4):
+        q[i] = t2[i] / nrm
+
+
+@numba.njit(cache=True)
+def rotate_to_nav(q, f, out):
+    """out += C_b^n(q) f (accumulates, so the caller can average two attitudes)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    out[0] += (w * w + x * x - y * y - z * z) * f[0] + 2 * (x * y - w * z) * f[1] + 2 * (x * z + w * y) * f[2]
+    out[1] += 2 * (x * y + w * z) * f[0] + (w * w - x * x + y * y - z * z) * f[1] + 2 * (y * z - w * x) * f[2]
+    out[2] += 2 * (x * z - w * y) * f[0] + 2 * (y * z + w * x) * f[1] + (w * w - x * x - y * y + z * z) * f[2]
+
+
+@numba.njit(cache=True)
+def strapdown_step_inplace(x, q, f_b, w_b, dt, omega_e, f_n):
+    """Steps 1-7 for one state: x (6,), q (4,) updated in place; the NED specific force used is left in f_n."""
+    w_n = np.empty(3)
+    navigation_rate_inplace(x, omega_e, w_n)
+    f_n[:] = 0.0
+    rotate_to_nav(q, f_b, f_n)
+    attitude_step_inplace(q, w_b, w_n, dt)
+    rotate_to_nav(q, f_b, f_n)
+    f_n *= 0.5
+    translational_step_inplace(x, f_n[0], f_n[1], f_n[2], dt, omega_e)
+
+
+@numba.njit(cache=True)
+def _mechanize_kernel(x0, q0, times, f_b, w_b, linear, omega_e, out_x, out_q):
+    fb = np.empty(3)
+    wb = np.empty(3)
+    fn = np.empty(3)
+    for r in range(x0.shape[0]):
+        x = x0[r].copy()
+        q = q0[r].copy()
+        out_x[r, 0] = x
+        out_q[r, 0] = q
+        for k in range(times.size - 1):
+            for i in range(3):
+                fb[i] = 0.5 * (f_b[r, k, i] + f_b[r, k + 1, i]) if linear else f_b[r, k, i]
+                wb[i] = 0.5 * (w_b[r, k, i] + w_b[r, k + 1, i]) if linear else w_b[r, k, i]
+            strapdown_step_inplace(x, q, fb, wb, times[k + 1] - times[k], omega_e, fn)
+            out_x[r, k + 1] = x
+            out_q[r, k + 1] = q
+
+
 def navigation_rate(lat, h, v, earth_rate: bool = True) -> np.ndarray:
     """omega_in^n = omega_ie^n + omega_en^n (..., 3) [rad/s]."""
     w = transport_rate_ned(lat, h, v)
@@ -154,19 +240,9 @@ def mechanize_geodetic(nav: GeodeticNavState, times, f_b, w_ib_b, hold: str = "l
     runs, m = nav.lat.shape[0], times.size
     f_b = _check_imu("imu.specific_force", f_b, runs, m)
     w_ib_b = _check_imu("imu.angular_rate", w_ib_b, runs, m)
-    x = nav.translational()
-    q = np.array(nav.q, dtype=float)
     out_x = np.empty((runs, m, 6))
     out_q = np.empty((runs, m, 4))
-    out_x[:, 0], out_q[:, 0] = x, q
-    for k in range(m - 1):
-        dt = times[k + 1] - times[k]
-        wb = 0.5 * (w_ib_b[:, k] + w_ib_b[:, k + 1]) if hold == "linear" else w_ib_b[:, k]
-        fb = 0.5 * (f_b[:, k] + f_b[:, k + 1]) if hold == "linear" else f_b[:, k]
-        w_in = navigation_rate(x[:, 0], x[:, 2], x[:, 3:], earth_rate)
-        q_new = attitude_step(q, wb, w_in, dt)
-        f_n = 0.5 * np.einsum("...ij,...j->...i", quat_to_dcm(q) + quat_to_dcm(q_new), fb)
-        x = translational_step(x, f_n, dt, earth_rate)
-        q = q_new
-        out_x[:, k + 1], out_q[:, k + 1] = x, q
+    _mechanize_kernel(np.ascontiguousarray(nav.translational()), np.array(nav.q, dtype=float), times,
+                      np.ascontiguousarray(f_b), np.ascontiguousarray(w_ib_b), hold == "linear",
+                      OMEGA_EARTH if earth_rate else 0.0, out_x, out_q)
     return {"lat": out_x[..., 0], "lon": out_x[..., 1], "h": out_x[..., 2], "v": out_x[..., 3:], "q": out_q}
