@@ -13,6 +13,7 @@ from sarnav.filters.particles import (
     ParticleCloud,
     check_particle_count,
     effective_sample_size,
+    kernel_shrinkage,
     gaussian_log_likelihood,
     normalize_log_weights,
     resample,
@@ -210,3 +211,18 @@ def test_resample_threshold_draws_only_for_degenerate_runs():
     assert rngs[0].bit_generator.state == state0
     np.testing.assert_array_equal(out.particles[0], cloud.particles[0])
     np.testing.assert_allclose(np.exp(out.log_weights[1]), 0.25)
+
+
+def test_kernel_shrinkage_keeps_mean_and_covariance_and_restores_diversity():
+    rng = np.random.default_rng(2)
+    base = rng.multivariate_normal([1.0, -2.0, 0.5], [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 0.5]], 50)
+    parts = np.repeat(base[None], 400, axis=0)[:, rng.integers(0, 50, 1000)]  # 400 impoverished clouds
+    out = kernel_shrinkage(parts, _rngs(400, 4), h=0.3)
+    assert np.all(unique_count(out) == 1000)
+    m_in, m_out = parts.mean(1), out.mean(1)
+    c_in = np.einsum("rni,rnj->rij", parts - m_in[:, None], parts - m_in[:, None]) / 1000
+    c_out = np.einsum("rni,rnj->rij", out - m_out[:, None], out - m_out[:, None]) / 1000
+    np.testing.assert_allclose(m_out.mean(0), m_in.mean(0), atol=0.01)
+    np.testing.assert_allclose(c_out.mean(0), c_in.mean(0), atol=0.01)
+    with pytest.raises(ConfigError, match="particles.kernel_h"):
+        kernel_shrinkage(parts[:1], _rngs(1), h=1.0)

@@ -31,7 +31,6 @@ from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
-from scipy.special import logsumexp
 
 from sarnav.errors import ConfigError, InputDataError
 
@@ -100,10 +99,14 @@ class ParticleCloud:
 
 
 def normalize_log_weights(log_w):
-    """(log_w - logsumexp(log_w), logsumexp(log_w)) along the particle axis; -inf rows give NaN-free -inf sums."""
+    """(log_w - logsumexp(log_w), logsumexp(log_w)) along the particle axis (max-shifted, so no underflow);
+    all -inf rows give -inf sums and -inf weights, never NaN."""
     log_w = np.asarray(log_w, dtype=float)
-    with np.errstate(invalid="ignore"):
-        lse = logsumexp(log_w, axis=-1)
+    m = np.max(log_w, axis=-1)
+    mf = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):
+        lse = mf + np.log(np.sum(np.exp(log_w - mf[..., None]), axis=-1))
+    lse = np.where(np.isneginf(m), -np.inf, lse)
     finite = np.isfinite(lse)
     out = np.where(finite[..., None], log_w - np.where(finite, lse, 0.0)[..., None], -np.inf)
     return out, lse
@@ -154,10 +157,15 @@ def gaussian_log_likelihood(predicted, z, cov):
     z = np.asarray(z, dtype=float)
     runs, _, m = predicted.shape
     cov = np.broadcast_to(np.asarray(cov, dtype=float), (runs, m, m))
-    L = np.linalg.cholesky(cov)
     r = z[:, None, :] - predicted
-    u = np.einsum("rij,rnj->rni", np.linalg.inv(L), r)
-    logdet = 2.0 * np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
+    var = np.diagonal(cov, axis1=-2, axis2=-1)
+    if np.all(cov == var[..., None] * np.eye(m)):  # diagonal: no factorisation
+        u = r / np.sqrt(var)[:, None, :]
+        logdet = np.sum(np.log(var), axis=-1)
+    else:
+        L = np.linalg.cholesky(cov)
+        u = np.einsum("rij,rnj->rni", np.linalg.inv(L), r)
+        logdet = 2.0 * np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
     return -0.5 * (np.sum(u * u, axis=-1) + logdet[:, None] + m * np.log(2.0 * np.pi))
 
 
@@ -282,6 +290,30 @@ def roughen(particles, rngs, k: float = 0.2, mask=None) -> np.ndarray:
         sig = k * ext * n ** (-1.0 / d)
         z = np.stack([rngs[r].standard_normal((n, d)) for r in rows])
         out[rows] += sig[:, None, :] * z
+    return out
+
+
+def kernel_shrinkage(particles, rngs, h: float = 0.2, mask=None) -> np.ndarray:
+    """Liu & West (2001) kernel smoothing with shrinkage, for equally weighted (resampled) clouds:
+    ``x <- a x + (1 - a) m + h L z`` with ``a = sqrt(1 - h^2)``, m and L L^T the cloud's mean and covariance,
+    z ~ N(0, I). Restores diversity while keeping the cloud's mean and covariance (in expectation), unlike
+    roughening, which inflates the covariance at every resampling. ``mask`` (R,) selects the runs."""
+    if not 0.0 < h < 1.0:
+        raise ConfigError("particles.kernel_h", f"must be in (0, 1), got {h!r}")
+    particles = np.asarray(particles, dtype=float)
+    runs, n, d = particles.shape
+    out = particles.copy()
+    rows = np.arange(runs) if mask is None else np.flatnonzero(mask)
+    if rows.size:
+        x = particles[rows]
+        m = x.mean(axis=1, keepdims=True)
+        dx = x - m
+        cov = np.einsum("rni,rnj->rij", dx, dx) / n
+        L = np.linalg.cholesky(cov + 1e-12 * np.trace(cov, axis1=1, axis2=2)[:, None, None] * np.eye(d) / d
+                               + 1e-300 * np.eye(d))
+        z = np.stack([rngs[r].standard_normal((n, d)) for r in rows])
+        a = np.sqrt(1.0 - h * h)
+        out[rows] = m + a * dx + h * np.einsum("rij,rnj->rni", L, z)
     return out
 
 

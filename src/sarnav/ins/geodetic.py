@@ -59,7 +59,8 @@ class GeodeticNavState:
 
 
 @numba.njit(cache=True, inline="always")
-def _gravity(lat, h):
+def gravity_scalar(lat, h):
+    """Normal gravity (numba scalar twin of ``sarnav.frames.wgs84.normal_gravity``)."""
     s2 = math.sin(lat) ** 2
     g0 = GAMMA_EQUATOR * (1.0 + SOMIGLIANA_K * s2) / math.sqrt(1.0 - WGS84_E2 * s2)
     return g0 * (1.0 - 2.0 / WGS84_A * (1.0 + WGS84_F + GRAVITY_M - 2.0 * WGS84_F * s2) * h
@@ -79,7 +80,7 @@ def translational_step_inplace(x, fN, fE, fD, dt, omega_e):
     ox = 2.0 * omega_e * cl + ve / (re + h)
     oy = -vn / (rn + h)
     oz = -2.0 * omega_e * sl - ve * (sl / cl) / (re + h)
-    g = _gravity(lat, h)
+    g = gravity_scalar(lat, h)
     vn1 = vn + (fN - (oy * vd - oz * ve)) * dt
     ve1 = ve + (fE - (oz * vn - ox * vd)) * dt
     vd1 = vd + (fD + g - (ox * ve - oy * vn)) * dt
