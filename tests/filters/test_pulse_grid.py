@@ -213,7 +213,8 @@ def test_pf_far_fix_raises_or_is_rejected_without_nan():
     off = FixStream(fixes.times, fixes.position + np.array([1e5, 0.0, 0.0]), SIG)
     pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01), traj, fixes, 2, rngs=_rngs(2, 1))
     out = pf.run(imu, 2.0, off)
-    assert np.all(np.isfinite(out.position)) and np.abs(out.position - traj.state(out.times).position).max() < 5.0
+    assert np.all(np.isfinite(out.fix_position))
+    assert np.abs(out.fix_position - traj.state(out.fix_times).position).max() < 5.0
     far = FixStream(fixes.times, fixes.position + np.array([1e200, 0.0, 0.0]), SIG)
     pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01), traj, fixes, 2, rngs=_rngs(2, 1))
     with pytest.raises(InputDataError, match="zero likelihood"):

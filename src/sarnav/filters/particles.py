@@ -166,7 +166,8 @@ def gaussian_log_likelihood(predicted, z, cov):
         L = np.linalg.cholesky(cov)
         u = np.einsum("rij,rnj->rni", np.linalg.inv(L), r)
         logdet = 2.0 * np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
-    return -0.5 * (np.sum(u * u, axis=-1) + logdet[:, None] + m * np.log(2.0 * np.pi))
+    with np.errstate(over="ignore"):  # a residual beyond ~1e154 sigma: log-likelihood -inf, as it should
+        return -0.5 * (np.sum(u * u, axis=-1) + logdet[:, None] + m * np.log(2.0 * np.pi))
 
 
 def effective_sample_size(log_weights) -> np.ndarray:
