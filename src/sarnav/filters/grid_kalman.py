@@ -97,7 +97,7 @@ def world_parameters(frame: NavFrame, earth_rate: bool = True) -> np.ndarray:
                      OMEGA_EARTH if (frame.geodetic and earth_rate) else 0.0, frame.gravity])
 
 
-def _check_positive3(field, value):
+def check_three_nonnegative(field, value):
     v = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
     if not np.all(np.isfinite(v)) or np.any(v < 0):
         raise ConfigError(field, f"must be 3 finite values >= 0, got {value!r}")
@@ -118,7 +118,7 @@ class GridKalmanFilter(GridFilter):
         if mode not in ("kalman", "reset"):
             raise ConfigError("kf.mode", f"must be 'kalman' or 'reset', got {mode!r}")
         self.frame, self.mode = frame, mode
-        self.accel_psd = _check_positive3("kf.accel_psd", accel_psd)
+        self.accel_psd = check_three_nonnegative("kf.accel_psd", accel_psd)
         self._world = world_parameters(frame)
 
     def initialize(self, t0, position, velocity, quaternion, cov=None):

@@ -5,7 +5,8 @@ as in the KF, gap G9). Two motion models (gap G9: L757 says (3.10), L696 and L11
 
 * ``"linear"``: eq. 3.10 in local metres, ``p += v dt + a dt^2/2, v += a dt`` with ``a = f^n + g^n``;
 * ``"geodetic"``: the strapdown translational step of ``sarnav.ins.geodetic`` (eqs. 2.52-2.59 with Earth
-  rate, transport rate, Coriolis and WGS-84 gravity per particle), particles ``[lat, lon, h, vN, vE, vD]``.
+  rate, transport rate, Coriolis and WGS-84 gravity; ``translational_step_cloud`` evaluates the latitude
+  functions once per step at the cloud mean), particles ``[lat, lon, h, vN, vE, vD]``.
 
 Between epochs the particles move deterministically with the held IMU sample (zero-order hold, L750); white
 acceleration noise of PSD ``accel_psd`` is added at every IMU epoch ("each time the particle filter is
@@ -24,7 +25,7 @@ import numba
 import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.filters.grid_kalman import _check_positive3, linear_acceleration, world_parameters
+from sarnav.filters.grid_kalman import check_three_nonnegative, linear_acceleration, world_parameters
 from sarnav.filters.particles import (
     RESAMPLING_METHODS,
     ParticleCloud,
@@ -39,7 +40,8 @@ from sarnav.filters.particles import (
 from sarnav.filters.pulse_grid import GridFilter, ImuStream, NavFrame
 from sarnav.frames.earth import WGS84_A, WGS84_E2
 from sarnav.frames.wgs84 import geodetic_difference_ned, ned_offset_to_geodetic
-from sarnav.ins.geodetic import attitude_step_inplace, navigation_rate_inplace, rotate_to_nav, translational_step_inplace
+from sarnav.rotations import quat_to_dcm
+from sarnav.ins.geodetic import attitude_step_inplace, navigation_rate_inplace, rotate_to_nav, translational_step_cloud
 
 MOTION_MODELS = ("linear", "geodetic")
 
@@ -75,8 +77,8 @@ def _particle_block(parts, w, q, mean, t, held, imu_new, f_b, w_b, noise, chol, 
                 rotate_to_nav(q[r], f_b[r, j], fn)
                 attitude_step_inplace(q[r], w_b[r, j], w_n, dt)
                 rotate_to_nav(q[r], f_b[r, j], fn)
-                for i in range(n):
-                    translational_step_inplace(parts[r, i], 0.5 * fn[0], 0.5 * fn[1], 0.5 * fn[2], dt, omega_e)
+                translational_step_cloud(parts[r], 0.5 * fn[0], 0.5 * fn[1], 0.5 * fn[2], dt, omega_e, mean[r, 0],
+                                         mean[r, 2])
             else:
                 linear_acceleration(mean[r], q[r], f_b[r, j], w_b[r, j], dt, world, a)
                 for i in range(n):
@@ -123,6 +125,8 @@ class GridParticleFilter(GridFilter):
     roughening : Gordon's K for the resampled clouds (0 = none).
     kernel_h : Liu-West kernel shrinkage bandwidth for the resampled clouds (0 = none): diversity without
         inflating the cloud's covariance (``sarnav.filters.particles.kernel_shrinkage``).
+    fix_lever_arm : body-frame vector [m] from the IMU (the point the particles track) to the point the fix
+        measures (gap G12: zero in the source; multi-IMU rigs need it).
     on_collapse : what to do when every particle misses the fix (``sarnav.filters.particles.sir_update``).
     noise_at : ``"imu"`` adds the process noise at every IMU epoch (L757); ``"fix"`` adds the same exact
         white-acceleration noise once per fix interval, just before the update (the same law at the fix
@@ -131,7 +135,7 @@ class GridParticleFilter(GridFilter):
 
     def __init__(self, frame: NavFrame, n_particles: int, accel_psd=1e-2, model: str = "linear",
                  resampling: str = "multinomial", ess_threshold: float = 1.0, roughening: float = 0.0,
-                 on_collapse: str = "raise", noise_at: str = "imu", kernel_h: float = 0.0):
+                 on_collapse: str = "raise", noise_at: str = "imu", kernel_h: float = 0.0, fix_lever_arm=(0, 0, 0)):
         if model not in MOTION_MODELS:
             raise ConfigError("pf.model", f"must be one of {list(MOTION_MODELS)}, got {model!r}")
         if model == "geodetic" and not frame.geodetic:
@@ -148,9 +152,12 @@ class GridParticleFilter(GridFilter):
             raise ConfigError("pf.noise_at", f"must be 'imu' or 'fix', got {noise_at!r}")
         self.frame, self.model, self.noise_at = frame, model, noise_at
         self.n = check_particle_count(n_particles, "pf.n_particles")
-        self.accel_psd = _check_positive3("pf.accel_psd", accel_psd)
+        self.accel_psd = check_three_nonnegative("pf.accel_psd", accel_psd)
         self.resampling, self.ess_threshold, self.roughening = resampling, float(ess_threshold), float(roughening)
         self.kernel_h = float(kernel_h)
+        self.fix_lever_arm = np.asarray(fix_lever_arm, dtype=float)
+        if self.fix_lever_arm.shape != (3,) or not np.all(np.isfinite(self.fix_lever_arm)):
+            raise ConfigError("pf.fix_lever_arm", f"must be 3 finite body-frame metres, got {fix_lever_arm!r}")
         self.on_collapse = on_collapse
         self._world = world_parameters(frame)
         self.collapsed = None
@@ -212,6 +219,8 @@ class GridParticleFilter(GridFilter):
 
     def _update(self, z, sigma):
         off = self._offsets_from(np.asarray(z, dtype=float))
+        if np.any(self.fix_lever_arm):  # the fix is taken at particle + C_b^n r (lever arm IMU -> antenna)
+            off = off + np.einsum("rij,j->ri", quat_to_dcm(self.q), self.fix_lever_arm)[:, None, :]
         ll = gaussian_log_likelihood(off, np.zeros((off.shape[0], 3)), np.diag(np.asarray(sigma, dtype=float) ** 2))
         self.logw, _, collapsed = sir_update(self.logw, ll, self.on_collapse)
         self.collapsed |= collapsed
