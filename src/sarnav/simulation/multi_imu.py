@@ -85,19 +85,23 @@ class FusionResult:
 
 def single_step_sir(n_sensors: int, sigma: float = 1.0, fix_sigma: float = 1.0, trials: int = 2000,
                     n_draws: int = 50, seed=0, fix_bias: float = 0.0):
-    """One time step, 1-D: sensors x_s = x + N(0, sigma^2), fix g = x + fix_bias + N(0, fix_sigma^2), SIR with
-    ``n_draws`` draws. Returns dict of the SIR and mean estimates' errors (trials,) and their variances / MSEs."""
-    seqs = _seeds(seed, trials)
-    rng = _rngs(seqs, 0)
-    draws = np.stack([g.standard_normal(n_sensors + 1) for g in rng])
-    x_s = sigma * draws[:, :n_sensors]
-    g = fix_bias + fix_sigma * draws[:, n_sensors]
+    """One time step, 1-D (Figs. 5.2-5.3): sensors x_s = x + N(0, sigma^2), fix g = x + fix_bias +
+    N(0, fix_sigma^2), SIR weights N(g; x_s, fix_sigma^2) (eq. 3.24), ``n_draws`` draws, fused = their mean.
+    The trials are the samples of one Monte Carlo study, drawn from one Generator of ``seed`` (vectorised).
+    Returns the SIR and mean errors (trials,) and their variances / MSEs, the CRLB sigma^2/N and the fix MSE."""
+    rng = np.random.default_rng(seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed))
+    x_s = sigma * rng.standard_normal((trials, n_sensors))
+    g = fix_bias + fix_sigma * rng.standard_normal(trials)
     est = np.zeros((trials, n_sensors, 3))
     est[..., 0] = x_s
     fix = np.zeros((trials, 3))
     fix[:, 0] = g
-    lw = sensor_log_weights(est, fix, np.array([fix_sigma, 1.0, 1.0]), per_axis=True)
-    sir = cloud_mean(est, draw_sensors(lw, n_draws, _rngs(seqs, 1)))[:, 0]
+    w = np.exp(sensor_log_weights(est, fix, np.array([fix_sigma, 1.0, 1.0]), per_axis=True)[..., 0])
+    cdf = np.cumsum(w, axis=1)
+    cdf /= cdf[:, -1:]
+    u = rng.random((trials, n_draws))
+    idx = np.minimum((u[..., None] >= cdf[:, None, :]).sum(-1), n_sensors - 1)  # inverse CDF (eq. 5.3 draws)
+    sir = np.take_along_axis(x_s, idx, axis=1).mean(axis=1)
     mean = x_s.mean(axis=1)
     return {"sir": sir, "mean": mean, "var_sir": float(sir.var()), "var_mean": float(mean.var()),
             "mse_sir": float(np.mean(sir**2)), "mse_mean": float(np.mean(mean**2)),
@@ -292,3 +296,224 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
             "accel_psd": {"adis16465": psd("adis16465", 100.0), "novatel": psd("novatel-isa-100c", 200.0)},
             "shared_fix": shared_fix, "per_axis": per_axis, "duration": duration}
     return FusionResult(rmse, errors, t_fix, cloud, info)
+
+
+# --------------------------------------------------------------------------------------------------------
+# the one-hour UPF flight (Figs. 5.25-5.28) and the NovAtel-model comparison of KF and PF (Fig. 5.8)
+
+def survey_flight(duration: float = 3600.0, speed: float = 50.0, climb: float = 3.0) -> Maneuvering:
+    """A flight like the source's Piper Warrior sortie (L1273): climb (``climb`` m/s for the first 1/6), then
+    figure-eights (a right and a left 360 deg turn at 3 deg/s) alternating with racetracks (straight 60 s,
+    180 deg turn, straight 60 s, 180 deg turn), then a descent over the last 1/12. Transitions 4 s."""
+    d = np.radians(3.0)
+    starts, turn = [0.0], [0.0]
+    t = duration / 12.0
+    pattern = [(120.0, d), (120.0, -d), (30.0, 0.0), (60.0, 0.0), (60.0, d), (60.0, 0.0), (60.0, d), (30.0, 0.0)]
+    i = 0
+    while t + pattern[i % len(pattern)][0] < duration - 10.0:
+        length, rate = pattern[i % len(pattern)]
+        starts.append(t)
+        turn.append(rate)
+        t += length
+        i += 1
+    starts.append(t)
+    turn.append(0.0)
+    keep = np.concatenate([[True], np.diff(starts) >= 8.0])
+    starts, turn = list(np.asarray(starts)[keep]), list(np.asarray(turn)[keep])
+    c_starts = [0.0, duration / 6.0, 11.0 * duration / 12.0]
+    return Maneuvering([0.0, 0.0, -ORIGIN[2]], speed, np.radians(200.0), RateProfile(tuple(starts), tuple(turn), 4.0),
+                       RateProfile(tuple(c_starts), (climb, 0.0, -2.0 * climb), 4.0), duration)
+
+
+@dataclass
+class UpfFlightResult:
+    """``rmse`` [m] per source at the output (pulse) epochs after ``settle`` (``upf``, ``kf-interp``) and at
+    the fix epochs (``pf``, ``kf``, ``fix``); ``cloud_var_times`` (K,), ``cloud_var`` (R, K, 3) the UPF cloud's
+    position variance per NED axis after each fix [m^2]; ``settle_time`` [s] (T13); ``info``."""
+
+    rmse: dict
+    cloud_var_times: np.ndarray
+    cloud_var: np.ndarray
+    settle_time: float
+    info: dict
+
+
+def cloud_settle_time(times, variance, tolerance: float = 0.5, window: float = 5.0) -> float:
+    """T13: the time after which the cloud variance (moving average over ``window`` s, per axis) no longer
+    exceeds (1 + ``tolerance``) times its median over the second half of the record (the variance converges
+    from its initial, larger value, Fig. 5.26); the largest over axes and runs."""
+    times = np.asarray(times, dtype=float)
+    var = np.asarray(variance, dtype=float)
+    n = max(1, int(round(window / np.median(np.diff(times)))))
+    kernel = np.ones(n) / n
+    worst = 0.0
+    for r in range(var.shape[0]):
+        for a in range(var.shape[-1]):
+            v = np.convolve(var[r, :, a], kernel, mode="same")
+            ref = np.median(var[r, times >= times[0] + 0.5 * (times[-1] - times[0]), a])
+            bad = np.flatnonzero(v[n:-n] / ref - 1.0 > tolerance)
+            worst = max(worst, float(times[n:-n][bad[-1]]) if bad.size else float(times[n]))
+    return worst
+
+
+def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles: int = 2000,
+                   out_rate: float = 3000.0, imu: str = "novatel-isa-100c", imu_rate: float = 200.0,
+                   accel_psd="spec", fix_sigma=FIX_SIGMA, segment: float = 10.0, settle: float = 75.0,
+                   noise_at: str = "fix", flight: Maneuvering | None = None) -> UpfFlightResult:
+    """The UPF (geodetic model, ``n_particles``) and the interpolated KF (eq. 3.10 model) on the pulse grid at
+    ``out_rate`` over :func:`survey_flight`, 200 Hz IMU + 20 Hz fixes; processed in ``segment``-second pieces
+    so that one hour at 3 kHz fits in memory. Errors accumulate as sums of squares."""
+    seqs = _seeds(seed, runs)
+    flat = flight if flight is not None else survey_flight(duration)
+    duration = flat.duration
+    geo = GeodeticFlight(flat, *ORIGIN)
+    frame = NavFrame(geodetic=True, origin=ORIGIN)
+    model = gnss_ins_sim_imu(imu, imu_rate)
+    q = spec_accel_psd(imu, imu_rate) if accel_psd == "spec" else float(accel_psd)
+    sig = np.asarray(fix_sigma, dtype=float)
+    s0 = geo.state(0.0)
+    r_imu, r_fix, r_pf = _rngs(seqs, 1), _rngs(seqs, 2), _rngs(seqs, 3)
+    ba, bg = model.initial_biases(r_imu)
+    fix0 = simulate_fixes(geo, np.array([0.0]), sig, _rngs(seqs, 4)).position[:, 0]
+    p0 = np.diag(np.r_[sig**2, [0.05**2] * 3])
+    v0 = np.broadcast_to(s0.velocity, (runs, 3))
+    upf = GridParticleFilter(frame, n_particles, q, model="geodetic", noise_at=noise_at, ess_threshold=0.5,
+                             kernel_h=0.3).initialize(0.0, fix0, v0, s0.quaternion, p0, r_pf)
+    kf = GridKalmanFilter(frame, q).initialize(0.0, fix0, v0, s0.quaternion, p0)
+    sums = {k: 0.0 for k in ("upf", "kf-interp", "pf", "kf", "fix")}
+    counts = {k: 0 for k in sums}
+    var_t, var = [], []
+    t0, last = 0.0, None
+    while t0 < duration - 1e-9:
+        t1 = min(duration, t0 + segment)
+        t_imu = uniform_times(t0, t1, imu_rate)
+        f, w = geo.imu(t_imu)
+        nu, om, _, _, ba, bg = model.measure(f, w, ba, bg, r_imu)
+        stream = ImuStream(t_imu, nu, om)
+        t_fix = uniform_times(t0, t1, 20.0)[1:]
+        fixes = simulate_fixes(geo, t_fix, sig, r_fix)
+        t_out = uniform_times(t0, t1, out_rate)[1:]
+        truth_out = _truth_native(geo, t_out)[0]
+        for name, filt in (("upf", upf), ("kf-interp", kf)):
+            out = filt.run(stream, t1, fixes, t_out)
+            e = frame.error_ned(out.position, truth_out)
+            k = out.times >= settle
+            sums[name] += float(np.sum(e[:, k] ** 2))
+            counts[name] += int(np.count_nonzero(k)) * runs
+            ef = frame.error_ned(out.fix_position, _truth_native(geo, out.fix_times)[0])
+            kf_ = out.fix_times >= settle
+            key = "pf" if name == "upf" else "kf"
+            sums[key] += float(np.sum(ef[:, kf_] ** 2))
+            counts[key] += int(np.count_nonzero(kf_)) * runs
+            if name == "upf":
+                var_t.append(out.fix_times)
+                var.append(np.diagonal(out.position_cov, axis1=-2, axis2=-1))
+        ef = frame.error_ned(fixes.position, _truth_native(geo, t_fix)[0])
+        sums["fix"] += float(np.sum(ef[:, t_fix >= settle] ** 2))
+        counts["fix"] += int(np.count_nonzero(t_fix >= settle)) * runs
+        t0 = t1
+    rmse = {k: float(np.sqrt(sums[k] / max(counts[k], 1))) for k in sums}
+    var_t, var = np.concatenate(var_t), np.concatenate(var, axis=1)
+    info = {"accel_psd": q, "n_particles": n_particles, "out_rate": out_rate, "duration": duration,
+            "noise_at": noise_at, "imu": imu, "collapsed_runs": int(np.count_nonzero(upf.collapsed))}
+    return UpfFlightResult(rmse, var_t, var, cloud_settle_time(var_t, var), info)
+
+
+# --------------------------------------------------------------------------------------------------------
+# per-pulse antenna positions of every navigation source (for the back-projection focus comparison)
+
+NAV_SOURCES = ("truth", "upf", "kf-interp", "spline-gps", "spline-kf", "spline-pf", "sir-3adis", "novatel")
+
+
+def cart_track(duration: float, speed: float = 1.0, heading: float = np.pi / 2) -> Maneuvering:
+    """The ground-test cart (§3.7 of the extraction): straight at ``speed`` m/s, level, at the origin height."""
+    return Maneuvering([0.0, 0.0, -ORIGIN[2]], speed, heading, RateProfile((0.0,), (0.0,), 1.0),
+                       RateProfile((0.0,), (0.0,), 1.0), duration)
+
+
+def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Maneuvering | None = None,
+                                 n_particles: int = 2000, adis_particles: int = 1000, fix_sigma=FIX_SIGMA,
+                                 accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES):
+    """Antenna (reference point) positions at every pulse from each navigation source, NED metres relative to
+    the true position at the first pulse: dict source -> (R, P, 3) (``truth`` is (1, P, 3)).
+
+    ``pulse_times`` (P,) [s] must start after a run-in (the filters start at t = 0 from the first fix and
+    converge, e.g. 30 s, then the aperture). Sources (L1332-1403): ``upf`` (NovAtel + 20 Hz fix, 2000-particle
+    UPF on the pulse grid), ``kf-interp`` (the KF on the pulse grid), ``spline-gps`` (cubic spline of the 20 Hz
+    fixes), ``spline-kf`` / ``spline-pf`` (cubic splines of the KF / PF output at the 200 Hz IMU epochs),
+    ``sir-3adis`` (three ADIS16465 PFs on the pulse grid, SIR-fused at each fix, indices held in between),
+    ``novatel`` (the NovAtel PF on the pulse grid: the UPF with ``adis_particles`` particles, the multi-IMU
+    comparison's single-IMU solution). The lever arm IMU -> antenna is zero (gap G12).
+    """
+    from sarnav.filters.pulse_grid import spline_positions
+
+    pulse_times = np.asarray(pulse_times, dtype=float)
+    t_end = float(pulse_times[-1]) + 0.1
+    flat = track if track is not None else cart_track(np.ceil(t_end) + 1.0)
+    geo = GeodeticFlight(flat, *ORIGIN)
+    frame = NavFrame(geodetic=True, origin=ORIGIN)
+    seqs = _seeds(seed, runs)
+    sig = np.asarray(fix_sigma, dtype=float)
+    t_fix = uniform_times(0.0, t_end, 20.0)
+    fixes = simulate_fixes(geo, t_fix, sig, _rngs(seqs, 1))
+    truth0 = _truth_native(geo, pulse_times[:1])[0][0]
+    to_ned = lambda p: geodetic_difference_ned(p[..., 0], p[..., 1], p[..., 2], *truth0)  # noqa: E731
+    out = {"truth": to_ned(_truth_native(geo, pulse_times)[0])[None]}
+    s0 = geo.state(0.0)
+    p0 = np.diag(np.r_[sig**2, [0.05**2] * 3])
+    v0 = np.broadcast_to(s0.velocity, (runs, 3))
+    t_nov = uniform_times(0.0, t_end, 200.0)
+    nov = rig_imu(geo, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), _rngs(seqs, 2))
+    q_nov = spec_accel_psd("novatel-isa-100c", 200.0) if accel_psd == "spec" else float(accel_psd)
+    both = np.union1d(pulse_times, t_nov[(t_nov >= pulse_times[0] - 0.05) & (t_nov <= pulse_times[-1] + 0.05)])
+    at_pulse = np.searchsorted(both, pulse_times)
+    want = set(sources)
+    if want & {"upf", "spline-pf"}:
+        pf = GridParticleFilter(frame, n_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
+        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, _rngs(seqs, 3))
+        o = pf.run(nov, t_end, fixes, both)
+        out["upf"] = to_ned(o.position[:, at_pulse])
+        k = np.isin(both, t_nov)
+        out["spline-pf"] = to_ned(spline_positions(both[k], o.position[:, k], pulse_times))
+    if want & {"kf-interp", "spline-kf"}:
+        kf = GridKalmanFilter(frame, q_nov).initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0)
+        o = kf.run(nov, t_end, fixes, both)
+        out["kf-interp"] = to_ned(o.position[:, at_pulse])
+        k = np.isin(both, t_nov)
+        out["spline-kf"] = to_ned(spline_positions(both[k], o.position[:, k], pulse_times))
+    if "spline-gps" in want:
+        out["spline-gps"] = to_ned(spline_positions(t_fix, fixes.position, pulse_times))
+    if "novatel" in want:
+        pf = GridParticleFilter(frame, adis_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
+        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, _rngs(seqs, 4))
+        out["novatel"] = to_ned(pf.run(nov, t_end, fixes, pulse_times).position)
+    if "sir-3adis" in want:
+        out["sir-3adis"] = _sir_at_pulses(geo, fixes, pulse_times, t_end, adis_particles, accel_psd, n_draws,
+                                          seqs, to_ned)
+    return {k: out[k] for k in sources if k in out}
+
+
+def _sir_at_pulses(geo, fixes, pulse_times, t_end, n_particles, accel_psd, n_draws, seqs, to_ned):
+    """Three ADIS PFs on the pulse grid (outputs at pulses and fixes), SIR indices drawn at each fix and held."""
+    t_adis = uniform_times(0.0, t_end, 100.0)
+    model = gnss_ins_sim_imu("adis16465", 100.0)
+    q = spec_accel_psd("adis16465", 100.0) if accel_psd == "spec" else float(accel_psd)
+    grid = np.union1d(pulse_times, fixes.times)
+    est = []
+    for s in range(3):
+        imu = rig_imu(geo, t_adis, ADIS_LEVER_ARMS[s], model, _rngs(seqs, 60 + s))
+        pos, _ = _aided_pf(geo, imu, fixes, ADIS_LEVER_ARMS[s], n_particles, q, _rngs(seqs, 70 + s), grid, t_end)
+        est.append(to_ned(pos))
+    est = np.stack(est, 1)  # (R, 3, T, 3)
+    fix_ned = to_ned(fixes.position)
+    is_fix = np.isin(grid, fixes.times)
+    rngs = _rngs(seqs, 80)
+    fused = np.empty((est.shape[0], grid.size, 3))
+    idx = np.zeros((est.shape[0], n_draws, 3), dtype=np.int64)  # equal draws before the first fix
+    idx[:, :, :] = np.arange(n_draws)[None, :, None] % 3
+    for k in range(grid.size):
+        if is_fix[k] and grid[k] > 0:
+            j = int(np.searchsorted(fixes.times, grid[k] - 1e-9))
+            idx = draw_sensors(sensor_log_weights(est[:, :, k], fix_ned[:, j], fixes.sigma), n_draws, rngs)
+        fused[:, k] = cloud_mean(est[:, :, k], idx)
+    return fused[:, np.searchsorted(grid, pulse_times)]
