@@ -101,27 +101,33 @@ def translational_step_cloud(x, fN, fE, fD, dt, omega_e, lat_ref, h_ref):
     sl, cl = math.sin(lat_ref), math.cos(lat_ref)
     tl = sl / cl
     w = 1.0 - WGS84_E2 * sl * sl
-    rn = WGS84_A * (1.0 - WGS84_E2) / (w * math.sqrt(w))
-    re = WGS84_A / math.sqrt(w)
+    rn = WGS84_A * (1.0 - WGS84_E2) / (w * math.sqrt(w)) + h_ref
+    re = WGS84_A / math.sqrt(w) + h_ref
+    irn, ire, sec = 1.0 / rn, 1.0 / re, 1.0 / cl
     g0 = gravity_scalar(lat_ref, h_ref)
     dg_dh = -2.0 * g0 / WGS84_A  # free-air gradient, for the height spread across the cloud
     cor_x, cor_z = 2.0 * omega_e * cl, -2.0 * omega_e * sl
     for i in range(x.shape[0]):
         lat, h, vn, ve, vd = x[i, 0], x[i, 2], x[i, 3], x[i, 4], x[i, 5]
-        ox = cor_x + ve / (re + h)
-        oy = -vn / (rn + h)
-        oz = cor_z - ve * tl / (re + h)
-        g = g0 + dg_dh * (h - h_ref)
+        # 1/(R + h) to first order in h - h_ref (relative error ((h - h_ref)/R)^2): no division per particle
+        dh = h - h_ref
+        irn0, ire0 = irn * (1.0 - dh * irn), ire * (1.0 - dh * ire)
+        ox = cor_x + ve * ire0
+        oy = -vn * irn0
+        oz = cor_z - ve * tl * ire0
+        g = g0 + dg_dh * dh
         vn1 = vn + (fN - (oy * vd - oz * ve)) * dt
         ve1 = ve + (fE - (oz * vn - ox * vd)) * dt
         vd1 = vd + (fD + g - (ox * ve - oy * vn)) * dt
         h1 = h - 0.5 * dt * (vd + vd1)
-        lat1 = lat + 0.5 * dt * (vn / (rn + h) + vn1 / (rn + h1))
+        dh1 = h1 - h_ref
+        irn1, ire1 = irn * (1.0 - dh1 * irn), ire * (1.0 - dh1 * ire)
+        lat1 = lat + 0.5 * dt * (vn * irn0 + vn1 * irn1)
         # sec L to first order about the reference latitude (error (dL)^2 ~ 1e-12 for metre-sized clouds)
-        sec0 = (1.0 + tl * (lat - lat_ref)) / cl
-        sec1 = (1.0 + tl * (lat1 - lat_ref)) / cl
+        sec0 = (1.0 + tl * (lat - lat_ref)) * sec
+        sec1 = (1.0 + tl * (lat1 - lat_ref)) * sec
         x[i, 0] = lat1
-        x[i, 1] += 0.5 * dt * (ve * sec0 / (re + h) + ve1 * sec1 / (re + h1))
+        x[i, 1] += 0.5 * dt * (ve * sec0 * ire0 + ve1 * sec1 * ire1)
         x[i, 2], x[i, 3], x[i, 4], x[i, 5] = h1, vn1, ve1, vd1
 
 
