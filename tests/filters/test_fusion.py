@@ -1,5 +1,5 @@
 """Multi-IMU fusion pieces: CRLB (Sun 2022 eqs. 5.12-5.13, T14), SMC variance (5.14), SIR sensor weighting
-(Algorithm 1) against its expectation, the virtual IMU, lever arms."""
+(Algorithm 1) against its expectation, the virtual IMU."""
 
 import numpy as np
 import pytest
@@ -18,7 +18,7 @@ from sarnav.filters.fusion import (
     smc_variance,
     virtual_imu,
 )
-from sarnav.sensors.lever_arm import lever_arm_specific_force, offset_position, rate_derivative
+from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
 
 
 def _rngs(n, seed):
@@ -78,34 +78,6 @@ def test_sir_draws_follow_the_sensor_weights():
     assert np.all(idx[..., 0] == idx[..., 1])  # joint: one sensor per cloud member
     with pytest.raises(InputDataError, match="fusion.estimates"):
         sensor_log_weights(est[0], fix, sigma)
-
-
-def test_lever_arm_centripetal_and_euler_terms():
-    """GTSAM ScenarioRunner check: omega = 2 rad/s about z, r = 1 m along x -> -4 m/s^2 along x; an angular
-    acceleration of 1 rad/s^2 about z adds +1 m/s^2 along y."""
-    f = lever_arm_specific_force(np.zeros(3), [0.0, 0.0, 2.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
-    np.testing.assert_allclose(f, [-4.0, 1.0, 0.0], atol=1e-15)
-
-
-def test_lever_arm_matches_differentiated_offset_trajectory():
-    """An IMU 0.5 m off the reference of a maneuvering aircraft (flat world, omega_ib = omega_nb): its specific
-    force from lever_arm_specific_force equals C^T (d2/dt2 (p + C r) - g) by finite differences."""
-    from sarnav.frames import GRAVITY_NED
-    from sarnav.rotations import quat_to_dcm
-    from sarnav.trajectory import Maneuvering
-
-    traj = Maneuvering.s_turn_climb([0.0, 0.0, -500.0], 60.0, 0.0, 60.0)
-    r = np.array([0.3, -0.5, 0.2])
-    h, t0 = 1e-3, 12.3  # inside the right turn's transition (angular acceleration non-zero)
-    t = t0 + h * np.arange(-2, 3)
-    s = traj.state(t)
-    p = offset_position(s.position, quat_to_dcm(s.quaternion), r)
-    acc = (-p[4] + 16 * p[3] - 30 * p[2] + 16 * p[1] - p[0]) / (12 * h * h)
-    want = quat_to_dcm(s.quaternion[2]).T @ (acc - GRAVITY_NED)
-    w = traj.angular_rate(t)
-    got = lever_arm_specific_force(traj.specific_force(t0), w[2], rate_derivative(w, h)[2], r)
-    np.testing.assert_allclose(got, want, atol=2e-5)
-    assert np.linalg.norm(got - traj.specific_force(t0)) > 1e-3  # the lever-arm terms matter here
 
 
 def test_virtual_imu_removes_lever_arms_and_averages_noise():
