@@ -18,6 +18,22 @@ nav-paper-tactical 0.1               0.01           0.1             5     (NAVIG
 
 The NAVIGATION paper's Table 2 gives only the white-noise terms; its bias figures are the initial
 3-sigma uncertainties of Table 1 (sim), used here as the steady-state sigma.
+
+Named parts of Sun (2022) Tables 5.2 and 5.4 (datasheet 1-sigma figures, stored x3 like the rest; the unit
+decisions of gap G23, docs/particles.md):
+
+================== ===================== ===================== ================== ==================
+preset             VRW as printed        accel bias stability  ARW                gyro bias stab.
+================== ===================== ===================== ================== ==================
+novatel-isa-100c   "100 ug/sqrt(hr)"     1250 ug               0.012 deg/sqrt(hr) 0.5 deg/hr
+                   -> read 100 ug/sqrt(Hz) = 0.0589 m/s/sqrt(hr) (as printed)
+adis16465          0.012 m/s/sqrt(hr)    3.6e-3 m/s^2 = 367 ug 0.15 deg/sqrt(hr)  2.0 deg/hr
+                   (as printed)          (as printed; datasheet possibly 3.6 ug)
+================== ===================== ===================== ================== ==================
+
+The source fed these to gnss-ins-sim with no correlation time, where a "bias stability" is drawn as white
+noise of that standard deviation at every sample (gnss-ins-sim ``bias_drift`` with an infinite correlation
+time); an ``ImuModel`` with ``tau`` much shorter than the sample interval draws exactly that process.
 """
 
 from __future__ import annotations
@@ -78,6 +94,11 @@ GRADE_THREE_SIGMA = {
     "tactical": (0.06, 0.001, 0.07, 1.0),  # thesis Table 3.2 / A.8
     "navigation": (0.006, 0.0001, 0.007, 0.1),  # thesis Table 3.2
     "nav-paper-tactical": (0.1, 0.01, 0.1, 5.0),  # NAVIGATION paper Table 2 (noise) + Table 1 (biases)
+    # Sun (2022) Table 5.2, 1-sigma x 3; G23: VRW "100 ug/sqrt(hr)" read as 100 ug/sqrt(Hz) (NovAtel quotes
+    # accelerometer noise per sqrt(Hz)): 100e-6 * 9.81 m/s^2/sqrt(Hz) * 60 = 0.0589 m/s/sqrt(hr)
+    "novatel-isa-100c": (3 * 100e-6 * units.G0 * 60.0, 3 * 1250e-6, 3 * 0.012, 3 * 0.5),
+    # Sun (2022) Table 5.4, 1-sigma x 3, as printed (accel bias stability 3.6e-3 m/s^2 = 3.67e-4 g)
+    "adis16465": (3 * 0.012, 3 * 3.6e-3 / units.G0, 3 * 0.15, 3 * 2.0),
 }
 
 IMU_GRADES = {name: ImuGrade.from_three_sigma(name, *v) for name, v in GRADE_THREE_SIGMA.items()}

@@ -4,4 +4,6 @@
   feedback, the error / sigma / NEES record) shared by ``telemetry`` and ``rda-nav``
 - ``spacecraft``: the batched open-loop Monte Carlo of the spacecraft SAR terrain-relative navigation (Pogorelsky et
   al. §VI.B): RK4 truth, the filter's orbital mechanization, MEKF updates from geolocated centre pixels
+- ``multi_imu``: the multi-IMU / particle-filter experiments of Sun (2022): path 1, 3 x ADIS vs NovAtel, the UPF
+  flight, per-pulse positions of every navigation source
 """
