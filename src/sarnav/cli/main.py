@@ -12,11 +12,11 @@ import sys
 from typing import Sequence
 
 import sarnav
-from sarnav.cli import image_cmd, run_cmd, scenarios_cmd, show_cmd
+from sarnav.cli import compare_cmd, figures_cmd, image_cmd, report_cmd, run_cmd, scenarios_cmd, show_cmd
 from sarnav.errors import SarnavError
 
 #: subcommand modules, in the order ``sarnav --help`` lists them
-COMMANDS = [scenarios_cmd, show_cmd, run_cmd, image_cmd]
+COMMANDS = [scenarios_cmd, show_cmd, run_cmd, image_cmd, report_cmd, compare_cmd, figures_cmd]
 
 
 def build_parser() -> argparse.ArgumentParser:
