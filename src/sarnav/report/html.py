@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import sarnav
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, SarnavError
 from sarnav.report import html_parts as H
 from sarnav.report.outputs import (CAMPAIGN, IMAGE, SENSITIVITY, STUDY, CampaignDir, output_kind,
                                    read_campaign, read_json)
@@ -202,7 +202,7 @@ def _study_states(study: dict) -> list[str]:
 
     try:
         return list(parse_toml(study.get("scenario_toml", "")).get("study", {}).get("states", ["pN", "pE", "pD"]))
-    except Exception:  # noqa: BLE001 - the page still shows every state
+    except (SarnavError, AttributeError, TypeError):  # the page still shows every state
         return []
 
 
@@ -290,5 +290,7 @@ def write_report(directory: str | os.PathLike) -> Path:
     try:
         atomic_write_text(path, text)
     except OSError as err:
+        for tmp in path.parent.glob(f".{path.name}.tmp-{os.getpid()}"):  # the half-done temporary, if any
+            tmp.unlink()
         raise ConfigError(str(directory), f"cannot write {path}: {err.strerror or err}") from None
     return path

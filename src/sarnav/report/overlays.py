@@ -26,6 +26,12 @@ def rms_over_runs(error: np.ndarray) -> np.ndarray:
         return np.sqrt(np.nanmean(np.asarray(error, dtype=np.float64) ** 2, axis=0))
 
 
+def _log_y(ax) -> None:
+    """Log y axis with a grid at every tick (matplotlib labels minor ticks where the data span under a decade)."""
+    ax.set_yscale("log")
+    ax.grid(True, which="both", lw=0.3)
+
+
 def _has_updates(ds) -> bool:
     return ds.sizes.get("update", 0) > 0 and ds.sizes.get("meas", 0) > 0
 
@@ -38,10 +44,9 @@ def _nees_panel(ax, entries, confidence) -> None:
         ax.plot(ds["time"].values, st["mean"] / n, color=c, lw=1.2, label=f"{label} (dof {n}, {st['runs']} runs)")
         for b in st["band"]:
             ax.axhline(b / n, color=c, ls="--", lw=0.8)
-    ax.set_yscale("log")
+    _log_y(ax)
     ax.set_ylabel("run-mean NEES / dof [-]")
     ax.set_title(f"NEES: dashed = {100 * confidence:.0f} % band of the run mean (1 = consistent)", fontsize=9, loc="left")
-    ax.grid(True, which="both", lw=0.3)
     ax.legend(fontsize=7, loc="upper right")
 
 
@@ -56,10 +61,9 @@ def _nis_panel(ax, entries, confidence) -> None:
             ax.plot(tu, st["mean"] / ex, ".-", color=c, lw=0.8, ms=3, label=label)
             ax.plot(tu, st["lo"] / ex, color=c, ls="--", lw=0.8)
             ax.plot(tu, st["hi"] / ex, color=c, ls="--", lw=0.8)
-    ax.set_yscale("log")
+    _log_y(ax)
     ax.set_ylabel("run-mean NIS / dof [-]")
     ax.set_title(f"NIS per update: dashed = {100 * confidence:.0f} % band", fontsize=9, loc="left")
-    ax.grid(True, which="both", lw=0.3)
 
 
 def consistency_figure(entries: Sequence[tuple[str, object]], confidence: float = 0.95) -> Figure:
@@ -95,8 +99,7 @@ def state_overlay_figure(entries: Sequence[tuple[str, object]], states: Sequence
         axes[row, 0].set_ylabel(f"{s} 3σ{unit}")
         axes[row, 1].set_ylabel(f"{s} RMS error{unit}")
         for ax in axes[row]:
-            ax.set_yscale("log")
-            ax.grid(True, which="both", lw=0.3)
+            _log_y(ax)
     axes[0, 0].set_title("filter 3σ (mean over runs)", fontsize=9)
     axes[0, 1].set_title("RMS error over runs", fontsize=9)
     axes[0, 0].legend(fontsize=7, loc="best")
