@@ -74,3 +74,19 @@ def small_campaigns(tmp_path_factory):
     assert main(["run", "telemetry", *small, "--set", "imu.grade=consumer", "--no-figures",
                  "--out", str(dirs["consumer"])]) == 0
     return dirs
+
+
+@pytest.fixture(scope="session")
+def compared_campaigns(small_campaigns, tmp_path_factory):
+    """(out, printed lines) of ``sarnav compare tactical consumer --out out`` (run once: drawing is the cost)."""
+    import contextlib
+    import io
+
+    from sarnav.cli.main import main
+
+    out = tmp_path_factory.mktemp("compare") / "cmp"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["compare", str(small_campaigns["tactical"]), str(small_campaigns["consumer"]),
+                     "--out", str(out)]) == 0
+    return out, buf.getvalue().split()

@@ -12,7 +12,6 @@ import re
 import shutil
 
 import numpy as np
-import pytest
 
 from page_checks import assert_self_contained
 from sarnav.report.html import report_html, write_report

@@ -1,9 +1,13 @@
 """``sarnav figures DIR`` (sarnav.report.redraw): the figures of a finished campaign or study drawn again from what
-is stored, old PNG files removed, the kind's own figures through its hook, an unresolvable kind a notice."""
+is stored, old PNG files removed, the kind's own figures through its hook, an unresolvable kind a notice.
+
+The standard panels are replaced by a stub here (``cheap_panels``): what is tested is which files are written and
+removed; real drawing is covered by tests/cli/test_report_cli.py and test_figures.py."""
 
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -14,7 +18,21 @@ STANDARD = ["attitude.png", "position.png", "residuals.png", "velocity.png"]
 
 
 @pytest.fixture
-def campaign_copy(small_campaigns, tmp_path):
+def cheap_panels(monkeypatch):
+    from sarnav.report import figures as F
+
+    def stub(*args):
+        path = next(a for a in args if isinstance(a, (str, Path)))
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_bytes(b"\x89PNG\r\n\x1a\n")
+        return str(path)
+
+    monkeypatch.setattr(F, "plot_error_block", lambda ds, idx, title, path, max_runs=50: stub(path))
+    monkeypatch.setattr(F, "plot_residuals", lambda ds, path, max_runs=20: stub(path))
+
+
+@pytest.fixture
+def campaign_copy(small_campaigns, tmp_path, cheap_panels):
     d = tmp_path / "c"
     shutil.copytree(small_campaigns["tactical"], d)
     return d
@@ -23,7 +41,7 @@ def campaign_copy(small_campaigns, tmp_path):
 def test_redraw_replaces_the_figures_folder(campaign_copy):
     figdir = campaign_copy / "figures"
     (figdir / "stale_from_another_scenario.png").write_bytes(b"\x89PNG\r\n\x1a\n")
-    (figdir / "position.png").write_bytes(b"not a figure")
+    (figdir / "position.png").write_bytes(b"not a figure")  # replaced
     done = redraw_figures(campaign_copy)
     assert sorted(p.name for p in figdir.glob("*.png")) == STANDARD
     assert sorted(p.name for p in done.paths) == STANDARD and done.notices == []
@@ -55,7 +73,7 @@ def test_not_a_campaign_is_refused(tmp_path):
         redraw_figures(tmp_path)
 
 
-def test_study_redraw_draws_every_case_and_the_comparison(small_study, tmp_path):
+def test_study_redraw_draws_every_case_and_the_comparison(small_study, tmp_path, cheap_panels):
     d = tmp_path / "s"
     shutil.copytree(small_study, d)
     (d / "study_3sigma.png").unlink()

@@ -166,7 +166,7 @@ def compare_campaigns(directories: Sequence[str | os.PathLike], out: str | os.Pa
     """Write ``out/compare.csv`` and ``out/compare.html`` for the finished campaigns in ``directories``; returns
     their paths. Errors (fewer than two, repeated, unfinished or incompatible directories) are ConfigError."""
     from sarnav.montecarlo.store import atomic_write_text
-    from sarnav.report.html import versions
+    from sarnav.report.html_parts import versions
 
     camps = _read_all(directories)
     states, units = shared_states(camps)

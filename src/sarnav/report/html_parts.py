@@ -10,9 +10,15 @@ from __future__ import annotations
 import base64
 import html
 import math
+import platform
 from typing import Iterable, Sequence
 
-__all__ = ["esc", "fmt", "table", "kv_table", "figure", "pre", "details", "section", "page"]
+import numpy as np
+
+import sarnav
+
+__all__ = ["esc", "fmt", "table", "kv_table", "figure", "pre", "details", "section", "page", "versions", "flatten",
+           "pct"]
 
 _CSS = """
 body { font-family: system-ui, -apple-system, 'Segoe UI', sans-serif; margin: 1.5em auto; max-width: 1100px;
@@ -104,3 +110,28 @@ def page(title: str, body: str) -> str:
             f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
             f"<title>{esc(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<h1>{esc(title)}</h1>\n"
             f"{body}</body>\n</html>\n")
+
+
+def versions() -> dict:
+    """Versions of the software making the page: sarnav, numpy, xarray, matplotlib, Python."""
+    import matplotlib
+    import xarray
+
+    return {"sarnav": sarnav.__version__, "numpy": np.__version__, "xarray": xarray.__version__,
+            "matplotlib": matplotlib.__version__, "python": platform.python_version()}
+
+
+def flatten(obj, prefix: str = "") -> dict:
+    """Nested dicts as one dict of dotted keys (lists of scalars kept as values)."""
+    out = {}
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            out.update(flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    else:
+        out[prefix] = obj
+    return out
+
+
+def pct(v) -> str:
+    """A fraction as a percentage cell (n/a where undefined)."""
+    return fmt(100.0 * v) if isinstance(v, (int, float)) and not isinstance(v, bool) else fmt(v)
