@@ -6,6 +6,8 @@ Fixtures
 small_radar : an X-band radar with a short receive window (fast echo simulation), 60 m/s-capable PRF.
 point_target_block : one range-compressed block of one point target flown past at 60 m/s, with its geometry.
 short_flight : the rda-nav paper flight cut to 3 s (parsed parameters), for spine and measurement tests.
+small_campaigns : finished telemetry campaigns (4 runs, 2 s, serial) written by ``sarnav run``: ``tactical`` (with
+    figures) and ``consumer`` (``imu.grade=consumer``, ``--no-figures``); read them, copy them before changing them.
 """
 
 from __future__ import annotations
@@ -58,3 +60,33 @@ def short_flight():
     cfg = rn.default_config()
     cfg["trajectory"]["duration"] = 3.0
     return rn.parse(cfg)
+
+
+@pytest.fixture(scope="session")
+def small_campaigns(tmp_path_factory):
+    """{"tactical": Path, "consumer": Path}: two small finished telemetry campaigns (see the module docstring)."""
+    from sarnav.cli.main import main
+
+    root = tmp_path_factory.mktemp("campaigns")
+    small = ["--runs", "4", "--set", "trajectory.duration=2.0", "--executor", "serial", "--quiet"]
+    dirs = {"tactical": root / "tactical", "consumer": root / "consumer"}
+    assert main(["run", "telemetry", *small, "--out", str(dirs["tactical"])]) == 0
+    assert main(["run", "telemetry", *small, "--set", "imu.grade=consumer", "--no-figures",
+                 "--out", str(dirs["consumer"])]) == 0
+    return dirs
+
+
+@pytest.fixture(scope="session")
+def compared_campaigns(small_campaigns, tmp_path_factory):
+    """(out, printed lines) of ``sarnav compare tactical consumer --out out`` (run once: drawing is the cost)."""
+    import contextlib
+    import io
+
+    from sarnav.cli.main import main
+
+    out = tmp_path_factory.mktemp("compare") / "cmp"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["compare", str(small_campaigns["tactical"]), str(small_campaigns["consumer"]),
+                     "--out", str(out)]) == 0
+    return out, buf.getvalue().split()

@@ -8,6 +8,7 @@ three times the mean over runs of the filter 1σ; at most ``max_runs`` runs are 
 
 from __future__ import annotations
 
+import io
 import os
 import warnings
 from pathlib import Path
@@ -17,7 +18,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["state_blocks", "thin_runs", "plot_error_block", "plot_residuals", "write_campaign_figures", "save_png"]
+__all__ = ["state_blocks", "thin_runs", "plot_error_block", "residual_limit", "residual_figure", "plot_residuals",
+           "write_campaign_figures", "save_png", "png_bytes"]
 
 #: figure name -> (title, state names); drawn when all three states exist
 KNOWN_BLOCKS = (
@@ -28,11 +30,20 @@ KNOWN_BLOCKS = (
 
 
 def save_png(fig: Figure, path: str | os.PathLike, dpi: int = 110) -> str:
+    """Write ``fig`` as PNG at ``path`` (parent folders created); returns the path."""
     FigureCanvasAgg(fig)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi)
     return str(path)
+
+
+def png_bytes(fig: Figure, dpi: int = 110) -> bytes:
+    """``fig`` as PNG bytes (for pages that embed their figures)."""
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
 
 
 def state_blocks(state_names: Sequence[str]) -> list[tuple[str, str, list[int]]]:
@@ -83,8 +94,52 @@ def plot_error_block(ds, indices: Sequence[int], title: str, path, max_runs: int
     return save_png(fig, path)
 
 
-def plot_residuals(ds, path, max_runs: int = 20) -> str:
-    """Residual of each measurement against ±3√(HP⁻Hᵀ+R) (mean over runs), thesis Fig 3.4 style."""
+#: residual panels: y limits = RESIDUAL_MARGIN x the RESIDUAL_PERCENTILE-th percentile over updates of the per-update
+#: envelope max(|residual| over the drawn runs, 3 sigma), so that a few large early updates do not flatten the rest
+RESIDUAL_PERCENTILE = 80.0
+RESIDUAL_MARGIN = 1.3
+
+
+def residual_limit(residual: np.ndarray, sigma3: np.ndarray) -> float | None:
+    """Half-height of a residual panel scaled to the bulk of the data.
+
+    ``residual`` (R, U) of one measurement (NaN where absent), ``sigma3`` (U,) its 3σ bound. Returns
+    ``RESIDUAL_MARGIN`` × the ``RESIDUAL_PERCENTILE``-th percentile over updates of
+    ``max(max_runs |residual|, sigma3)``, or None when there is nothing finite to scale to.
+    """
+    with warnings.catch_warnings():  # updates without this measurement
+        warnings.simplefilter("ignore", RuntimeWarning)
+        env = np.fmax(np.nanmax(np.abs(residual), axis=0), np.abs(sigma3))
+    env = env[np.isfinite(env)]
+    if env.size == 0:
+        return None
+    lim = RESIDUAL_MARGIN * float(np.percentile(env, RESIDUAL_PERCENTILE))
+    return lim if lim > 0 else None
+
+
+def _residual_panel(ax, tu, res, s3, label) -> None:
+    """Residual dots, ±3σ, robust limits; residuals beyond them drawn as triangles on the edge and counted."""
+    ax.plot(tu, res.T, ".", color="0.4", ms=1.5, alpha=0.6)
+    ax.plot(tu, s3, "r", lw=1.2, label="±3σ residual")
+    ax.plot(tu, -s3, "r", lw=1.2)
+    lim = residual_limit(res, s3)
+    if lim is not None:
+        ax.set_ylim(-lim, lim)
+        t = np.broadcast_to(tu, res.shape)
+        over, under = res > lim, res < -lim
+        ax.plot(t[over], np.full(over.sum(), 0.96 * lim), "^", color="C1", ms=4)
+        ax.plot(t[under], np.full(under.sum(), -0.96 * lim), "v", color="C1", ms=4)
+        n_out = int(over.sum() + under.sum())
+        if n_out:
+            ax.set_title(f"{n_out} of {int(np.isfinite(res).sum())} residuals beyond ±{lim:.3g} (triangles on the edge)",
+                         loc="left", fontsize=7, color="C1")
+    ax.set_ylabel(label)
+    ax.grid(True, lw=0.3)
+
+
+def residual_figure(ds, max_runs: int = 20) -> Figure:
+    """Residual of each measurement against ±3√(HP⁻Hᵀ+R) (mean over runs), thesis Fig 3.4 style; each panel
+    scaled to the bulk of the data (:func:`residual_limit`)."""
     tu = ds["update_time"].values
     res = ds["residual"].values
     with warnings.catch_warnings():  # updates where a measurement is absent in every run
@@ -97,16 +152,16 @@ def plot_residuals(ds, path, max_runs: int = 20) -> str:
     fig = Figure(figsize=(8, 2.3 * max(n, 1)), constrained_layout=True)
     axes = fig.subplots(max(n, 1), 1, sharex=True, squeeze=False)[:, 0]
     for j in range(n):
-        ax = axes[j]
-        ax.plot(tu, res[runs, :, j].T, ".", color="0.4", ms=1.5, alpha=0.6)
-        ax.plot(tu, s3[:, j], "r", lw=1.2, label="±3σ residual")
-        ax.plot(tu, -s3[:, j], "r", lw=1.2)
-        ax.set_ylabel(f"{names[j]} [{units[j]}]" if units[j] else names[j])
-        ax.grid(True, lw=0.3)
+        _residual_panel(axes[j], tu, res[runs, :, j], s3[:, j], f"{names[j]} [{units[j]}]" if units[j] else names[j])
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"Measurement residuals: {len(runs)} of {res.shape[0]} runs")
-    return save_png(fig, path)
+    fig.suptitle(f"Measurement residuals: {len(runs)} of {res.shape[0]} runs (y limits: bulk of the data)")
+    return fig
+
+
+def plot_residuals(ds, path, max_runs: int = 20) -> str:
+    """:func:`residual_figure` saved as PNG at ``path``."""
+    return save_png(residual_figure(ds, max_runs), path)
 
 
 def write_campaign_figures(ds, out, kind=None, max_runs: int = 50) -> list[str]:

@@ -44,8 +44,9 @@ def plot_aperture_images(capture: dict, path) -> str:
     fig.colorbar(im, ax=axes[0, :], label="dB re peak", shrink=0.8)
     surf, ly, lx = capture["correlation"]
     ax = axes[1, 1]
-    ax.imshow(np.abs(surf) / max(np.abs(surf).max(), 1e-300), extent=[lx[0], lx[-1], ly[-1], ly[0]],
-              aspect="auto", cmap="viridis")
+    cim = ax.imshow(np.abs(surf) / max(np.abs(surf).max(), 1e-300), extent=[lx[0], lx[-1], ly[-1], ly[0]],
+                    aspect="auto", cmap="viridis", vmin=0, vmax=1)
+    fig.colorbar(cim, ax=ax, label="|correlation| / peak [-]", shrink=0.8)
     ax.set_title("correlation of the reference chip with the in-flight image", fontsize=9)
     ax.set_xlabel("range lag [pixels]")
     ax.set_ylabel("azimuth lag [pixels]")

@@ -10,10 +10,35 @@ from matplotlib.figure import Figure
 
 from sarnav.report.figures import save_png
 
-__all__ = ["plot_study_comparison", "write_study_json"]
+__all__ = ["plot_study_comparison", "write_study_json", "default_state_unit", "study_figure_specs", "LINE_STYLES"]
+
+#: line styles of the cases, in order, where a case names none (== sarnav.scenarios.study.STYLES)
+LINE_STYLES = ("-", "--", "-.", ":")
 
 
-def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], states: Sequence[str], title: str, path) -> str:
+def default_state_unit(name: str) -> str:
+    """The unit of a standard error state (``pN`` -> m, ``vE`` -> m/s, ``thD`` -> rad, ``baX`` -> m/s^2, ``bgZ``
+    -> rad/s, from :class:`sarnav.filters.layout.ErrorStateLayout`); "" for any other name (results.nc
+    ``state_units`` is the authority)."""
+    from sarnav.filters.layout import ErrorStateLayout
+
+    layout = ErrorStateLayout()
+    return dict(zip(layout.state_names(), layout.state_units())).get(name, "")
+
+
+def study_figure_specs(cfg: dict) -> list[dict]:
+    """The comparison figures of a study scenario: its ``[[figures]]`` (name, title, cases, states) or one figure
+    ``3sigma`` of every case over ``study.states`` (default pN, pE, pD) titled with the description."""
+    labels = [c["label"] for c in cfg["cases"]]
+    states = cfg.get("study", {}).get("states", ["pN", "pE", "pD"])
+    figs = cfg.get("figures") or [{"name": "3sigma", "title": cfg["scenario"].get("description", ""), "cases": labels,
+                                   "states": states}]
+    return [{"name": f["name"], "title": f.get("title", ""), "cases": f.get("cases", labels),
+             "states": f.get("states", states)} for f in figs]
+
+
+def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], states: Sequence[str], title: str, path,
+                          state_units: Sequence[str] | None = None) -> str:
     """Panels (one per state in ``states``) with one 3σ curve per case.
 
     Parameters
@@ -21,6 +46,8 @@ def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], st
     cases : (label, time (T,), sigma3 (T, S), line style) per case; sigma3 is 3 × mean filter 1σ.
     state_names : the S state names (columns of sigma3).
     states : which states to draw, e.g. ("pN", "pE", "pD").
+    state_units : the S units (results.nc coordinate ``state_units``) for the y axes; without them the standard
+        error-state units (:func:`default_state_unit`) are used and a state outside them gets no unit.
     """
     names = list(state_names)
     fig = Figure(figsize=(8, 2.4 * len(states)), constrained_layout=True)
@@ -30,7 +57,8 @@ def plot_study_comparison(cases: Sequence[tuple], state_names: Sequence[str], st
         for ax, s in zip(axes, states):
             ax.plot(np.asarray(t), np.asarray(sig3)[:, names.index(s)], style, color=color, lw=1.3, label=label)
     for ax, s in zip(axes, states):
-        ax.set_ylabel(f"{s} 3σ")
+        unit = state_units[names.index(s)] if state_units is not None else default_state_unit(s)
+        ax.set_ylabel(f"{s} 3σ [{unit}]" if unit else f"{s} 3σ")
         ax.set_yscale("log")
         ax.grid(True, which="both", lw=0.3)
     axes[0].legend(fontsize=8, ncol=min(4, len(cases)))
