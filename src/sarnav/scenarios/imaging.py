@@ -170,7 +170,8 @@ def validate(cfg: dict) -> None:
         _num(cfg, "scene", "slant_range_max_m", rmin, None, lo_open=True)
         _num(cfg, "scene", "density_per_m2", 0, 10.0, lo_open=True)
         _choice(cfg, "scene", "amplitude_law", ("rayleigh", "constant"))
-    radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
+    params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
+    _check_size(n_pulses, params.n_range_samples)
     _check_doppler_band(cfg)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
     as_window(cfg["image"]["window"], "image.window")
@@ -181,6 +182,19 @@ def validate(cfg: dict) -> None:
     if cfg["image"]["autofocus"] != "none" and cfg["image"]["algorithm"] != "rda":
         raise ConfigError("image.autofocus", "autofocus works on RDA images; set image.algorithm = \"rda\"")
     _choice(cfg, "image", "bpa_interpolation", ("nearest", "linear", "cubic", "upsample"))
+
+
+#: the largest block of echoes simulated [bytes, complex128]: pulses x range samples x 16
+MAX_BLOCK_BYTES = 2**30
+
+
+def _check_size(n_pulses: float, n_range: int) -> None:
+    need = n_pulses * n_range * 16
+    if need > MAX_BLOCK_BYTES:
+        field = "radar.sample_rate_mhz" if n_range > 65536 else "trajectory.duration"
+        raise ConfigError(field, f"{n_pulses:g} pulses x {n_range} range samples need {need / 2**30:.3g} GiB of echoes "
+                          f"(at most {MAX_BLOCK_BYTES / 2**30:g} GiB): lower radar.sample_rate_mhz, the imaged slant-range "
+                          "extent or the block (trajectory.duration x radar.prf_hz)")
 
 
 def _check_doppler_band(cfg: dict) -> None:

@@ -444,7 +444,13 @@ def point_target_report(img, target_along_track: float, target_range: float, ban
     10 sidelobes). ``target_along_track`` and ``target_range`` [m] locate the target in the image's axes.
     """
     y_t, r0 = float(target_along_track), float(target_range)
-    m = point_target_metrics(img, near=(y_t, r0), half_width=48, n_sidelobes=10)
+    try:
+        m = point_target_metrics(img, near=(y_t, r0), half_width=48, n_sidelobes=10)
+    except InputDataError as err:  # e.g. a response wider than the image: no -3 dB points to measure
+        nan = float("nan")
+        m = {ax: {"irw_m": nan, "pslr_db": nan, "islr_db": nan} for ax in ("x", "y")}
+        m["peak_position"] = (nan, nan)
+        m["undefined"] = f"{err.field}: {err.message}"
     th_r, th_a = irf_theory(range_window), irf_theory(azimuth_window)
     theory = {
         "x": {"irw_m": th_r.irw_factor * C / (2.0 * bandwidth), "pslr_db": th_r.pslr_db, "islr_db": th_r.islr_db},
@@ -458,4 +464,6 @@ def point_target_report(img, target_along_track: float, target_range: float, ban
         out[name] = {k: {"measured": m[ax][k], "theory": theory[ax][k]} for k in ("irw_m", "pslr_db", "islr_db")}
     out["peak_position_m"] = {"measured": list(m["peak_position"]), "true": [y_t, r0]}
     out["peak_error_cells"] = [(m["peak_position"][0] - y_t) / img.dy, (m["peak_position"][1] - r0) / img.dx]
+    if "undefined" in m:
+        out["measured_undefined"] = m["undefined"]
     return out
