@@ -41,7 +41,7 @@ _GLYPHS = {
 }
 
 
-def usu_picture(shape: tuple[int, int] = (96, 96)) -> np.ndarray:
+def usu_picture(shape: tuple[int, int] = (24, 24)) -> np.ndarray:
     """(Ny, Nx) bool picture, True = black (illuminated): "USU" in a frame, a bar and a solid block below.
 
     Drawn on a 24 x 24 lattice and enlarged by nearest neighbour to ``shape`` (each >= 24).
@@ -79,7 +79,7 @@ class QualityGeometry:
     altitude: float = 1000.0
     ground_range: float = 1760.0
     n_pulses: int = 4000
-    scene_extent: float = 50.0
+    scene_extent: float = 25.0
     pulse_length: float = 0.2e-6
     range_margin: float = 10.0
 
