@@ -42,8 +42,8 @@ def _ins_track(geo, dv, rng, cross=0.02, offset=0.2):
             + rng.normal(0.0, offset, 3))
 
 
-@pytest.mark.parametrize("dv", [0.25, -0.15])
-def test_the_best_focus_recovers_the_along_track_velocity_error(dv):
+def test_the_best_focus_recovers_the_along_track_velocity_error():
+    dv = -0.25
     geo, rc, grid, rng = _aperture(4)
     fix = extract_focus_velocity(rc, grid, _ins_track(geo, dv, rng), span=0.4, n_grid=9)
     # focus depth of this 0.72 s aperture (quadratic phase pi/2): 0.6 m/s; the fix is 1/20 of it
