@@ -83,7 +83,9 @@ def test_simulate_draws_one_number_per_run():
     np.testing.assert_array_equal(z1, z2)
     expect = [60.0 + 0.05 * np.random.default_rng(k).standard_normal() for k in range(3)]
     np.testing.assert_allclose(z1[:, 0], expect)
-    np.testing.assert_allclose(meas.simulate(_state(v), noise=np.zeros(3))[:, 0], 60.0)
+    np.testing.assert_allclose(meas.simulate(_state(v), noise=np.zeros((3, 1)))[:, 0], 60.0)
+    with pytest.raises(InputDataError, match="rngs"):
+        meas.simulate(_state(v))
 
 
 def test_kappa_calibration_is_the_maximum_likelihood_scale():

@@ -171,6 +171,23 @@ def _moment_kernel(px, py, pz, ant, lever, ex, ey, ez, dre, dim, u_offset, inv_d
     max_x[0] = per_block.max() if n_blocks > 0 else 0.0
 
 
+@numba.njit(parallel=True, cache=True)
+def _evaluate(coef_m, coef_n, m, n, out):  # pragma: no cover - compiled
+    """out[l, p] = sum_q coef_m[l, q] m[q, p] + sum_q coef_n[l, q] n[q + 1, p] (complex128)."""
+    n_l, q1 = coef_m.shape
+    n_px = m.shape[1]
+    chunk = 1024
+    for c in numba.prange((n_px + chunk - 1) // chunk):
+        p0 = c * chunk
+        p1 = min(n_px, p0 + chunk)
+        for l in range(n_l):
+            for p in range(p0, p1):
+                acc = coef_m[l, 0] * m[0, p]
+                for q in range(1, q1):
+                    acc += coef_m[l, q] * m[q, p] + coef_n[l, q - 1] * n[q, p]
+                out[l, p] = acc
+
+
 def order_for(max_phase: float, tolerance: float = 1e-4) -> int:
     """Smallest expansion order Q with truncation bound ``x^(Q+1) / (Q+1)! <= tolerance`` at ``x = max_phase``."""
     x = abs(float(max_phase))
@@ -234,9 +251,10 @@ class OffsetMoments:
         fact = np.array([math.factorial(i) for i in range(q + 1)], dtype=np.float64)
         powers = (1j * self.wavenumber * d[:, None]) ** np.arange(q + 1)[None, :] / fact[None, :]   # (L, Q+1)
         shape = self.m.shape[1:]
-        out = powers @ self.m.reshape(q + 1, -1)
-        if q > 0:
-            out += (d[:, None] / self.range_spacing) * (powers[:, :q] @ self.n[1:].reshape(q, -1))
+        coef_n = np.ascontiguousarray((d[:, None] / self.range_spacing) * powers[:, :q]) if q > 0 \
+            else np.zeros((d.size, 1), complex)
+        out = np.empty((d.size, int(np.prod(shape))), dtype=np.complex128)
+        _evaluate(np.ascontiguousarray(powers), coef_n, self.m.reshape(q + 1, -1), self.n.reshape(q + 1, -1), out)
         return out.reshape((d.size,) + shape)
 
     def image(self, delta: float, tolerance: float = 1e-3) -> np.ndarray:

@@ -166,8 +166,12 @@ class FocusVelocityMeasurement:
     sigma : (R,) or scalar 1-sigma noise of each fix [m/s] (from ``kappa / curvature``, or a constant).
     """
 
-    name = "v_focus"
-    dim = 1
+    names = ("v_focus",)
+    units = ("m/s",)
+
+    @property
+    def dim(self) -> int:
+        return len(self.names)
 
     def __init__(self, layout: ErrorStateLayout, directions, sigma):
         if not layout.has("v"):
@@ -206,15 +210,20 @@ class FocusVelocityMeasurement:
         e, s = self._per_run(runs)
         H = np.zeros((runs, 1, self.layout.n))
         H[:, 0, self.layout.slice("v")] = e
-        return Prediction(np.einsum("ri,ri->r", e, v)[:, None], H, (s**2)[:, None, None], names=(self.name,))
+        return Prediction(np.einsum("ri,ri->r", e, v)[:, None], H, (s**2)[:, None, None], names=self.names)
 
     def simulate(self, truth, rngs=None, noise=None) -> np.ndarray:
-        """Oracle fixes from the true velocity: e . v + sigma N(0, 1) (one draw per run's generator), (R, 1)."""
+        """Oracle fixes from the true velocity: e . v + sigma x unit normal, (R, 1); ``noise`` (R, 1) unit normals,
+        else one draw from each run's Generator in ``rngs`` (the contract of measurements.base)."""
         v = np.asarray(truth.v, dtype=np.float64)
         runs = v.shape[0]
         e, s = self._per_run(runs)
-        if noise is None:
+        if noise is not None:
+            noise = np.asarray(noise, dtype=np.float64).reshape(-1)
+            if noise.shape != (runs,) or not np.all(np.isfinite(noise)):
+                raise InputDataError("noise", f"must be finite unit normals of shape ({runs}, 1)")
+        else:
             if rngs is None or len(rngs) != runs:
-                raise ConfigError("rngs", f"need one Generator per run ({runs}) or explicit noise")
+                raise InputDataError("rngs", f"need one Generator per run ({runs}) or the noise itself")
             noise = np.array([g.standard_normal() for g in rngs])
-        return (np.einsum("ri,ri->r", e, v) + s * np.asarray(noise, dtype=np.float64).reshape(runs))[:, None]
+        return (np.einsum("ri,ri->r", e, v) + s * noise)[:, None]
