@@ -162,11 +162,15 @@ def test_t14_cross_track_entropy_has_no_trough_at_zero(usu):
 
 @pytest.mark.slow
 def test_t16_reliability_over_20_scenes():
-    """Distance of the extremum from zero error over 20 point/clutter scenes at 100 x 100 (docs/quality.md)."""
+    """Distance of the extremum from zero error over 20 point/clutter scenes at 100 x 100 (docs/quality.md). The thesis'
+    ordering (kurtosis more reliable than entropy) is not reproduced: entropy magnitude is exactly at zero at least as
+    often as raw kurtosis, and normalising (3.5) by m2^2 removes most of raw kurtosis' offset."""
     errors = qs.error_grid(GEO, "along", 10)
     seeds = np.random.SeedSequence(16).spawn(20)
     scenes = [point_clutter_scene(np.random.default_rng(s), GEO.scene_center, GEO.scene_extent, clutter_density=0.5)
               for s in seeds]
-    best = qs.reliability_study(GEO, scenes, errors, 100, 100, ("kurtosis", "entropy_magnitude"))
-    steps = np.abs(best / (errors[1] - errors[0]))
-    assert np.mean(steps[:, 0] <= 1) >= 0.8 and np.mean(steps[:, 1] <= 1) >= 0.8
+    best = qs.reliability_study(GEO, scenes, errors, 100, 100, ("kurtosis", "normalised_kurtosis", "entropy_magnitude"))
+    steps = np.abs(np.round(best / (errors[1] - errors[0])))
+    assert np.all(steps <= 1)                                     # every measure within one step, every scene
+    exact = np.mean(steps == 0, axis=0)
+    assert exact[2] >= exact[0] and exact[1] >= exact[0]

@@ -176,3 +176,12 @@ def test_reduced_table41_sweep_reproduces_the_thesis_and_the_better_search_works
     assert 0.8 < min(means) and max(means) < 1.2                                       # T20-T21: around 1
     assert abs(np.mean(by["source-random"]) - 1.0) < 0.05
     assert np.median(by["grid"]) < 0.5 and np.median(by["brent"]) < 0.5                # the better search
+
+
+def test_any_quality_measure_can_score_and_is_labelled(small):
+    geo, prob = small
+    rows = list(fs.table41_rows(prob, 400, 11, sigmas=[3e-5], n_spacings=1,
+                                scorers=("intensity_entropy", "kurtosis"), improved=()))
+    assert [r["method"] for r in rows] == ["source-intensity_entropy", "source"]
+    assert [r["scorer"] for r in rows] == ["intensity_entropy", "kurtosis"]
+    assert all(np.isfinite(r["rho"]) and r["rho"] > 0 for r in rows)

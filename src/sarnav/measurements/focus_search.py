@@ -287,9 +287,10 @@ def _parabola_vertex(d, s, i: int) -> float | None:
     return float(d[i] + 0.5 * h * (s[i - 1] - s[i + 1]) / den)
 
 
-def _choose_by_measure(problem: SearchProblem, block: _Block, acc: np.ndarray, deltas: np.ndarray, method: str):
+def _choose_by_measure(problem: SearchProblem, block: _Block, acc: np.ndarray, deltas: np.ndarray, method: str,
+                       measure: str):
     """(chosen offset, its block image) by the quality measure: grid arg max, parabola or Brent refinement."""
-    m = QUALITY_MEASURES[problem.measure]
+    m = QUALITY_MEASURES[measure]
     mom = _moments(problem, block, float(np.max(np.abs(deltas))))
 
     def score(d):
@@ -321,7 +322,7 @@ def _choose(problem, block, acc, deltas, method, scorer, rng, span):
         return d, None, oracle_index
     if scorer == "random":
         return float(deltas[int(rng.integers(len(deltas)))]), None, oracle_index
-    d, img = _choose_by_measure(problem, block, acc, deltas, method)
+    d, img = _choose_by_measure(problem, block, acc, deltas, method, scorer)
     return d, img, oracle_index
 
 
@@ -416,15 +417,16 @@ def _row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, r
 
 def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, realisations=(0,), seed: int = 0,
                  sigmas=None, n_spacings: int = 30, bias: float = TABLE41_BIAS,
-                 scorers=("kurtosis", "oracle", "random"), improved=("grid", "brent"), span_sigmas: float = 3.0):
+                 scorers=None, improved=("grid", "brent"), span_sigmas: float = 3.0):
     """Rows of the Table 4.1 sweep for one (S_i, L) (L656-670): yields one dict per run (``ROW_COLUMNS`` +
     ``DIAGNOSTIC_COLUMNS``).
 
-    For every realisation r and sigma (Table 4.1: ten values), one noise vector w (gap 13) and
+    For every realisation r and sigma (Table 4.1: ten values), one noise vector w (gap 13) and (``scorers`` default:
+    ``problem.measure``, "oracle", "random")
 
     * the thesis' search (``method="source"``) for each of the ``n_spacings`` spacings and each scorer in
-      ``scorers`` (kurtosis = the thesis; "oracle", "random": the controls; label ``source`` for the quality
-      measure, ``source-oracle``, ``source-random`` for the controls);
+      ``scorers`` (kurtosis = the thesis; "oracle", "random": the controls; label ``source`` for
+      ``problem.measure``, ``source-<scorer>`` for any other scorer, e.g. ``source-oracle``);
     * each improved method once, candidates spanning +- (|b| + span_sigmas sigma / sqrt(S_i)) (the bias bound and
       the block noise an IMU specification gives), scored by ``problem.measure``; ``spacing`` is its grid step.
 
@@ -432,6 +434,7 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
     spacing), not on which other rows are computed.
     """
     sig = table41_sigmas() if sigmas is None else np.asarray(sigmas, dtype=np.float64)
+    scorers = (problem.measure, "oracle", "random") if scorers is None else tuple(scorers)
     _int("search.candidates", candidates, 1)
     block_knots(problem.rc.n_pulses, problem.initial_pulses, block_pulses)
     for r in realisations:
@@ -443,7 +446,7 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
                 for sc in scorers:
                     res = run_search(problem, noisy, block_pulses, "source", candidates, spacing=spacing, scorer=sc,
                                      rng=rand)
-                    label = "source" if sc not in CONTROL_SCORERS else f"source-{sc}"
+                    label = "source" if sc == problem.measure else f"source-{sc}"
                     yield _row(label, sc, block_pulses, candidates, s, spacing, r, res, cov)
             span = abs(bias) + span_sigmas * s / math.sqrt(block_pulses)
             step = 2.0 * span / max(candidates - 1, 1)
