@@ -81,3 +81,98 @@ def test_bad_input_is_named():
         q.entropy_bits([0.5, 0.6])
     with pytest.raises(ConfigError, match="quantity"):
         q.normalised_variance(np.ones(3), quantity="power")
+
+
+# ---------------------------------------------------------------------------------------------
+# conventions pinned to closed forms (docs/quality.md)
+
+def test_speckle_fourth_moment_is_two_and_cumulant_zero():
+    # circular complex Gaussian: E|y|^4 = 2 (E|y|^2)^2, E y^2 = 0 (T4). Standard errors by the delta method:
+    # m4/m2^2 with |y|^2 ~ Exp: Var(x^2 - 4x) = 24 - 48 + 32 - 4 = 4 for the ratio's linearisation -> SE = 2/sqrt(N)
+    n = 1_000_000
+    y = _complex_gaussian(n, 21, 0.7)
+    se = 2.0 / np.sqrt(n)
+    assert q.normalised_fourth_moment(y) == pytest.approx(2.0, abs=4 * se)
+    assert abs(q.normalised_complex_kurtosis(y)) < 4 * se
+    assert abs(q.complex_kurtosis(y, remove_mean=True)) < 4 * se * 0.7**2
+
+
+def test_speckle_intensity_entropy_is_log_n_minus_one_minus_euler_gamma():
+    # p_i = x_i / sum x, x ~ Exp(1): E = ln N - E[x ln x] = ln N - (1 - gamma_E) (+ O(1/N)); SD of
+    # mean(x ln x) for Exp(1) is below 1.2 / sqrt(N), so 5e-3 is > 4 SE at N = 512^2.
+    y = _complex_gaussian(512 * 512, 22, 5.0)
+    expected = np.log(y.size) - (1.0 - q.EULER_GAMMA)
+    assert q.intensity_entropy(y) == pytest.approx(expected, abs=5e-3)
+    assert 1.0 - q.EULER_GAMMA == pytest.approx(0.42278433509846713, abs=1e-15)
+
+
+def test_single_bright_pixel_and_uniform_image_limits():
+    p = 900
+    spike = np.zeros((30, 30), complex)
+    spike[4, 17] = 2.0 - 1.0j
+    # one pixel carries all intensity: entropy 0, fourth moment P, cumulant |a|^4 (1/P - 3/P^2)
+    assert q.intensity_entropy(spike) == 0.0
+    assert q.normalised_fourth_moment(spike) == pytest.approx(p, rel=1e-12)
+    a4 = abs(2.0 - 1.0j) ** 4
+    assert q.complex_kurtosis(spike) == pytest.approx(a4 * (1 / p - 3 / p**2), rel=1e-12)
+    # uniform modulus, any phases: entropy ln P (its maximum), fourth moment 1
+    rng = np.random.default_rng(np.random.SeedSequence(23))
+    uniform = 3.0 * np.exp(2j * np.pi * rng.random((30, 30)))
+    assert q.intensity_entropy(uniform) == pytest.approx(np.log(p), abs=1e-12)
+    assert q.normalised_fourth_moment(uniform) == pytest.approx(1.0, abs=1e-12)
+    # entropy of anything else lies between the limits
+    assert 0.0 < q.intensity_entropy(_complex_gaussian(p, 24)) < np.log(p)
+
+
+def test_coin_entropies_t5():
+    assert q.entropy_bits([0.5, 0.5]) == 1.0
+    h = -0.9 * np.log2(0.9) - 0.1 * np.log2(0.1)
+    assert q.entropy_bits([0.9, 0.1]) == pytest.approx(h, rel=1e-14)
+    assert round(q.entropy_bits([0.9, 0.1]), 3) == 0.469
+
+
+def test_mean_removal_matches_zero_mean_when_the_mean_is_small():
+    # the thesis' zero-mean approximation (L302): for zero-mean y, expanding eq. (3.5) of y + mu gives
+    # |K(y + mu) - K(y)| <= 4|mu| E|y|^3 + 12 |mu|^2 m2 + 4 |mu|^4; mu = 1e-3 of the rms as in the thesis
+    y = _complex_gaussian(10_000, 25)
+    y[::97] *= 30.0  # super-Gaussian
+    y -= y.mean()
+    mu = 1e-3 * np.sqrt(np.mean(np.abs(y) ** 2)) * np.exp(0.3j)
+    k_true = q.complex_kurtosis(y)
+    bound = 4 * abs(mu) * np.mean(np.abs(y) ** 3) + 12 * abs(mu) ** 2 * np.mean(np.abs(y) ** 2) + 4 * abs(mu) ** 4
+    assert abs(q.complex_kurtosis(y + mu) - k_true) <= bound
+    assert bound < 2e-3 * k_true
+    assert q.complex_kurtosis(y + mu, remove_mean=True) == pytest.approx(k_true, rel=1e-12)
+
+
+def test_named_measures_and_their_sense():
+    y = _complex_gaussian(2500, 26).reshape(50, 50)
+    focused = y.copy()
+    focused[25, 25] = 40.0
+    for name, m in q.QUALITY_MEASURES.items():
+        assert m.name == name
+        assert q.quality_score(y, name, 100) == m(y, 100)
+        # a bright point on speckle is "better" by every measure
+        assert m.better(focused, 100) > m.better(y, 100), name
+    with pytest.raises(ConfigError, match="measure"):
+        q.quality_score(y, "sharpness")
+
+
+@pytest.mark.parametrize("name", sorted(q.QUALITY_MEASURES))
+def test_every_measure_rejects_constant_and_nan_images(name):
+    with pytest.raises(InputDataError, match="zero variance"):
+        q.quality_score(np.full((8, 8), 1.5 + 0.5j), name, 10)
+    with pytest.raises(InputDataError, match="zero variance"):
+        q.quality_score(np.zeros((8, 8)), name, 10)
+    bad = _complex_gaussian(64, 27).reshape(8, 8)
+    bad[3, 3] = np.nan
+    with pytest.raises(InputDataError, match="NaN"):
+        q.quality_score(bad, name, 10)
+
+
+def test_bins_below_two_are_rejected():
+    y = _complex_gaussian(100, 28)
+    for n in (1, 0, -3, 2.5, True):
+        with pytest.raises(ConfigError, match="n_bins"):
+            q.entropy_magnitude(y, n)
+    assert q.entropy_magnitude(y, 2) <= 1.0

@@ -10,19 +10,50 @@ Sources
 * Lindstrom (2020) thesis App. D.2, eqs. (D.11)–(D.12): contrast metrics (notes/seed-000 §10.2).
 * Spacecraft SAR-TRN paper, eq. (3) (Groen et al.): normalised variance sharpness
   (notes/seed-002 §2.9).
+* Minimum-entropy autofocus (Wang & Liu; Kragh): the Shannon entropy of the intensity-normalised
+  image, ``E = -sum p ln p`` with ``p_i = |y_i|^2 / sum |y|^2``, in nats (anchors-wave2 §3.2).
 
-Kurtosis is maximised by a well-focused image; entropy is minimised; contrast and normalised
-variance are maximised.
+Conventions fixed here (docs/quality.md, tests/imaging/test_quality.py pins each to a closed form):
+
+============================ ================================================ =================== ==========
+measure                      definition                                       circular speckle     sense
+============================ ================================================ =================== ==========
+complex_kurtosis             m4 - 2 m2^2 - |mean y^2|^2 (eq. 3.5, raw)        0                    maximise
+normalised_complex_kurtosis  eq. 3.5 / m2^2                                   0                    maximise
+normalised_fourth_moment     m4 / m2^2                                        2                    maximise
+entropy_magnitude            eq. 3.6 on an N-bin histogram of |y|, bits       (depends on N)       minimise
+entropy_sum                  eq. 3.6 on an N-bin histogram of Re y + Im y     (depends on N)       minimise
+intensity_entropy            -sum p ln p, p = |y|^2 / sum |y|^2, nats         ln P - (1 - gamma_E) minimise
+============================ ================================================ =================== ==========
+
+with m2 = mean |y|^2, m4 = mean |y|^4 over all P pixels. Kurtosis is maximised by a well-focused
+image; entropy is minimised; contrast and normalised variance are maximised.
+
+Bad input (``InputDataError`` naming ``image``): an empty image, NaN/inf pixels, and for the image
+measures of the table an image of constant value (zero variance: it carries no focus information and
+the normalised measures are 0/0). ``n_bins`` must be an integer >= 2 (``ConfigError``).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
 
+#: Euler-Mascheroni constant (speckle intensity entropy ln P - (1 - gamma_E))
+EULER_GAMMA = 0.5772156649015329
+
 __all__ = [
+    "QUALITY_MEASURES",
+    "QualityMeasure",
+    "quality_measure",
+    "quality_score",
     "complex_kurtosis",
+    "normalised_fourth_moment",
+    "intensity_entropy",
     "normalised_complex_kurtosis",
     "entropy_bits",
     "histogram_entropy",
@@ -45,6 +76,16 @@ def _pixels(image, field: str = "image") -> np.ndarray:
     return y
 
 
+def _image_pixels(image, remove_mean: bool = False) -> np.ndarray:
+    """complex128 pixels of an image measure's input; rejects a constant (zero-variance) image."""
+    y = _pixels(image).astype(np.complex128, copy=False)
+    mean = y.mean()
+    if np.all(y == y[0]):
+        raise InputDataError("image", f"has constant value {complex(y[0])!r} (zero variance) over all {y.size} "
+                             "pixels; a focus measure needs a non-constant image")
+    return y - mean if remove_mean else y
+
+
 def complex_kurtosis(image, *, remove_mean: bool = False) -> float:
     """Sample fourth cumulant of complex pixels, Hathaway eq. (3.5).
 
@@ -61,9 +102,7 @@ def complex_kurtosis(image, *, remove_mean: bool = False) -> float:
     -------
     float
     """
-    y = _pixels(image).astype(np.complex128, copy=False)
-    if remove_mean:
-        y = y - y.mean()
+    y = _image_pixels(image, remove_mean)
     p = (y.real**2 + y.imag**2)
     return float(np.mean(p * p) - 2.0 * np.mean(p) ** 2 - np.abs(np.mean(y * y)) ** 2)
 
@@ -73,13 +112,37 @@ def normalised_complex_kurtosis(image, *, remove_mean: bool = False) -> float:
 
     For circular complex Gaussian noise this is 0; for a single real spike among P pixels it is P − 3.
     """
-    y = _pixels(image).astype(np.complex128, copy=False)
-    if remove_mean:
-        y = y - y.mean()
-    m2 = float(np.mean(y.real**2 + y.imag**2))
-    if m2 == 0.0:
-        raise InputDataError("image", "is identically zero; normalised kurtosis undefined")
-    return complex_kurtosis(y) / m2**2
+    y = _image_pixels(image, remove_mean)
+    p = y.real**2 + y.imag**2
+    m2 = float(np.mean(p))
+    return float(np.mean(p * p) - 2.0 * m2**2 - np.abs(np.mean(y * y)) ** 2) / m2**2
+
+
+def normalised_fourth_moment(image, *, remove_mean: bool = False) -> float:
+    """``mean(|y|^4) / mean(|y|^2)^2``: 2 for circular complex Gaussian speckle, P for one bright pixel
+    among P, 1 for a constant-modulus image (Cumming & Wong's intensity contrast + 1).
+
+    Equals :func:`normalised_complex_kurtosis` + 2 + ``|mean y^2|^2 / m2^2`` (eq. 3.5 rearranged).
+    """
+    y = _image_pixels(image, remove_mean)
+    p = y.real**2 + y.imag**2
+    return float(np.mean(p * p) / np.mean(p) ** 2)
+
+
+def intensity_entropy(image) -> float:
+    """Shannon entropy of the intensity-normalised image, in nats (minimum-entropy autofocus).
+
+    ``E = -sum_i p_i ln p_i`` with ``p_i = |y_i|^2 / sum_j |y_j|^2`` and ``0 ln 0 = 0``. Limits: one
+    bright pixel 0; a constant-modulus image ln P (the maximum); circular complex Gaussian speckle
+    ``ln P - (1 - gamma_E)`` = ln P - 0.4228 for large P (E[x ln x] = 1 - gamma_E for x ~ Exp(1)).
+    """
+    y = _image_pixels(image)
+    p = y.real**2 + y.imag**2
+    total = float(p.sum())
+    if total == 0.0:  # pragma: no cover - a non-constant image has a non-zero pixel
+        raise InputDataError("image", "is identically zero; intensity entropy undefined")
+    p = p[p > 0] / total
+    return float(-np.sum(p * np.log(p)))
 
 
 def entropy_bits(probabilities) -> float:
@@ -108,10 +171,10 @@ def histogram_entropy(values, n_bins: int) -> float:
     Parameters
     ----------
     values : real array (any shape)
-    n_bins : number of bins N >= 1 (the thesis uses 10, 100, 1000)
+    n_bins : number of bins N >= 2 (the thesis uses 10, 100, 1000)
     """
-    if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 1:
-        raise ConfigError("n_bins", f"must be an integer >= 1, got {n_bins!r}")
+    if isinstance(n_bins, bool) or not isinstance(n_bins, (int, np.integer)) or n_bins < 2:
+        raise ConfigError("n_bins", f"must be an integer >= 2 (a histogram of one bin has entropy 0), got {n_bins!r}")
     v = _pixels(values, "values")
     if np.iscomplexobj(v):
         raise InputDataError("values", "must be real; use entropy_magnitude or entropy_sum for complex images")
@@ -124,14 +187,17 @@ def histogram_entropy(values, n_bins: int) -> float:
 
 
 def entropy_magnitude(image, n_bins: int = 1000) -> float:
-    """Histogram entropy of the pixel magnitudes |I| (Hathaway eq. 3.6, "entropy magnitude")."""
-    return histogram_entropy(np.abs(_pixels(image)), n_bins)
+    """Histogram entropy in bits of the pixel magnitudes |I| (Hathaway eq. 3.6, "entropy magnitude").
+
+    At most log2 N, so values for different N are not comparable.
+    """
+    return histogram_entropy(np.abs(_image_pixels(image)), n_bins)
 
 
 def entropy_sum(image, n_bins: int = 1000) -> float:
-    """Histogram entropy of Re I + Im I (Hathaway eq. 3.6, "entropy sum", L489)."""
-    y = _pixels(image)
-    return histogram_entropy(y.real + (y.imag if np.iscomplexobj(y) else 0.0), n_bins)
+    """Histogram entropy in bits of Re I + Im I (Hathaway eq. 3.6, "entropy sum", L489)."""
+    y = _image_pixels(image)
+    return histogram_entropy(y.real + y.imag, n_bins)
 
 
 def normalised_variance(image, *, quantity: str = "intensity") -> float:
@@ -171,3 +237,53 @@ def std_to_mean_contrast(image) -> float:
     if m == 0.0:
         raise InputDataError("image", "is identically zero; contrast undefined")
     return float(np.sqrt(max(np.mean(a * a) - m**2, 0.0)) / m)
+
+
+# ---------------------------------------------------------------------------------------------
+# named measures (what sweeps, searches and scenarios refer to by name)
+
+@dataclass(frozen=True)
+class QualityMeasure:
+    """A focus measure by name: ``function(image) -> float`` and whether larger is better."""
+
+    name: str
+    function: Callable[..., float]
+    maximise: bool
+    uses_bins: bool = False
+
+    def __call__(self, image, n_bins: int = 1000) -> float:
+        return self.function(image, n_bins) if self.uses_bins else self.function(image)
+
+    def better(self, image, n_bins: int = 1000) -> float:
+        """The score oriented so that larger is better (entropy negated)."""
+        v = self(image, n_bins)
+        return v if self.maximise else -v
+
+
+def _kurt_mean_removed(image):
+    return complex_kurtosis(image, remove_mean=True)
+
+
+#: every measure of the module by the name used in sweeps, searches and configuration files
+QUALITY_MEASURES = {
+    "kurtosis": QualityMeasure("kurtosis", complex_kurtosis, True),
+    "kurtosis_mean_removed": QualityMeasure("kurtosis_mean_removed", _kurt_mean_removed, True),
+    "normalised_kurtosis": QualityMeasure("normalised_kurtosis", normalised_complex_kurtosis, True),
+    "fourth_moment": QualityMeasure("fourth_moment", normalised_fourth_moment, True),
+    "entropy_magnitude": QualityMeasure("entropy_magnitude", entropy_magnitude, False, True),
+    "entropy_sum": QualityMeasure("entropy_sum", entropy_sum, False, True),
+    "intensity_entropy": QualityMeasure("intensity_entropy", intensity_entropy, False),
+}
+
+
+def quality_measure(name: str, field: str = "measure") -> QualityMeasure:
+    """The :class:`QualityMeasure` called ``name``; ConfigError naming ``field`` for an unknown name."""
+    try:
+        return QUALITY_MEASURES[name]
+    except (KeyError, TypeError):
+        raise ConfigError(field, f"must be one of {sorted(QUALITY_MEASURES)}, got {name!r}") from None
+
+
+def quality_score(image, measure: str = "kurtosis", n_bins: int = 1000) -> float:
+    """Score of ``image`` by the named measure (raw value; see :data:`QUALITY_MEASURES` for its sense)."""
+    return quality_measure(measure)(image, n_bins)

@@ -1,0 +1,256 @@
+"""Image-quality score versus velocity error: the data of Hathaway (2023) Figs. 4.1-4.8 and claims T3, T7-T17.
+
+Thesis §3.4.2 (L395): images are back-projected along the true track and along tracks with a constant
+along-track or cross-track velocity error; each is scored with kurtosis (eq. 3.5) and histogram entropy
+(eq. 3.6); the curves are read for a maximum (kurtosis) or minimum (entropy) at zero error
+(notes/seed-004 §3.2, §4.2, T3, T7-T17).
+
+Velocity error (gap 7, faithful reading, pivot = first pulse n0, which shifts the image as in Fig. 4.1b):
+
+* along-track, relative error ``eps`` (0.002 = 0.2 %): ``p_eps(n) = p(n) + eps ((p(n) - p(n0)) . e) e``;
+* cross-track, ``eta`` metres per metre: ``p_eta(n) = p(n) + eta ((p(n) - p(n0)) . e) c``,
+
+with e the along-track and c the cross-track unit vector. On flat ground a cross-track error of this form
+is a rotation of the track about the vertical through p(n0), so it shifts (by ~eta x ground range) and
+rotates the image without defocusing it (docs/quality.md, "cross-track").
+
+Everything returns numpy arrays or an ``xarray.Dataset`` (dims ``size``, ``bins``, ``error``); figures are
+drawn elsewhere. Grids keep the ground extent of the geometry and vary the pixel count (gap 4).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+import xarray as xr
+
+from sarnav.errors import ConfigError, InputDataError
+from sarnav.imaging.backprojection import backproject
+from sarnav.imaging.grid import GroundGrid
+from sarnav.imaging.quality import QUALITY_MEASURES, quality_measure
+from sarnav.imaging.range_compression import range_compress
+from sarnav.imaging.registration import register
+from sarnav.radar.quality_scenes import QualityGeometry, simulate_pulses
+
+__all__ = ["DIRECTIONS", "FIGURES", "DEFAULT_MEASURES", "compressed_pulses", "image_grid", "velocity_error_positions",
+           "focus_depth", "error_grid", "score_images", "quality_sweep", "figure_data", "extremum_error",
+           "count_local_extrema", "local_minimum_near", "curve_correlation", "reliability_study", "t3_example"]
+
+DIRECTIONS = ("along", "cross")
+#: the measures of the thesis' USU study (Figs. 4.2-4.8) plus the mean-removed kurtosis (Figs. 4.11, 4.17)
+DEFAULT_MEASURES = ("kurtosis", "kurtosis_mean_removed", "entropy_magnitude", "entropy_sum")
+
+#: what each figure of the thesis shows (direction, image sizes, histogram bins); thesis 300^2 -> 200^2 here
+FIGURES = {
+    "4.2": {"direction": "along", "sizes": (100,), "bins": (10,)},
+    "4.3-4.6": {"direction": "along", "sizes": (10, 50, 100, 200), "bins": (1000,)},
+    "4.7": {"direction": "along", "sizes": (100,), "bins": (10, 100, 1000)},
+    "4.8": {"direction": "cross", "sizes": (100,), "bins": (10, 100, 1000)},
+}
+
+
+def compressed_pulses(geometry: QualityGeometry, scene, snr_db: float | None = None, rng=None):
+    """Range-compressed echoes of ``scene`` along the geometry's true track."""
+    return range_compress(simulate_pulses(geometry, scene, snr_db, rng))
+
+
+def image_grid(geometry: QualityGeometry, n: int) -> GroundGrid:
+    """n x n ground grid over the geometry's square scene (rows north = along-track, columns east)."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise ConfigError("sizes", f"image sizes must be integers >= 2, got {n!r}")
+    c = geometry.scene_center
+    return GroundGrid.centered(float(c[0]), float(c[1]), geometry.grid_spacing(n), (int(n), int(n)))
+
+
+def velocity_error_positions(positions, error: float, direction: str, along, cross, pivot: int = 0) -> np.ndarray:
+    """(P, 3) positions with a constant velocity error (module docstring; gap 7, pivot = first pulse)."""
+    if direction not in DIRECTIONS:
+        raise ConfigError("direction", f"must be one of {DIRECTIONS}, got {direction!r}")
+    p = np.asarray(positions, dtype=np.float64)
+    e = np.asarray(along, dtype=np.float64)
+    d = (p - p[pivot]) @ e
+    u = e if direction == "along" else np.asarray(cross, dtype=np.float64)
+    return p + (float(error) * d)[:, None] * u[None, :]
+
+
+def focus_depth(geometry: QualityGeometry) -> float:
+    """Relative along-track speed error giving a quadratic phase error of pi/2 at the aperture ends.
+
+    Azimuth FM rate K_a = 2 V^2 / (lambda R0); a relative speed error eps changes it by 2 eps K_a, a
+    quadratic phase pi 2 eps K_a (T/2)^2 at the ends of an aperture of T seconds.
+    """
+    lam = geometry.radar().wavelength
+    r0 = math.hypot(geometry.altitude, geometry.ground_range)
+    k_a = 2.0 * geometry.speed**2 / (lam * r0)
+    half = 0.5 * (geometry.n_pulses - 1) / geometry.prf
+    return 1.0 / (4.0 * k_a * half * half)
+
+
+def error_grid(geometry: QualityGeometry, direction: str = "along", steps: int = 20, span: float = 6.0) -> np.ndarray:
+    """Symmetric error grid of 2 ``steps`` + 1 values over +- ``span`` focus depths (gap 8).
+
+    Along-track in relative units. Cross-track in m/m, up to the error that shifts the image by a quarter of the
+    scene (eta x ground range = extent / 4; the thesis' 0.002 m/m shifts it by 3.5 m here).
+    """
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ConfigError("steps", f"must be an integer >= 1, got {steps!r}")
+    if direction == "along":
+        top = span * focus_depth(geometry)
+    elif direction == "cross":
+        top = 0.25 * geometry.scene_extent / geometry.ground_range
+    else:
+        raise ConfigError("direction", f"must be one of {DIRECTIONS}, got {direction!r}")
+    return np.linspace(-top, top, 2 * int(steps) + 1)
+
+
+def score_images(images, measures: Sequence[str] = DEFAULT_MEASURES, bins: Sequence[int] = (1000,)) -> dict:
+    """Scores of a stack of images: {measure: (n,) or (len(bins), n) for histogram measures}."""
+    imgs = np.asarray(images)
+    out = {}
+    for name in measures:
+        m = quality_measure(name, "measures")
+        if m.uses_bins:
+            out[name] = np.array([[m(im, b) for im in imgs] for b in bins])
+        else:
+            out[name] = np.array([m(im) for im in imgs])
+    return out
+
+
+PIVOTS = ("first", "centre")
+
+
+def _pivot_index(pivot: str, n_pulses: int) -> int:
+    if pivot not in PIVOTS:
+        raise ConfigError("pivot", f"must be one of {PIVOTS}, got {pivot!r}")
+    return 0 if pivot == "first" else n_pulses // 2
+
+
+def _images_for_errors(rc, grid, geometry, errors, direction, pivot="first") -> np.ndarray:
+    pos = np.asarray(rc.positions)
+    k = _pivot_index(pivot, pos.shape[0])
+    imgs = [backproject(rc, grid, positions=velocity_error_positions(pos, err, direction, geometry.along_track,
+                                                                   geometry.cross_track, k)).data for err in errors]
+    return np.stack(imgs)
+
+
+def quality_sweep(rc, geometry: QualityGeometry, errors, direction: str = "along", sizes: Sequence[int] = (100,),
+                  bins: Sequence[int] = (1000,), measures: Sequence[str] = DEFAULT_MEASURES,
+                  pivot: str = "first") -> xr.Dataset:
+    """Score of every measure versus velocity error for each image size (one BPA image per size and error).
+
+    Parameters
+    ----------
+    rc : range-compressed pulses (true positions in ``rc.positions``).
+    geometry : the :class:`QualityGeometry` that produced them (directions, scene square).
+    errors : (E,) along-track relative errors or cross-track errors [m/m].
+    direction : "along" or "cross".
+    sizes : image sizes n (n x n pixels over the fixed extent); bins : histogram bin counts N.
+    measures : names in :data:`sarnav.imaging.quality.QUALITY_MEASURES`.
+    pivot : pulse about which the error grows: "first" (the thesis' reading, shifts the image) or "centre".
+
+    Returns
+    -------
+    xarray.Dataset with coordinates ``size``, ``bins``, ``error`` and one variable per measure: (size, error),
+    or (size, bins, error) for histogram entropies; attribute ``maximise_<measure>`` gives each one's sense.
+    """
+    err = np.asarray(errors, dtype=np.float64)
+    if err.ndim != 1 or err.size < 3 or not np.all(np.isfinite(err)) or np.any(np.diff(err) <= 0):
+        raise ConfigError("errors", "must be >= 3 finite, strictly increasing values")
+    bins = [int(b) for b in bins]
+    data = {name: [] for name in measures}
+    for n in sizes:
+        imgs = _images_for_errors(rc, image_grid(geometry, n), geometry, err, direction, pivot)
+        scores = score_images(imgs, measures, bins)
+        for name in measures:
+            data[name].append(scores[name])
+    ds = xr.Dataset(coords={"size": list(sizes), "bins": bins, "error": err})
+    for name in measures:
+        dims = ("size", "bins", "error") if QUALITY_MEASURES[name].uses_bins else ("size", "error")
+        ds[name] = (dims, np.array(data[name]))
+        ds.attrs[f"maximise_{name}"] = int(QUALITY_MEASURES[name].maximise)
+    ds.attrs["direction"] = direction
+    ds.attrs["pivot"] = pivot
+    ds.attrs["error_unit"] = "relative" if direction == "along" else "m/m"
+    return ds
+
+
+def figure_data(figure: str, rc, geometry: QualityGeometry, errors=None,
+                measures: Sequence[str] = DEFAULT_MEASURES) -> xr.Dataset:
+    """The data of one of the thesis' figures (:data:`FIGURES`: "4.2", "4.3-4.6", "4.7", "4.8")."""
+    if figure not in FIGURES:
+        raise ConfigError("figure", f"must be one of {sorted(FIGURES)}, got {figure!r}")
+    spec = FIGURES[figure]
+    if errors is None:
+        errors = error_grid(geometry, spec["direction"])
+    return quality_sweep(rc, geometry, errors, spec["direction"], spec["sizes"], spec["bins"], measures)
+
+
+# ---------------------------------------------------------------------------------------------
+# reading the curves (claims T7-T17)
+
+def extremum_error(errors, scores, maximise: bool) -> float:
+    """The error at the best score (arg max if ``maximise`` else arg min)."""
+    s = np.asarray(scores, dtype=np.float64)
+    return float(np.asarray(errors)[np.argmax(s) if maximise else np.argmin(s)])
+
+
+def count_local_extrema(scores) -> int:
+    """Number of interior strict local maxima and minima of a curve (its roughness, T10)."""
+    d = np.sign(np.diff(np.asarray(scores, dtype=np.float64)))
+    d = d[d != 0]
+    return int(np.sum(d[1:] != d[:-1]))
+
+
+def local_minimum_near(errors, scores, zero_window: int = 1) -> bool:
+    """True when a local minimum of the curve lies within ``zero_window`` steps of the error closest to 0 (T11)."""
+    s = np.asarray(scores, dtype=np.float64)
+    i0 = int(np.argmin(np.abs(np.asarray(errors))))
+    lo, hi = max(1, i0 - zero_window), min(s.size - 2, i0 + zero_window)
+    return any(s[i] <= s[i - 1] and s[i] <= s[i + 1] for i in range(lo, hi + 1))
+
+
+def curve_correlation(a, b) -> float:
+    """Pearson correlation of two score curves (T17: mean-removed vs zero-mean kurtosis)."""
+    return float(np.corrcoef(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))[0, 1])
+
+
+def reliability_study(geometry: QualityGeometry, scenes, errors, size: int = 100, n_bins: int = 100,
+                      measures: Sequence[str] = ("kurtosis", "entropy_magnitude")) -> np.ndarray:
+    """(n_scenes, n_measures) error at each measure's extremum, along-track, one curve per scene (T16)."""
+    out = np.empty((len(scenes), len(measures)))
+    for k, scene in enumerate(scenes):
+        ds = quality_sweep(compressed_pulses(geometry, scene), geometry, errors, "along", (size,), (n_bins,), measures)
+        for j, name in enumerate(measures):
+            curve = ds[name].sel(size=size)
+            if "bins" in curve.dims:
+                curve = curve.sel(bins=n_bins)
+            out[k, j] = extremum_error(errors, curve.values, bool(ds.attrs[f"maximise_{name}"]))
+    return out
+
+
+def t3_example(rc, geometry: QualityGeometry, size: int = 100, along_error: float = 0.002,
+               cross_error: float = 0.002) -> dict:
+    """Fig. 4.1 / T3: the reference image and the images with 0.2 % along-track and 0.002 m/m cross-track error.
+
+    Returns {"reference", "along", "cross": (n, n) complex images; "<dir>_correlation": magnitude correlation
+    peak with the reference; "<dir>_shift_m": (along-track, east) shift [m]; "<dir>_sharpness": normalised
+    fourth moment relative to the reference's}.
+    """
+    grid = image_grid(geometry, size)
+    pos = np.asarray(rc.positions)
+    ref = backproject(rc, grid).data
+    out = {"reference": ref}
+    m4 = QUALITY_MEASURES["fourth_moment"]
+    for name, err, direction in (("along", along_error, "along"), ("cross", cross_error, "cross")):
+        img = backproject(rc, grid, positions=velocity_error_positions(pos, err, direction, geometry.along_track,
+                                                                     geometry.cross_track)).data
+        reg = register(ref, img, spacing=(geometry.grid_spacing(size),) * 2)
+        out[name] = img
+        out[f"{name}_correlation"] = float(reg.peak)
+        out[f"{name}_shift_m"] = tuple(float(v) for v in reg.shift_m)
+        out[f"{name}_sharpness"] = m4(img) / m4(ref)
+    if out["along_correlation"] > 1.0 + 1e-9:  # pragma: no cover - a normalised correlation
+        raise InputDataError("registration", "correlation above 1")
+    return out

@@ -1,0 +1,201 @@
+"""Scenes and geometry of the image-quality study (Hathaway 2023; notes/seed-004 §3.1, §4.6, §5, gaps 3-4, 18).
+
+The thesis' simulated "USU" data set is raw echoes of a black-and-white picture whose black pixels are
+unit scatterers (L375-381); neither the picture (Fig. 3.5) nor the radar parameters are published. Its real
+data set (SDL, a FlexSAR flight near Logan, UT) gives only PRF = 1667 Hz (L650). Decisions (docs/quality.md):
+
+* radar: the FlexSAR preset of this project (9.75 GHz, 500 MHz, fs = 500 MHz, PRF 5000/3 Hz, right-looking,
+  0.0756 m antenna: 20 deg beam) with a 0.2 us chirp and a receive window around the scene;
+* flight: 60 m/s north at 1000 m altitude (FlexSAR, NAVIGATION paper Table 6), scene centre 1760 m east
+  of the track (slant 2024 m) abeam the middle pulse;
+* picture: :func:`usu_picture`, the letters "USU" in a frame with a bar and a block, every black pixel a
+  scatterer of amplitude 1 at its cell centre (no phase randomisation, no noise: gap 18 faithful reading);
+* the image grid keeps the ground extent (``scene_extent``) fixed and varies the pixel count (gap 4).
+
+All positions NED [m], float64.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sarnav.errors import ConfigError, InputDataError, require_positive
+from sarnav.radar.echoes import simulate_echoes
+from sarnav.radar.params import RadarParams
+from sarnav.radar.presets import flexsar
+from sarnav.radar.scene import Scene, random_scatterers
+from sarnav.units import C
+
+#: pulse repetition frequency of the thesis' SDL data (L650) and of the FlexSAR preset [Hz]
+SOURCE_PRF = 5000.0 / 3.0
+
+__all__ = ["SOURCE_PRF", "QualityGeometry", "usu_picture", "binary_scene", "point_clutter_scene", "simulate_pulses"]
+
+# 5 x 7 glyphs of the picture ('#' black)
+_GLYPHS = {
+    "U": ("#...#", "#...#", "#...#", "#...#", "#...#", "#...#", ".###."),
+    "S": (".####", "#....", "#....", ".###.", "....#", "....#", "####."),
+}
+
+
+def usu_picture(shape: tuple[int, int] = (24, 24)) -> np.ndarray:
+    """(Ny, Nx) bool picture, True = black (illuminated): "USU" in a frame, a bar and a solid block below.
+
+    Drawn on a 24 x 24 lattice and enlarged by nearest neighbour to ``shape`` (each >= 24).
+    """
+    ny, nx = (int(v) for v in shape)
+    if ny < 24 or nx < 24:
+        raise ConfigError("picture.shape", f"must be at least (24, 24), got {shape!r}")
+    base = np.zeros((24, 24), dtype=bool)
+    base[0, :] = base[-1, :] = base[:, 0] = base[:, -1] = True          # frame
+    for i, letter in enumerate("USU"):
+        glyph = np.array([[c == "#" for c in row] for row in _GLYPHS[letter]])
+        base[3:10, 3 + 6 * i:8 + 6 * i] = glyph
+    base[13, 3:21] = True                                                 # bar
+    base[16:21, 4:9] = True                                               # solid block
+    base[16:21, 12] = True                                                # vertical line
+    base[np.arange(16, 21), np.arange(15, 20)] = True                     # diagonal
+    rows = (np.arange(ny) * 24) // ny
+    cols = (np.arange(nx) * 24) // nx
+    return base[np.ix_(rows, cols)]
+
+
+@dataclass(frozen=True)
+class QualityGeometry:
+    """Straight, level stripmap flight past a square scene (module docstring).
+
+    Parameters
+    ----------
+    speed : platform speed [m/s]; altitude : [m]; ground_range : scene-centre ground range [m].
+    n_pulses : number of pulses; the middle pulse is abeam the scene centre.
+    scene_extent : side of the square imaged area [m].
+    pulse_length : chirp length [s]; range_margin : receive window beyond the scene's ranges [m].
+    """
+
+    speed: float = 60.0
+    altitude: float = 1000.0
+    ground_range: float = 1760.0
+    n_pulses: int = 4000
+    scene_extent: float = 25.0
+    pulse_length: float = 0.2e-6
+    range_margin: float = 10.0
+
+    def __post_init__(self):
+        for name in ("speed", "altitude", "ground_range", "scene_extent", "pulse_length"):
+            require_positive(f"geometry.{name}", getattr(self, name))
+        if not math.isfinite(self.range_margin) or self.range_margin < 0:
+            raise ConfigError("geometry.range_margin", f"must be finite and >= 0 m, got {self.range_margin!r}")
+        n = self.n_pulses
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+            raise ConfigError("geometry.n_pulses", f"must be an integer >= 2, got {n!r}")
+        if self.scene_extent >= self.ground_range:
+            raise ConfigError("geometry.scene_extent", "must be smaller than the ground range")
+
+    @property
+    def prf(self) -> float:
+        return SOURCE_PRF
+
+    @property
+    def along_track(self) -> np.ndarray:
+        """Unit along-track direction e (north)."""
+        return np.array([1.0, 0.0, 0.0])
+
+    @property
+    def cross_track(self) -> np.ndarray:
+        """Unit horizontal cross-track direction towards the scene (east: right-looking, northbound)."""
+        return np.array([0.0, 1.0, 0.0])
+
+    @property
+    def scene_center(self) -> np.ndarray:
+        return np.array([0.0, self.ground_range, 0.0])
+
+    def pulse_times(self) -> np.ndarray:
+        """(P,) slow times [s], 0 at the first pulse."""
+        return np.arange(self.n_pulses, dtype=np.float64) / SOURCE_PRF
+
+    def positions(self) -> np.ndarray:
+        """(P, 3) true antenna positions, the middle pulse abeam the scene centre (north 0)."""
+        t = self.pulse_times()
+        p = np.zeros((t.size, 3))
+        p[:, 0] = self.speed * (t - 0.5 * (t[0] + t[-1]))
+        p[:, 2] = -self.altitude
+        return p
+
+    def grid_spacing(self, n: int) -> float:
+        """Pixel spacing [m] of an n x n grid over the fixed extent (pixel centres inside the square)."""
+        return self.scene_extent / int(n)
+
+    def _slant_limits(self) -> tuple[float, float]:
+        h = 0.5 * self.scene_extent
+        half_track = 0.5 * self.speed * (self.n_pulses - 1) / SOURCE_PRF
+        near = math.hypot(self.altitude, self.ground_range - h)
+        far = math.sqrt(self.altitude**2 + (self.ground_range + h) ** 2 + (half_track + h) ** 2)
+        return near, far
+
+    def radar(self) -> RadarParams:
+        """FlexSAR radar (PRF 5000/3 Hz) with the receive window around the scene for the whole track."""
+        near, far = self._slant_limits()
+        pad = C * self.pulse_length / 4.0 + self.range_margin
+        fs = 500e6
+        dr = C / (2.0 * fs)
+        n = int(math.ceil((far - near + 2 * pad) / dr)) + 1
+        return flexsar(pulse_length=self.pulse_length, prf=SOURCE_PRF, near_range=near - pad, n_range_samples=n)
+
+
+def binary_scene(picture, center, extent: float, amplitude: complex = 1.0, down: float = 0.0) -> Scene:
+    """One scatterer of ``amplitude`` at the centre of every True cell of ``picture`` (USU generation, L381).
+
+    Row 0 of the picture is the northern edge; columns run west to east; the picture covers a square of
+    side ``extent`` [m] centred on ``center`` (north, east[, down]).
+    """
+    pic = np.asarray(picture)
+    if pic.ndim != 2 or pic.dtype != bool:
+        raise InputDataError("picture", f"must be a 2-D bool array, got {pic.dtype} {pic.shape}")
+    if not pic.any():
+        raise InputDataError("picture", "has no black (True) pixel: the scene would be empty")
+    extent = require_positive("extent", extent, "m")
+    c = np.asarray(center, dtype=np.float64).ravel()
+    if c.size < 2 or not np.all(np.isfinite(c)):
+        raise InputDataError("center", f"must be a finite (north, east[, down]), got {center!r}")
+    ny, nx = pic.shape
+    cell_n, cell_e = extent / ny, extent / nx
+    rows, cols = np.nonzero(pic)
+    north = c[0] + 0.5 * extent - (rows + 0.5) * cell_n
+    east = c[1] - 0.5 * extent + (cols + 0.5) * cell_e
+    pos = np.column_stack([north, east, np.full(rows.size, float(down))])
+    return Scene(pos, np.full(rows.size, complex(amplitude)))
+
+
+def point_clutter_scene(rng: np.random.Generator, center, extent: float, n_points: int = 12,
+                        point_to_clutter_db: float = 20.0, clutter_density: float = 1.0, down: float = 0.0) -> Scene:
+    """Bright points (constant amplitude, random phase) over Rayleigh clutter, uniform over a square.
+
+    Parameters
+    ----------
+    rng : Generator (one per scene); center : (north, east) [m]; extent : square side [m].
+    n_points : number of bright points; point_to_clutter_db : |a_point|^2 over the clutter's mean power.
+    clutter_density : clutter scatterers per m^2 (unit mean power, :func:`random_scatterers`).
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise ConfigError("rng", f"must be a numpy.random.Generator, got {type(rng).__name__}")
+    extent = require_positive("extent", extent, "m")
+    if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 0:
+        raise ConfigError("n_points", f"must be an integer >= 0, got {n_points!r}")
+    c = np.asarray(center, dtype=np.float64).ravel()
+    ext = ((c[0] - 0.5 * extent, c[0] + 0.5 * extent), (c[1] - 0.5 * extent, c[1] + 0.5 * extent))
+    clutter = random_scatterers(rng, ext, clutter_density, "rayleigh", 1.0, down)
+    u = rng.random((n_points, 2))
+    pos = np.column_stack([ext[0][0] + 0.1 * extent + 0.8 * extent * u[:, 0],
+                           ext[1][0] + 0.1 * extent + 0.8 * extent * u[:, 1], np.full(n_points, float(down))])
+    amp = 10.0 ** (point_to_clutter_db / 20.0) * np.exp(2j * np.pi * rng.random(n_points))
+    return Scene(pos, amp) + clutter
+
+
+def simulate_pulses(geometry: QualityGeometry, scene: Scene, snr_db: float | None = None,
+                    rng: np.random.Generator | None = None):
+    """Raw echoes (``PulseData``, uncompressed) of ``scene`` along the geometry's true track (radar.echoes)."""
+    return simulate_echoes(geometry.radar(), geometry.positions(), geometry.pulse_times(), scene, snr_db=snr_db,
+                           rng=rng)
