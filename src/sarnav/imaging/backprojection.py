@@ -188,9 +188,10 @@ def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lam
 
 def _wavelength(rc: PulseData, wavelength) -> float:
     if wavelength is None:
-        wavelength = getattr(rc.params, "wavelength", None)
+        wavelength = rc.carrier_wavelength
         if wavelength is None:
-            raise ConfigError("wavelength", "not given and rc.params has no 'wavelength'; pass wavelength= [m] > 0")
+            raise ConfigError("wavelength", "not given, and rc has neither a wavelength nor params.wavelength; "
+                              "pass wavelength= [m] > 0")
     lam = float(wavelength)
     if not math.isfinite(lam) or lam <= 0:
         raise ConfigError("wavelength", f"must be finite and > 0 m, got {wavelength!r}")
@@ -218,7 +219,7 @@ def _check_pulses(rc: PulseData, positions):
     name = "rc.positions" if positions is None else "positions"
     pos = np.asarray(rc.positions if positions is None else positions, dtype=np.float64)
     if pos.shape != (data.shape[0], 3):
-        raise InputDataError(name, f"must have shape ({data.shape[0]}, 3) (one NED position per pulse), got {pos.shape}")
+        raise InputDataError(name, f"must have shape ({data.shape[0]}, 3) (one position per pulse), got {pos.shape}")
     if not np.all(np.isfinite(pos)):
         raise InputDataError(name, "must be finite (found NaN/inf)")
     return data, rng, pos
@@ -328,7 +329,8 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
     positions : (P, 3) antenna positions used for focusing (NED, m); default ``rc.positions``. Pass
         the navigation estimate to form the image the navigation system would see.
     interpolation : "nearest", "linear", "cubic" (Keys) or "upsample" (FFT ×``upsample`` then linear).
-    wavelength : carrier wavelength [m]; default ``rc.params.wavelength``.
+    wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
+        ``rc.params.wavelength``): a ``PulseData`` needs no ``RadarParams`` to be back-projected.
     upsample : FFT oversampling factor for ``interpolation="upsample"`` (integer in [2, 64]).
     block : pixels per parallel work item (tuning only; the result does not depend on it).
     pulse_block : pulses per pass over the image (tuning only; changes only the float64 summation
