@@ -368,3 +368,38 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
                          "ffbp_oversample": plan.oversample, "ffbp_predicted_error_db": plan.predicted_error_db})
     return img
+
+
+def polar_image(rc: PulseData, grid, positions=None, *, wavelength: float | None = None,
+                bandwidth: float | None = None, oversample: float = 1.0, interpolation: str = "upsample",
+                upsample: int = 4):
+    """The demodulated full-aperture polar image ``I(r, u)`` covering ``grid`` (exact back-projection).
+
+    ``I(r, u) = sum_k s_k(R_k(q)) exp(j 4 pi (R_k(q) - r) / lambda)`` at ``q(r, u)`` (module doc, step 1;
+    r from the aperture centre c, u = direction cosine against the track direction v). Along u it
+    is a sum of tones ``exp(-j 4 pi s_k u / lambda)``, one per pulse (s_k = (a_k - c).v): the
+    back-projected image with its spherical wavefront removed, the domain of phase autofocus.
+
+    Returns
+    -------
+    (values (Nr, Nu) complex128, r (Nr,) [m], u (Nu,), s (P,) pulse offsets along v [m], lambda [m])
+    """
+    g, pts = _points(grid)
+    data, rng, pos = _check_pulses(rc, positions)
+    lam = _wavelength(rc, wavelength)
+    bw = _C / (2.0 * float(rng[1] - rng[0])) if bandwidth is None else float(bandwidth)
+    track = pos[-1] - pos[0]
+    if data.shape[0] < 2 or np.linalg.norm(track) == 0:
+        raise InputDataError("positions", "need >= 2 pulses on a moving track to define the polar image")
+    v = track / np.linalg.norm(track)
+    flat = pts.reshape(-1, 3)
+    lam_eff = lam / (1.0 + bw / (2.0 * _C / lam))
+    spacing = float(np.linalg.norm(track)) / (data.shape[0] - 1)
+    pg = _polar_grid(pos, v, _hull_points(pts), flat.mean(axis=0), _C / (2.0 * bw * oversample), spacing, lam_eff,
+                     oversample)
+    q, rq = pg.points(v)
+    sub = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
+    vals = _demodulate(backproject_points(sub, q, interpolation=interpolation, upsample=upsample), rq, lam)
+    r = pg.r0 + np.arange(pg.nr) * pg.dr
+    u = pg.u0 + np.arange(pg.nu) * pg.du
+    return vals.reshape(pg.nr, pg.nu), r, u, (pos - pg.centre) @ v, lam
