@@ -43,10 +43,15 @@ import scipy.fft as sfft
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import as_grid
+from sarnav.imaging.interpolation_error import interpolation_error
 
-__all__ = ["backproject", "backproject_numpy", "backproject_points", "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR"]
+__all__ = ["backproject", "backproject_numpy", "backproject_points", "resolve_interpolation", "data_oversampling",
+           "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR"]
 
-INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample")
+INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample", "auto")
+#: "auto" picks the cheapest of linear / upsample x2..x16 whose predicted error (flat band, linear
+#: kernel at fs/B * factor, sarnav.imaging.interpolation_error) is at most this (-35 dB)
+AUTO_MAX_ERROR = 10.0 ** -3.5
 _MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1}
 #: zero samples added at each end of every pulse so that the cubic taps never leave the array
 _PAD = 2
@@ -244,6 +249,39 @@ def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
     return out[:, :m], rng[0] + np.arange(m) * dr
 
 
+def data_oversampling(rc: PulseData, bandwidth: float | None = None) -> float:
+    """fs / B of range-compressed pulses: fs = c / (2 dr); B = ``bandwidth``, else ``rc.params.bandwidth``,
+    else the width of the pulses' mean power spectrum above 1 % of its peak (>= 1 bin)."""
+    rng = np.asarray(rc.slant_range, dtype=np.float64)
+    if np.ndim(rc.data) != 2 or np.shape(rc.data)[1] < 2 or rng.ndim != 1 or rng.size < 2 or not rng[1] > rng[0]:
+        return 1.0                     # malformed: the input checks that follow name the problem
+    fs = 299792458.0 / (2.0 * float(rng[1] - rng[0]))
+    bw = bandwidth if bandwidth is not None else getattr(rc.params, "bandwidth", None)
+    if bw is None:
+        data = np.asarray(rc.data)
+        sel = data[:: max(1, data.shape[0] // 64)]
+        spec = np.mean(np.abs(sfft.fft(sel, axis=1)) ** 2, axis=0)
+        bw = fs * max(1, int(np.count_nonzero(spec >= 1e-2 * spec.max()))) / spec.size
+    bw = float(bw)
+    if not (math.isfinite(bw) and bw > 0):
+        raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
+    return max(1.0, fs / bw)
+
+
+def resolve_interpolation(rc: PulseData, interpolation: str, upsample: int, bandwidth: float | None = None):
+    """(mode, upsample) actually used: "auto" -> "linear" when the data are oversampled enough
+    (fs/B >~ 5.6), else "upsample" with the smallest factor 2, 4, 8, 16 meeting ``AUTO_MAX_ERROR``."""
+    if interpolation != "auto":
+        return interpolation, upsample
+    os_ = data_oversampling(rc, bandwidth)
+    if interpolation_error("linear", os_) <= AUTO_MAX_ERROR:
+        return "linear", upsample
+    for factor in (2, 4, 8, 16):
+        if interpolation_error("linear", os_ * factor) <= AUTO_MAX_ERROR:
+            return "upsample", factor
+    return "upsample", 16
+
+
 def _check_interpolation(interpolation: str, upsample: int) -> int:
     if interpolation not in INTERPOLATIONS:
         raise ConfigError("interpolation", f"must be one of {INTERPOLATIONS}, got {interpolation!r}")
@@ -283,13 +321,17 @@ def _image(g, values: np.ndarray, rc: PulseData, lam: float, interpolation: str,
 # ---------------------------------------------------------------------------------------------
 # public API
 
-def backproject_points(rc: PulseData, points, positions=None, interpolation: str = "linear", *,
+def backproject_points(rc: PulseData, points, positions=None, interpolation: str = "auto", *,
                        wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK,
-                       pulse_block: int = DEFAULT_PULSE_BLOCK) -> np.ndarray:
+                       pulse_block: int = DEFAULT_PULSE_BLOCK, bandwidth: float | None = None) -> np.ndarray:
     """Back-project onto arbitrary points; returns complex128 values of shape ``points.shape[:-1]``.
 
-    Same arguments as :func:`backproject` with ``points`` an ``(..., 3)`` float64 NED array [m].
+    Same arguments as :func:`backproject` with ``points`` an ``(..., 3)`` float64 array [m] in the
+    frame of the antenna positions.
     """
+    _check_interpolation(interpolation, upsample)
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim < 1 or pts.shape[-1] != 3:
         raise InputDataError("points", f"must have shape (..., 3), got {pts.shape}")
@@ -316,9 +358,9 @@ def backproject_points(rc: PulseData, points, positions=None, interpolation: str
     return (out_re + 1j * out_im).reshape(pts.shape[:-1])
 
 
-def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linear", *,
+def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto", *,
                 wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK,
-                pulse_block: int = DEFAULT_PULSE_BLOCK) -> SarImage:
+                pulse_block: int = DEFAULT_PULSE_BLOCK, bandwidth: float | None = None) -> SarImage:
     """Form a SAR image by time-domain back-projection (thesis (4.27)), compiled and parallel.
 
     Parameters
@@ -328,7 +370,13 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
         ``(Ny, Nx, 3)`` / ``(M, 3)`` float64 array of pixel positions (NED, m).
     positions : (P, 3) antenna positions used for focusing (NED, m); default ``rc.positions``. Pass
         the navigation estimate to form the image the navigation system would see.
-    interpolation : "nearest", "linear", "cubic" (Keys) or "upsample" (FFT ×``upsample`` then linear).
+    interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys) or "upsample" (FFT
+        ×``upsample`` then linear). "auto" chooses from the data's oversampling fs/B
+        (:func:`resolve_interpolation`): linear when its predicted error is <= -35 dB (fs/B >~ 5.6),
+        else upsample ×2/4/8/16 (fs/B = 1.2 -> ×4, error ~ -35 dB); docs/backprojection.md gives
+        each mode's error.
+    bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.params.bandwidth`` or estimated
+        from the pulses' power spectrum.
     wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
         ``rc.params.wavelength``): a ``PulseData`` needs no ``RadarParams`` to be back-projected.
     upsample : FFT oversampling factor for ``interpolation="upsample"`` (integer in [2, 64]).
@@ -350,13 +398,17 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
         for an unknown ``interpolation`` or a bad ``upsample`` / ``wavelength`` / ``block``.
     """
     g, pts = _points(grid)
+    _check_interpolation(interpolation, upsample)
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     values = backproject_points(rc, pts, positions, interpolation, wavelength=wavelength, upsample=upsample,
                                 block=block, pulse_block=pulse_block)
     return _image(g, values, rc, _wavelength(rc, wavelength), interpolation, upsample, "bpa")
 
 
-def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = "linear", *,
-                      wavelength: float | None = None, upsample: int = 4, pulses=None) -> SarImage:
+def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = "auto", *,
+                      wavelength: float | None = None, upsample: int = 4, pulses=None,
+                      bandwidth: float | None = None) -> SarImage:
     """Straightforward float64 numpy back-projection: the exact reference for :func:`backproject`.
 
     Loops over pulses, vectorised over pixels; complex128 samples, ``numpy.exp`` for the phase.
@@ -364,6 +416,9 @@ def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = 
     array) restricts the sum to some pulses (used to time it on fewer pulses).
     """
     g, pts = _points(grid)
+    _check_interpolation(interpolation, upsample)
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
     sel = np.arange(data.shape[0]) if pulses is None else np.arange(data.shape[0])[pulses]
     flat = pts.reshape(-1, 3)
