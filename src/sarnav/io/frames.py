@@ -42,3 +42,13 @@ def ecef_to_ned(ecef, reference_point) -> np.ndarray:
     """(..., 3) ECEF [m] -> NED [m] relative to the reference point."""
     origin, rot = ned_basis(reference_point)
     return (np.asarray(ecef, dtype=np.float64) - origin) @ rot
+
+
+def ground_grid_to_ecef(grid, reference_point):
+    """A ``GroundGrid`` (NED at the reference point) as the same pixels on a ``PlaneGrid`` in ECEF
+    (rows along north, columns along east, the plane ``down = grid.down``)."""
+    from sarnav.imaging.grid import PlaneGrid
+
+    origin, rot = ned_basis(reference_point)
+    o = origin + rot @ np.array([0.0, 0.0, float(grid.down)])
+    return PlaneGrid(o, rot[:, 0], rot[:, 1], grid.north, grid.east, "north", "east")
