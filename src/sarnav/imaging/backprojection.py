@@ -91,8 +91,8 @@ _C0, _C1, _C2, _C3, _C4, _C5, _C6 = (float(c) for c in _COS)
 
 @numba.njit(fastmath=True, cache=True, inline="always")
 def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max, two_over_lambda, mode,
-                 acc_r, acc_i, idx, wgt, cph, sph, w4):  # pragma: no cover - compiled
-    """Accumulate pulses k_start..k_stop-1 into one block of pixels (acc_r, acc_i: float64)."""
+                 acc_r, acc_i, fidx, wgt, cph, sph, w4):  # pragma: no cover - compiled
+    """Accumulate pulses k_start..k_stop-1 into one block of pixels (acc_r, acc_i: float32 partial sums)."""
     n = x_.size
     shift = 0.5 if mode == 0 else 0.0
     a = _KEYS_A
@@ -104,7 +104,8 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
         az = ant[k, 2]
         d_re = dre[k]
         d_im = dim[k]
-        # pass 1 (vectorised): float64 range, sample index and weight, phase factor exp(j 4 pi R / lambda)
+        # pass 1 (vectorised, float64 geometry): range, sample position, phase factor exp(j 4 pi R / lambda);
+        # the sample index stays a float here (AVX2 has no packed double -> uint64 conversion)
         for i in range(n):
             dx = x_[i] - ax
             dy = y_[i] - ay
@@ -114,8 +115,8 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
             valid = (u >= 0.0) & (u <= u_max)
             uc = min(max(u, 0.0), u_max) + (_PAD + shift)
             fl = math.floor(uc)
-            idx[i] = np.uint64(fl)
-            wgt[i] = uc - fl
+            fidx[i] = fl
+            wgt[i] = np.float32(uc - fl)
             cyc = r * two_over_lambda          # 4 pi R / lambda = 2 pi cyc
             f = cyc - math.floor(cyc + 0.5)    # fractional cycle in [-1/2, 1/2), exact in float64
             xh = math.pi * f                   # half angle in [-pi/2, pi/2]
@@ -123,19 +124,19 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
             sn = xh * (_S0 + t * (_S1 + t * (_S2 + t * (_S3 + t * (_S4 + t * _S5)))))
             cs = _C0 + t * (_C1 + t * (_C2 + t * (_C3 + t * (_C4 + t * (_C5 + t * _C6)))))
             m = 1.0 if valid else 0.0
-            cph[i] = (cs * cs - sn * sn) * m   # double-angle identities
-            sph[i] = 2.0 * sn * cs * m
-        # pass 2: gather the float32 samples, interpolate, rotate, accumulate
+            cph[i] = np.float32((cs * cs - sn * sn) * m)   # double-angle identities
+            sph[i] = np.float32(2.0 * sn * cs * m)
+        # pass 2: gather the float32 samples, interpolate, rotate, accumulate (float32 within a pulse block)
         if mode == 0:
             for i in range(n):
-                j = idx[i]
+                j = np.uint64(np.int64(fidx[i]))
                 sr = d_re[j]
                 si = d_im[j]
                 acc_r[i] += sr * cph[i] - si * sph[i]
                 acc_i[i] += sr * sph[i] + si * cph[i]
         elif mode == 1:
             for i in range(n):
-                j = idx[i]
+                j = np.uint64(np.int64(fidx[i]))
                 w = wgt[i]
                 r0 = d_re[j]
                 i0 = d_im[j]
@@ -146,15 +147,15 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
         else:
             for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
                 w = wgt[i]
-                x1 = 1.0 + w
-                x2 = 1.0 - w
-                x3 = 2.0 - w
+                x1 = np.float32(1.0) + w
+                x2 = np.float32(1.0) - w
+                x3 = np.float32(2.0) - w
                 w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
                 w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
                 w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
                 w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
             for i in range(n):
-                j = idx[i]
+                j = np.uint64(np.int64(fidx[i]))
                 sr = w4[0, i] * d_re[j - one] + w4[1, i] * d_re[j] + w4[2, i] * d_re[j + one] + w4[3, i] * d_re[j + two]
                 si = w4[0, i] * d_im[j - one] + w4[1, i] * d_im[j] + w4[2, i] * d_im[j + one] + w4[3, i] * d_im[j + two]
                 acc_r[i] += sr * cph[i] - si * sph[i]
@@ -168,7 +169,8 @@ def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lam
 
     dre/dim: (P, N + 2 PAD) float32 zero-padded real/imag samples; u = R * inv_dr - u_offset is the
     unpadded fractional sample index, valid in [0, u_max]. Pulses are processed in groups of
-    ``pulse_block`` (their samples stay in L2 cache), pixels in parallel blocks of ``block``.
+    ``pulse_block`` (their samples stay in L2 cache) summed in float32, each group's sum added to the
+    float64 output; pixels in parallel blocks of ``block``.
     """
     m_total = px.size
     n_pulses = ant.shape[0]
@@ -179,13 +181,14 @@ def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lam
             i0 = blk * block
             i1 = min(m_total, i0 + block)
             n = i1 - i0
-            acc_r = np.zeros(n)
-            acc_i = np.zeros(n)
+            acc_r = np.zeros(n, np.float32)
+            acc_i = np.zeros(n, np.float32)
             _pulse_block(px[i0:i1], py[i0:i1], pz[i0:i1], ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max,
-                         two_over_lambda, mode, acc_r, acc_i, np.empty(n, np.uint64), np.empty(n), np.empty(n),
-                         np.empty(n), np.empty((4, n)))
-            out_re[i0:i1] += acc_r
-            out_im[i0:i1] += acc_i
+                         two_over_lambda, mode, acc_r, acc_i, np.empty(n), np.empty(n, np.float32),
+                         np.empty(n, np.float32), np.empty(n, np.float32), np.empty((4, n), np.float32))
+            for i in range(n):
+                out_re[i0 + i] += acc_r[i]
+                out_im[i0 + i] += acc_i[i]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -234,7 +237,8 @@ def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
     """Band-limited interpolation of every pulse by FFT zero-padding: (P, (N-1)*factor + 1) samples
     on the range axis ``rng[0] + i dr / factor`` (the wrapped tail beyond the last sample dropped)."""
     n = data.shape[1]
-    spec = sfft.fft(data, axis=1)
+    workers = max(1, numba.get_num_threads())          # the FFTs use the kernel's threads
+    spec = sfft.fft(data, axis=1, workers=workers)
     fine = np.zeros((data.shape[0], n * factor), dtype=np.complex128)
     h = (n + 1) // 2                      # non-negative frequencies 0 .. h-1
     fine[:, :h] = spec[:, :h]
@@ -243,7 +247,7 @@ def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
         nyq = spec[:, n // 2]
         fine[:, n // 2] = 0.5 * nyq
         fine[:, n * factor - n // 2] = 0.5 * nyq
-    out = sfft.ifft(fine, axis=1) * factor
+    out = sfft.ifft(fine, axis=1, workers=workers) * factor
     m = (n - 1) * factor + 1
     dr = (rng[1] - rng[0]) / factor
     return out[:, :m], rng[0] + np.arange(m) * dr
