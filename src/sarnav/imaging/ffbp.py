@@ -112,66 +112,88 @@ def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: i
 # ---------------------------------------------------------------------------------------------
 # compiled kernel: evaluate a demodulated polar image at 3-D points, remodulate, accumulate
 
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _sample(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im, two_over_lambda):
+    """I(r(q), u(q)) exp(j 2 pi (2/lambda)(r(q) - ref_r)) with Keys cubic weights in (r, u); (re, im)."""
+    nr, nu = img_re.shape
+    a = -0.5
+    dx = qx - centre[0]
+    dy = qy - centre[1]
+    dz = qz - centre[2]
+    r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    u = (dx * v[0] + dy * v[1] + dz * v[2]) / r
+    fr = (r - r0) * inv_dr
+    fu = (u - u0) * inv_du
+    ir = int(math.floor(fr))
+    iu = int(math.floor(fu))
+    if ir < 1 or iu < 1 or ir > nr - 3 or iu > nu - 3:
+        return 0.0, 0.0
+    # Keys (1981) weights at distances 1+w, w, 1-w, 2-w (a = -1/2)
+    w = fr - ir
+    x1 = 1.0 + w
+    x2 = 1.0 - w
+    x3 = 2.0 - w
+    r_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+    r_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+    r_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+    r_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+    w = fu - iu
+    x1 = 1.0 + w
+    x2 = 1.0 - w
+    x3 = 2.0 - w
+    u_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+    u_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+    u_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+    u_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+    sr = 0.0
+    si = 0.0
+    for t in range(4):
+        row = ir - 1 + t
+        wr = r_a if t == 0 else (r_b if t == 1 else (r_c if t == 2 else r_d))
+        rr = (u_a * img_re[row, iu - 1] + u_b * img_re[row, iu] + u_c * img_re[row, iu + 1]
+              + u_d * img_re[row, iu + 2])
+        ri = (u_a * img_im[row, iu - 1] + u_b * img_im[row, iu] + u_c * img_im[row, iu + 1]
+              + u_d * img_im[row, iu + 2])
+        sr += wr * rr
+        si += wr * ri
+    cyc = (r - ref_r) * two_over_lambda
+    f = cyc - math.floor(cyc + 0.5)        # fractional cycle, exact in float64
+    xh = math.pi * f                       # exp(j 2 pi f) from sin/cos polynomials of pi f
+    t2 = xh * xh
+    sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
+    cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
+    c = cs * cs - sn * sn
+    s_ = 2.0 * sn * cs
+    return sr * c - si * s_, sr * s_ + si * c
+
+
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im, two_over_lambda,
                 out_re, out_im):  # pragma: no cover - compiled
-    """out += I(r(q), u(q)) exp(j 2 pi (2/lambda)(r(q) - ref_r(q))), Keys cubic in (r, u).
+    """out += child polar image at the points (ref_r: (M,) parent ranges, 0 for the final pixels)."""
+    for i in numba.prange(pts.shape[0]):
+        a_, b_ = _sample(pts[i, 0], pts[i, 1], pts[i, 2], ref_r[i], centre, v, r0, inv_dr, u0, inv_du, img_re,
+                         img_im, two_over_lambda)
+        out_re[i] += a_
+        out_im[i] += b_
 
-    ref_r: (M,) parent range of each point (0 for the final pixel evaluation: full remodulation).
-    """
-    m = pts.shape[0]
-    nr, nu = img_re.shape
-    a = -0.5
-    for i in numba.prange(m):
-        dx = pts[i, 0] - centre[0]
-        dy = pts[i, 1] - centre[1]
-        dz = pts[i, 2] - centre[2]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        u = (dx * v[0] + dy * v[1] + dz * v[2]) / r
-        fr = (r - r0) * inv_dr
-        fu = (u - u0) * inv_du
-        ir = int(math.floor(fr))
-        iu = int(math.floor(fu))
-        if ir < 1 or iu < 1 or ir > nr - 3 or iu > nu - 3:
-            continue
-        # Keys (1981) weights at distances 1+w, w, 1-w, 2-w (a = -1/2)
-        w = fr - ir
-        x1 = 1.0 + w
-        x2 = 1.0 - w
-        x3 = 2.0 - w
-        r_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
-        r_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
-        r_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
-        r_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
-        w = fu - iu
-        x1 = 1.0 + w
-        x2 = 1.0 - w
-        x3 = 2.0 - w
-        u_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
-        u_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
-        u_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
-        u_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
-        sr = 0.0
-        si = 0.0
-        for t in range(4):
-            row = ir - 1 + t
-            wr = r_a if t == 0 else (r_b if t == 1 else (r_c if t == 2 else r_d))
-            rr = (u_a * img_re[row, iu - 1] + u_b * img_re[row, iu] + u_c * img_re[row, iu + 1]
-                  + u_d * img_re[row, iu + 2])
-            ri = (u_a * img_im[row, iu - 1] + u_b * img_im[row, iu] + u_c * img_im[row, iu + 1]
-                  + u_d * img_im[row, iu + 2])
-            sr += wr * rr
-            si += wr * ri
-        cyc = (r - ref_r[i]) * two_over_lambda
-        f = cyc - math.floor(cyc + 0.5)        # fractional cycle, exact in float64
-        xh = math.pi * f                       # exp(j 2 pi f) from sin/cos polynomials of pi f
-        t2 = xh * xh
-        sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
-        cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
-        c = cs * cs - sn * sn
-        s_ = 2.0 * sn * cs
-        out_re[i] += sr * c - si * s_
-        out_im[i] += sr * s_ + si * c
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img_re, img_im, two_over_lambda,
+           out_re, out_im):  # pragma: no cover - compiled
+    """out (Nr, Nu) += child image at the parent's polar grid points q(r, u), generated on the fly."""
+    nr, nu = out_re.shape
+    for i in numba.prange(nr):
+        r = pr0 + i * pdr
+        for j in range(nu):
+            u = pu0 + j * pdu
+            sw = math.sqrt(max(1.0 - u * u, 0.0))
+            qx = pc[0] + r * (u * pv[0] + sw * pw[0])
+            qy = pc[1] + r * (u * pv[1] + sw * pw[1])
+            qz = pc[2] + r * (u * pv[2] + sw * pw[2])
+            a_, b_ = _sample(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, img_re, img_im, two_over_lambda)
+            out_re[i, j] += a_
+            out_im[i, j] += b_
 
 
 # ---------------------------------------------------------------------------------------------
@@ -238,9 +260,31 @@ def _tile_order(shape, tile: int = 32) -> np.ndarray:
     return np.argsort(key.ravel(), kind="stable")
 
 
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def _demod_kernel(values, r, two_over_lambda, out_re, out_im):  # pragma: no cover - compiled
+    for i in numba.prange(values.size):
+        cyc = r[i] * two_over_lambda
+        xh = -math.pi * (cyc - math.floor(cyc + 0.5))
+        t2 = xh * xh
+        sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
+        cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
+        c = cs * cs - sn * sn
+        s_ = 2.0 * sn * cs
+        out_re[i] = values[i].real * c - values[i].imag * s_
+        out_im[i] = values[i].real * s_ + values[i].imag * c
+
+
+def _demodulate_parts(values: np.ndarray, r: np.ndarray, lam: float):
+    """(re, im) of ``values * exp(-j 4 pi r / lambda)`` (phase reduced in float64, polynomial sin/cos)."""
+    out_re = np.empty(values.size)
+    out_im = np.empty(values.size)
+    _demod_kernel(np.ascontiguousarray(values.ravel()), np.ascontiguousarray(r.ravel()), 2.0 / lam, out_re, out_im)
+    return out_re, out_im
+
+
 def _demodulate(values: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
-    cyc = 2.0 * r / lam
-    return values * np.exp(-2j * np.pi * (cyc - np.round(cyc)))
+    re, im = _demodulate_parts(values, r, lam)
+    return (re + 1j * im).reshape(values.shape)
 
 
 class _Former:
@@ -254,23 +298,22 @@ class _Former:
     def build(self, k0: int, k1: int, level: int) -> _Polar:
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
                            self.plan.oversample)
-        q, rq = grid.points(self.v)
         if level == 0:
+            q, rq = grid.points(self.v)
             sub = PulseData(self.rc.data[k0:k1], self.rc.slant_range, self.rc.pulse_times[k0:k1], self.pos[k0:k1],
                             None, compressed=True, wavelength=self.lam)
-            vals = _demodulate(backproject_points(sub, q, interpolation=self.interpolation, upsample=self.upsample),
-                               rq, self.lam)
-            grid.re = np.ascontiguousarray(vals.real.reshape(grid.nr, grid.nu))
-            grid.im = np.ascontiguousarray(vals.imag.reshape(grid.nr, grid.nu))
+            re, im = _demodulate_parts(backproject_points(sub, q, interpolation=self.interpolation,
+                                                          upsample=self.upsample), rq, self.lam)
+            grid.re = re.reshape(grid.nr, grid.nu)
+            grid.im = im.reshape(grid.nr, grid.nu)
             return grid
-        out_re = np.zeros(q.shape[0])
-        out_im = np.zeros(q.shape[0])
+        grid.re = np.zeros((grid.nr, grid.nu))
+        grid.im = np.zeros((grid.nr, grid.nu))
         step = self.plan.base_pulses * self.plan.merge ** (level - 1)
         for j0 in range(k0, k1, step):
             child = self.build(j0, min(k1, j0 + step), level - 1)
-            _evaluate(child, q, rq, self.v, self.lam, out_re, out_im)
-        grid.re = out_re.reshape(grid.nr, grid.nu)
-        grid.im = out_im.reshape(grid.nr, grid.nu)
+            _merge(grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
+                   1.0 / child.dr, child.u0, 1.0 / child.du, child.re, child.im, 2.0 / self.lam, grid.re, grid.im)
         return grid
 
 
@@ -278,8 +321,8 @@ def _evaluate(g: _Polar, q, ref_r, v, lam, out_re, out_im):
     _polar_eval(q, ref_r, g.centre, v, g.r0, 1.0 / g.dr, g.u0, 1.0 / g.du, g.re, g.im, 2.0 / lam, out_re, out_im)
 
 
-#: cost of one polar-image evaluation (16 taps) relative to one back-projected pixel-pulse (measured ~2-3)
-_EVAL_COST = 2.5
+#: cost of one polar-image evaluation (16 taps) relative to one back-projected pixel-pulse (measured 3-5)
+_EVAL_COST = 5.0
 
 
 def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge):
