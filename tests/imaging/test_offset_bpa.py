@@ -44,8 +44,9 @@ def test_expansion_matches_exact_bpa_on_the_candidate_track(block, delta):
     mom = offset_moments(rcb, grid, rcb.positions, e, tau, order_for(0.2, 1e-8))
     img = mom.image(delta, tolerance=1e-2)
     ref = backproject(rcb, grid, positions=rcb.positions + delta * tau[:, None] * e, interpolation="linear").data
-    # offsets of 6 mm and 4.5 cm at the block end; bound: truncation + range curvature k c^2 / 2R
-    limit = -200.0 if delta == 0 else max(20 * np.log10(2 * mom.max_error(delta)) , -100.0)
+    # offsets of 6 mm and 4.5 cm at the block end; bound: truncation + range curvature k c^2 / 2R. At zero
+    # offset the two differ only by the compiled kernel's float32 partial sums (about -130 dB, docs/backprojection.md)
+    limit = -120.0 if delta == 0 else max(20 * np.log10(2 * mom.max_error(delta)) , -100.0)
     assert _err_db(img, ref) < limit
 
 

@@ -43,10 +43,15 @@ import scipy.fft as sfft
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import as_grid
+from sarnav.imaging.interpolation_error import interpolation_error
 
-__all__ = ["backproject", "backproject_numpy", "backproject_points", "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR"]
+__all__ = ["backproject", "backproject_numpy", "backproject_points", "resolve_interpolation", "data_oversampling",
+           "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR"]
 
-INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample")
+INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample", "auto")
+#: "auto" picks the cheapest of linear / upsample x2..x16 whose predicted error (flat band, linear
+#: kernel at fs/B * factor, sarnav.imaging.interpolation_error) is at most this (-35 dB)
+AUTO_MAX_ERROR = 10.0 ** -3.5
 _MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1}
 #: zero samples added at each end of every pulse so that the cubic taps never leave the array
 _PAD = 2
@@ -86,8 +91,8 @@ _C0, _C1, _C2, _C3, _C4, _C5, _C6 = (float(c) for c in _COS)
 
 @numba.njit(fastmath=True, cache=True, inline="always")
 def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max, two_over_lambda, mode,
-                 acc_r, acc_i, idx, wgt, cph, sph, w4):  # pragma: no cover - compiled
-    """Accumulate pulses k_start..k_stop-1 into one block of pixels (acc_r, acc_i: float64)."""
+                 acc_r, acc_i, fidx, wgt, cph, sph, w4):  # pragma: no cover - compiled
+    """Accumulate pulses k_start..k_stop-1 into one block of pixels (acc_r, acc_i: float32 partial sums)."""
     n = x_.size
     shift = 0.5 if mode == 0 else 0.0
     a = _KEYS_A
@@ -99,7 +104,8 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
         az = ant[k, 2]
         d_re = dre[k]
         d_im = dim[k]
-        # pass 1 (vectorised): float64 range, sample index and weight, phase factor exp(j 4 pi R / lambda)
+        # pass 1 (vectorised, float64 geometry): range, sample position, phase factor exp(j 4 pi R / lambda);
+        # the sample index stays a float here (AVX2 has no packed double -> uint64 conversion)
         for i in range(n):
             dx = x_[i] - ax
             dy = y_[i] - ay
@@ -109,8 +115,8 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
             valid = (u >= 0.0) & (u <= u_max)
             uc = min(max(u, 0.0), u_max) + (_PAD + shift)
             fl = math.floor(uc)
-            idx[i] = np.uint64(fl)
-            wgt[i] = uc - fl
+            fidx[i] = fl
+            wgt[i] = np.float32(uc - fl)
             cyc = r * two_over_lambda          # 4 pi R / lambda = 2 pi cyc
             f = cyc - math.floor(cyc + 0.5)    # fractional cycle in [-1/2, 1/2), exact in float64
             xh = math.pi * f                   # half angle in [-pi/2, pi/2]
@@ -118,19 +124,19 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
             sn = xh * (_S0 + t * (_S1 + t * (_S2 + t * (_S3 + t * (_S4 + t * _S5)))))
             cs = _C0 + t * (_C1 + t * (_C2 + t * (_C3 + t * (_C4 + t * (_C5 + t * _C6)))))
             m = 1.0 if valid else 0.0
-            cph[i] = (cs * cs - sn * sn) * m   # double-angle identities
-            sph[i] = 2.0 * sn * cs * m
-        # pass 2: gather the float32 samples, interpolate, rotate, accumulate
+            cph[i] = np.float32((cs * cs - sn * sn) * m)   # double-angle identities
+            sph[i] = np.float32(2.0 * sn * cs * m)
+        # pass 2: gather the float32 samples, interpolate, rotate, accumulate (float32 within a pulse block)
         if mode == 0:
             for i in range(n):
-                j = idx[i]
+                j = np.uint64(np.int64(fidx[i]))
                 sr = d_re[j]
                 si = d_im[j]
                 acc_r[i] += sr * cph[i] - si * sph[i]
                 acc_i[i] += sr * sph[i] + si * cph[i]
         elif mode == 1:
             for i in range(n):
-                j = idx[i]
+                j = np.uint64(np.int64(fidx[i]))
                 w = wgt[i]
                 r0 = d_re[j]
                 i0 = d_im[j]
@@ -141,15 +147,15 @@ def _pulse_block(x_, y_, z_, ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u
         else:
             for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
                 w = wgt[i]
-                x1 = 1.0 + w
-                x2 = 1.0 - w
-                x3 = 2.0 - w
+                x1 = np.float32(1.0) + w
+                x2 = np.float32(1.0) - w
+                x3 = np.float32(2.0) - w
                 w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
                 w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
                 w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
                 w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
             for i in range(n):
-                j = idx[i]
+                j = np.uint64(np.int64(fidx[i]))
                 sr = w4[0, i] * d_re[j - one] + w4[1, i] * d_re[j] + w4[2, i] * d_re[j + one] + w4[3, i] * d_re[j + two]
                 si = w4[0, i] * d_im[j - one] + w4[1, i] * d_im[j] + w4[2, i] * d_im[j + one] + w4[3, i] * d_im[j + two]
                 acc_r[i] += sr * cph[i] - si * sph[i]
@@ -163,7 +169,8 @@ def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lam
 
     dre/dim: (P, N + 2 PAD) float32 zero-padded real/imag samples; u = R * inv_dr - u_offset is the
     unpadded fractional sample index, valid in [0, u_max]. Pulses are processed in groups of
-    ``pulse_block`` (their samples stay in L2 cache), pixels in parallel blocks of ``block``.
+    ``pulse_block`` (their samples stay in L2 cache) summed in float32, each group's sum added to the
+    float64 output; pixels in parallel blocks of ``block``.
     """
     m_total = px.size
     n_pulses = ant.shape[0]
@@ -174,13 +181,14 @@ def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lam
             i0 = blk * block
             i1 = min(m_total, i0 + block)
             n = i1 - i0
-            acc_r = np.zeros(n)
-            acc_i = np.zeros(n)
+            acc_r = np.zeros(n, np.float32)
+            acc_i = np.zeros(n, np.float32)
             _pulse_block(px[i0:i1], py[i0:i1], pz[i0:i1], ant, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max,
-                         two_over_lambda, mode, acc_r, acc_i, np.empty(n, np.uint64), np.empty(n), np.empty(n),
-                         np.empty(n), np.empty((4, n)))
-            out_re[i0:i1] += acc_r
-            out_im[i0:i1] += acc_i
+                         two_over_lambda, mode, acc_r, acc_i, np.empty(n), np.empty(n, np.float32),
+                         np.empty(n, np.float32), np.empty(n, np.float32), np.empty((4, n), np.float32))
+            for i in range(n):
+                out_re[i0 + i] += acc_r[i]
+                out_im[i0 + i] += acc_i[i]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -188,9 +196,10 @@ def _bpa_kernel(px, py, pz, ant, dre, dim, u_offset, inv_dr, u_max, two_over_lam
 
 def _wavelength(rc: PulseData, wavelength) -> float:
     if wavelength is None:
-        wavelength = getattr(rc.params, "wavelength", None)
+        wavelength = rc.carrier_wavelength
         if wavelength is None:
-            raise ConfigError("wavelength", "not given and rc.params has no 'wavelength'; pass wavelength= [m] > 0")
+            raise ConfigError("wavelength", "not given, and rc has neither a wavelength nor params.wavelength; "
+                              "pass wavelength= [m] > 0")
     lam = float(wavelength)
     if not math.isfinite(lam) or lam <= 0:
         raise ConfigError("wavelength", f"must be finite and > 0 m, got {wavelength!r}")
@@ -218,7 +227,7 @@ def _check_pulses(rc: PulseData, positions):
     name = "rc.positions" if positions is None else "positions"
     pos = np.asarray(rc.positions if positions is None else positions, dtype=np.float64)
     if pos.shape != (data.shape[0], 3):
-        raise InputDataError(name, f"must have shape ({data.shape[0]}, 3) (one NED position per pulse), got {pos.shape}")
+        raise InputDataError(name, f"must have shape ({data.shape[0]}, 3) (one position per pulse), got {pos.shape}")
     if not np.all(np.isfinite(pos)):
         raise InputDataError(name, "must be finite (found NaN/inf)")
     return data, rng, pos
@@ -228,7 +237,8 @@ def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
     """Band-limited interpolation of every pulse by FFT zero-padding: (P, (N-1)*factor + 1) samples
     on the range axis ``rng[0] + i dr / factor`` (the wrapped tail beyond the last sample dropped)."""
     n = data.shape[1]
-    spec = sfft.fft(data, axis=1)
+    workers = max(1, numba.get_num_threads())          # the FFTs use the kernel's threads
+    spec = sfft.fft(data, axis=1, workers=workers)
     fine = np.zeros((data.shape[0], n * factor), dtype=np.complex128)
     h = (n + 1) // 2                      # non-negative frequencies 0 .. h-1
     fine[:, :h] = spec[:, :h]
@@ -237,10 +247,43 @@ def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
         nyq = spec[:, n // 2]
         fine[:, n // 2] = 0.5 * nyq
         fine[:, n * factor - n // 2] = 0.5 * nyq
-    out = sfft.ifft(fine, axis=1) * factor
+    out = sfft.ifft(fine, axis=1, workers=workers) * factor
     m = (n - 1) * factor + 1
     dr = (rng[1] - rng[0]) / factor
     return out[:, :m], rng[0] + np.arange(m) * dr
+
+
+def data_oversampling(rc: PulseData, bandwidth: float | None = None) -> float:
+    """fs / B of range-compressed pulses: fs = c / (2 dr); B = ``bandwidth``, else ``rc.params.bandwidth``,
+    else the width of the pulses' mean power spectrum above 1 % of its peak (>= 1 bin)."""
+    rng = np.asarray(rc.slant_range, dtype=np.float64)
+    if np.ndim(rc.data) != 2 or np.shape(rc.data)[1] < 2 or rng.ndim != 1 or rng.size < 2 or not rng[1] > rng[0]:
+        return 1.0                     # malformed: the input checks that follow name the problem
+    fs = 299792458.0 / (2.0 * float(rng[1] - rng[0]))
+    bw = bandwidth if bandwidth is not None else getattr(rc.params, "bandwidth", None)
+    if bw is None:
+        data = np.asarray(rc.data)
+        sel = data[:: max(1, data.shape[0] // 64)]
+        spec = np.mean(np.abs(sfft.fft(sel, axis=1)) ** 2, axis=0)
+        bw = fs * max(1, int(np.count_nonzero(spec >= 1e-2 * spec.max()))) / spec.size
+    bw = float(bw)
+    if not (math.isfinite(bw) and bw > 0):
+        raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
+    return max(1.0, fs / bw)
+
+
+def resolve_interpolation(rc: PulseData, interpolation: str, upsample: int, bandwidth: float | None = None):
+    """(mode, upsample) actually used: "auto" -> "linear" when the data are oversampled enough
+    (fs/B >~ 5.6), else "upsample" with the smallest factor 2, 4, 8, 16 meeting ``AUTO_MAX_ERROR``."""
+    if interpolation != "auto":
+        return interpolation, upsample
+    os_ = data_oversampling(rc, bandwidth)
+    if interpolation_error("linear", os_) <= AUTO_MAX_ERROR:
+        return "linear", upsample
+    for factor in (2, 4, 8, 16):
+        if interpolation_error("linear", os_ * factor) <= AUTO_MAX_ERROR:
+            return "upsample", factor
+    return "upsample", 16
 
 
 def _check_interpolation(interpolation: str, upsample: int) -> int:
@@ -282,13 +325,17 @@ def _image(g, values: np.ndarray, rc: PulseData, lam: float, interpolation: str,
 # ---------------------------------------------------------------------------------------------
 # public API
 
-def backproject_points(rc: PulseData, points, positions=None, interpolation: str = "linear", *,
+def backproject_points(rc: PulseData, points, positions=None, interpolation: str = "auto", *,
                        wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK,
-                       pulse_block: int = DEFAULT_PULSE_BLOCK) -> np.ndarray:
+                       pulse_block: int = DEFAULT_PULSE_BLOCK, bandwidth: float | None = None) -> np.ndarray:
     """Back-project onto arbitrary points; returns complex128 values of shape ``points.shape[:-1]``.
 
-    Same arguments as :func:`backproject` with ``points`` an ``(..., 3)`` float64 NED array [m].
+    Same arguments as :func:`backproject` with ``points`` an ``(..., 3)`` float64 array [m] in the
+    frame of the antenna positions.
     """
+    _check_interpolation(interpolation, upsample)
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim < 1 or pts.shape[-1] != 3:
         raise InputDataError("points", f"must have shape (..., 3), got {pts.shape}")
@@ -315,9 +362,9 @@ def backproject_points(rc: PulseData, points, positions=None, interpolation: str
     return (out_re + 1j * out_im).reshape(pts.shape[:-1])
 
 
-def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linear", *,
+def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto", *,
                 wavelength: float | None = None, upsample: int = 4, block: int = DEFAULT_BLOCK,
-                pulse_block: int = DEFAULT_PULSE_BLOCK) -> SarImage:
+                pulse_block: int = DEFAULT_PULSE_BLOCK, bandwidth: float | None = None) -> SarImage:
     """Form a SAR image by time-domain back-projection (thesis (4.27)), compiled and parallel.
 
     Parameters
@@ -327,8 +374,15 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
         ``(Ny, Nx, 3)`` / ``(M, 3)`` float64 array of pixel positions (NED, m).
     positions : (P, 3) antenna positions used for focusing (NED, m); default ``rc.positions``. Pass
         the navigation estimate to form the image the navigation system would see.
-    interpolation : "nearest", "linear", "cubic" (Keys) or "upsample" (FFT ×``upsample`` then linear).
-    wavelength : carrier wavelength [m]; default ``rc.params.wavelength``.
+    interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys) or "upsample" (FFT
+        ×``upsample`` then linear). "auto" chooses from the data's oversampling fs/B
+        (:func:`resolve_interpolation`): linear when its predicted error is <= -35 dB (fs/B >~ 5.6),
+        else upsample ×2/4/8/16 (fs/B = 1.2 -> ×4, error ~ -35 dB); docs/backprojection.md gives
+        each mode's error.
+    bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.params.bandwidth`` or estimated
+        from the pulses' power spectrum.
+    wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
+        ``rc.params.wavelength``): a ``PulseData`` needs no ``RadarParams`` to be back-projected.
     upsample : FFT oversampling factor for ``interpolation="upsample"`` (integer in [2, 64]).
     block : pixels per parallel work item (tuning only; the result does not depend on it).
     pulse_block : pulses per pass over the image (tuning only; changes only the float64 summation
@@ -348,13 +402,17 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "linea
         for an unknown ``interpolation`` or a bad ``upsample`` / ``wavelength`` / ``block``.
     """
     g, pts = _points(grid)
+    _check_interpolation(interpolation, upsample)
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     values = backproject_points(rc, pts, positions, interpolation, wavelength=wavelength, upsample=upsample,
                                 block=block, pulse_block=pulse_block)
     return _image(g, values, rc, _wavelength(rc, wavelength), interpolation, upsample, "bpa")
 
 
-def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = "linear", *,
-                      wavelength: float | None = None, upsample: int = 4, pulses=None) -> SarImage:
+def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = "auto", *,
+                      wavelength: float | None = None, upsample: int = 4, pulses=None,
+                      bandwidth: float | None = None) -> SarImage:
     """Straightforward float64 numpy back-projection: the exact reference for :func:`backproject`.
 
     Loops over pulses, vectorised over pixels; complex128 samples, ``numpy.exp`` for the phase.
@@ -362,6 +420,9 @@ def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = 
     array) restricts the sum to some pulses (used to time it on fewer pulses).
     """
     g, pts = _points(grid)
+    _check_interpolation(interpolation, upsample)
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
     sel = np.arange(data.shape[0]) if pulses is None else np.arange(data.shape[0])[pulses]
     flat = pts.reshape(-1, 3)

@@ -22,7 +22,7 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
 
-__all__ = ["GroundGrid", "SlantGrid", "PointGrid", "as_grid", "regular_axis"]
+__all__ = ["GroundGrid", "SlantGrid", "PlaneGrid", "PointGrid", "as_grid", "regular_axis"]
 
 
 def regular_axis(center: float, spacing: float, n: int, name: str = "axis") -> np.ndarray:
@@ -181,6 +181,64 @@ class SlantGrid:
     def metadata(self) -> dict:
         return {"grid": "slant", "grid_origin": self.origin.tolist(), "grid_direction": self.direction.tolist(),
                 "grid_normal": self.normal_in_plane.tolist()}
+
+
+@dataclass(frozen=True)
+class PlaneGrid:
+    """A plane through ``origin`` spanned by two orthogonal unit vectors, in any Cartesian frame.
+
+    Pixel (i, j) is at ``origin + rows[i] * row_direction + cols[j] * col_direction`` (float64). The
+    frame is the one of the pulses' antenna positions: ECEF for CPHD data (the CPHD image area plane,
+    IARP + x uIAX + y uIAY; the SICD image plane, SCP + xrow uRow + ycol uCol).
+
+    Parameters
+    ----------
+    origin : (3,) the point at row = col = 0 [m].
+    row_direction, col_direction : (3,) directions of increasing row / column coordinate (normalised;
+        must be orthogonal to 1e-9).
+    rows, cols : uniformly increasing coordinates [m] along them.
+    row_name, col_name : names for the ``SarImage`` axes.
+    """
+
+    origin: np.ndarray
+    row_direction: np.ndarray
+    col_direction: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    row_name: str = "row"
+    col_name: str = "col"
+
+    def __post_init__(self):
+        o = _check_vector("grid.origin", self.origin)
+        a = _check_vector("grid.row_direction", self.row_direction)
+        b = _check_vector("grid.col_direction", self.col_direction)
+        if np.linalg.norm(a) == 0 or np.linalg.norm(b) == 0:
+            raise InputDataError("grid.row_direction", "row and column directions must be non-zero")
+        a = a / np.linalg.norm(a)
+        b = b / np.linalg.norm(b)
+        if abs(float(np.dot(a, b))) > 1e-9:
+            raise InputDataError("grid.col_direction", f"must be orthogonal to row_direction (cosine {np.dot(a, b):.3g})")
+        object.__setattr__(self, "origin", o)
+        object.__setattr__(self, "row_direction", a)
+        object.__setattr__(self, "col_direction", b)
+        object.__setattr__(self, "rows", _check_axis("grid.rows", self.rows))
+        object.__setattr__(self, "cols", _check_axis("grid.cols", self.cols))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.rows.size, self.cols.size)
+
+    def points(self) -> np.ndarray:
+        """(Ny, Nx, 3) float64 pixel positions."""
+        return (self.origin[None, None, :] + self.rows[:, None, None] * self.row_direction[None, None, :]
+                + self.cols[None, :, None] * self.col_direction[None, None, :])
+
+    def axes(self):
+        return self.rows, self.cols, self.row_name, self.col_name
+
+    def metadata(self) -> dict:
+        return {"grid": "plane", "grid_origin": self.origin.tolist(), "grid_row_direction": self.row_direction.tolist(),
+                "grid_col_direction": self.col_direction.tolist()}
 
 
 @dataclass(frozen=True)

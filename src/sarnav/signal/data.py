@@ -22,21 +22,35 @@ class PulseData:
     data : (P, N) complex, one row per pulse, one column per fast-time sample.
     slant_range : (N,) slant range of each fast-time sample, c * tau / 2 [m].
     pulse_times : (P,) slow time of each pulse [s].
-    positions : (P, 3) float64 antenna phase-centre positions (NED, m) the data are *referred to*:
-        for simulated raw data these are the true positions; image formation may be handed a
+    positions : (P, 3) float64 antenna phase-centre positions [m] the data are *referred to*, in
+        any Cartesian frame shared with the image grid: the local NED frame of the simulations, or
+        ECEF for spaceborne / CPHD data (only distances ``|p - a_k|`` enter image formation). For
+        simulated raw data these are the true positions; image formation may be handed a
         different (estimated) set with :meth:`with_positions`.
-    params : the ``RadarParams`` that produced the data.
+    params : the ``RadarParams`` that produced the data, or None (data read from a file): range
+        compression needs it, back-projection needs only ``slant_range`` and the wavelength.
     compressed : False for raw echoes, True after range compression.
     metadata : free-form provenance (window used, SNR, ...).
+    wavelength : carrier (centre-frequency) wavelength lambda = c / f_c [m] the baseband data are
+        referred to; None falls back to ``params.wavelength`` (see :attr:`carrier_wavelength`).
     """
 
     data: np.ndarray
     slant_range: np.ndarray
     pulse_times: np.ndarray
     positions: np.ndarray
-    params: Any
+    params: Any = None
     compressed: bool = False
     metadata: dict = field(default_factory=dict)
+    wavelength: float | None = None
+
+    @property
+    def carrier_wavelength(self) -> float | None:
+        """``wavelength`` if given, else ``params.wavelength``, else None [m]."""
+        if self.wavelength is not None:
+            return float(self.wavelength)
+        lam = getattr(self.params, "wavelength", None)
+        return None if lam is None else float(lam)
 
     @property
     def n_pulses(self) -> int:

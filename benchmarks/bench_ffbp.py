@@ -1,0 +1,132 @@
+"""Benchmark: fast factorised back-projection (sarnav.imaging.ffbp) against sarnav's exact BP, same run.
+
+Usage::
+
+    python benchmarks/bench_ffbp.py                   # 2048^2 and 4096^2 pixels (exact BP timed on a subset)
+    python benchmarks/bench_ffbp.py --sizes 512       # quick
+
+Scene: X band (9.75 GHz), B = 150 MHz, fs = 2 B, 5 km slant range at 30 deg depression, 0.5 m pixels,
+aperture for 0.5 m azimuth resolution with as many pulses as pixels per side (pulse spacing at the
+azimuth Nyquist of the scene: the scene fills the PRF band), 300 random point targets.
+
+For each size prints the FFBP time and pixel-pulses/s (image pixels x pulses / time), the exact BP's
+pixel-pulses/s (``backproject``, the default interpolation, timed on ``--exact-pulses`` pulses and
+scaled: its cost is linear in the pulses), the speed-up, and the FFBP error after one fitted complex
+gain against the exact image (computed on a ``--check`` square of pixels with all pulses) next to
+the error model's prediction. FastSAR's FFBP (``fastsar.form_image``, algorithm="ffbp") is timed on
+the same phase history when installed (``pip install -e '.[bench]'``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numba
+import numpy as np
+
+from sarnav.imaging.backprojection import backproject
+from sarnav.imaging.ffbp import ffbp
+from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
+from sarnav.signal.data import PulseData
+from sarnav.signal.phase_history import pulses_to_phase_history
+
+C = 299792458.0
+FC, BW = 9.75e9, 150e6
+LAM = C / FC
+SLANT, PX = 5000.0, 0.5
+
+
+def scene(npx: int, n_targets: int = 300, seed: int = 0):
+    alt, east = 0.5 * SLANT, SLANT * np.sqrt(0.75)
+    p = npx
+    aperture = LAM * SLANT / (2 * PX)
+    pos = np.zeros((p, 3))
+    pos[:, 0] = (np.arange(p) - p / 2) * aperture / p
+    pos[:, 2] = -alt
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    w = npx * PX
+    tg = np.column_stack([rng.uniform(-w / 2, w / 2, n_targets), east + rng.uniform(-w / 2, w / 2, n_targets),
+                          np.zeros(n_targets)])
+    amp = rng.standard_normal(n_targets) + 1j * rng.standard_normal(n_targets)
+    rt = np.linalg.norm(tg[None] - pos[:, None], axis=2)
+    dr = C / (4 * BW)
+    r0 = rt.min() - 30 * dr
+    n = int((rt.max() - r0) / dr) + 30
+    data = np.zeros((p, n), np.complex64)
+    centre = np.floor((rt - r0) / dr).astype(int)
+    for j in range(-48, 49):                      # truncated sinc (the same data feed both algorithms)
+        idx = np.clip(centre + j, 0, n - 1)
+        val = (amp[None] * np.sinc(2 * BW / C * (r0 + idx * dr - rt)) * np.exp(-4j * np.pi * rt / LAM))
+        np.add.at(data, (np.repeat(np.arange(p), n_targets), idx.ravel()), val.ravel().astype(np.complex64))
+    rc = PulseData(data, r0 + np.arange(n) * dr, np.arange(p) * 1e-3, pos, None, compressed=True, wavelength=LAM)
+    grid = GroundGrid(regular_axis(-0.5 * PX, PX, npx, "grid.north"), regular_axis(east - 0.5 * PX, PX, npx, "grid.east"))
+    return rc, grid, east
+
+
+def gain_error_db(img, ref) -> float:
+    g = np.vdot(img, ref) / np.vdot(img, img)
+    return float(10 * np.log10(np.sum(np.abs(g * img - ref) ** 2) / np.sum(np.abs(ref) ** 2)))
+
+
+def fastsar_ffbp(rc, npx, east):
+    try:
+        import fastsar
+    except ImportError:
+        return None
+    centre = np.array([0.0, east, 0.0])
+    ant = rc.positions - centre
+    ph = pulses_to_phase_history(rc, np.linalg.norm(ant, axis=1))
+    s = ph.data.astype(np.complex64)
+
+    def run():
+        return fastsar.form_image(s, ant, ph.fx0[0], ph.fx_step[0], npx, npx, PX, PX, (1.0, 0.0, 0.0),
+                                  (0.0, 1.0, 0.0), algorithm="ffbp", window=False, target_db=-40.0)
+    run()
+    t0 = time.perf_counter()
+    img = run()
+    return time.perf_counter() - t0, img
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[2048, 4096])
+    ap.add_argument("--exact-pulses", type=int, default=64, help="pulses the exact BP is timed on")
+    ap.add_argument("--check", type=int, default=256, help="side of the pixel block compared with exact BP")
+    ap.add_argument("--oversample", type=float, default=4.0)
+    args = ap.parse_args(argv)
+    print(f"numba {numba.__version__}, threads {numba.get_num_threads()}")
+    for npx in args.sizes:
+        rc, grid, east = scene(npx)
+        p = rc.n_pulses
+        work = npx * npx * p
+        ffbp(rc, GroundGrid.centered(0.0, east, PX, (16, 16)), bandwidth=BW)      # compile
+        t0 = time.perf_counter()
+        img = ffbp(rc, grid, bandwidth=BW, oversample=args.oversample)
+        t_f = time.perf_counter() - t0
+        sub = slice(0, min(args.exact_pulses, p))
+        rc_sub = PulseData(rc.data[sub], rc.slant_range, rc.pulse_times[sub], rc.positions[sub], None, True,
+                           wavelength=LAM)
+        backproject(rc_sub, GroundGrid.centered(0.0, east, PX, (8, 8)))
+        t0 = time.perf_counter()
+        backproject(rc_sub, grid)
+        t_e = (time.perf_counter() - t0) * p / rc_sub.n_pulses
+        c = min(args.check, npx)
+        i0 = (npx - c) // 2
+        ref = backproject(rc, PointGrid(grid.points()[i0:i0 + c, i0:i0 + c])).data
+        err = gain_error_db(img.data[i0:i0 + c, i0:i0 + c], ref)
+        md = img.metadata
+        print(f"{npx}^2 px x {p} pulses: ffbp {t_f:7.2f} s ({work / t_f:9.3e} px-pulse/s), exact BP "
+              f"{t_e:8.2f} s ({work / t_e:9.3e}), speed-up {t_e / t_f:5.1f}x (goal >= 10x at 2048^2); error "
+              f"{err:6.1f} dB (predicted {md['ffbp_predicted_error_db']:6.1f}; base {md['ffbp_base_pulses']} pulses, "
+              f"merge {md['ffbp_merge']}, levels {md['ffbp_levels']}, oversample {md['ffbp_oversample']})", flush=True)
+        peer = fastsar_ffbp(rc, npx, east)
+        if peer is not None:
+            t_p, img_p = peer
+            print(f"    fastsar ffbp {t_p:7.2f} s ({work / t_p:9.3e}); sarnav / fastsar time {t_f / t_p:5.2f} "
+                  f"(goal <= 2); fastsar error vs sarnav exact "
+                  f"{gain_error_db(np.asarray(img_p)[i0:i0 + c, i0:i0 + c], ref):6.1f} dB", flush=True)
+
+
+if __name__ == "__main__":
+    main()

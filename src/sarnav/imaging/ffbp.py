@@ -1,0 +1,448 @@
+"""Fast factorised back-projection (FFBP) on polar subimages, float64 geometry, numba kernels.
+
+Algorithm (Ulander, Hellsten & Stenstrom, IEEE TAES 39(3) 2003, "fast factorized back-projection",
+§III; here with 3-D pixels and any trajectory):
+
+1. The pulses are split into subapertures of ``base_pulses`` consecutive pulses. Subaperture J has
+   a centre c_J (mean antenna position), the track direction v (unit, whole aperture) and a
+   *polar grid*: range r from c_J and direction cosine u = (q - c_J).v / r, on the points
+   ``q(r, u) = c_J + r (u v + sqrt(1 - u^2) w_J)`` (w_J: unit vector perpendicular to v towards the
+   scene centre). For a straight subaperture every point with the same (r, u) has the same range to
+   every pulse of J, so the polar image holds the subaperture's whole contribution to any pixel.
+2. Level 0: each polar image is formed by exact back-projection of its pulses onto its grid points
+   (``backprojection.backproject_points``), *demodulated*: ``I_J(r, u) = sum_k s_k(R_k) e^{j4pi(R_k - r)/lambda}``,
+   a band-limited function of (r, u): |f_r| <= B/c, |f_u| <= l_J (1 + B / 2 f_c) / lambda (l_J the
+   subaperture length along v).
+3. Each merge groups ``merge`` consecutive subapertures into a parent with a ``merge`` times finer u
+   sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (2-D Keys cubic
+   interpolation of each child at the parent's grid points, float64 geometry).
+4. The pixels finally take ``A(p) = sum_J I_J(r_J(p), u_J(p)) e^{j4pi r_J(p)/lambda}``.
+
+Sampling: Delta_r = c / (2 B os), Delta_u = lambda / (2 (l_J + dx)(1 + B / 2 f_c) os) with ``os`` the
+``oversample`` argument (dx the mean pulse spacing; B = ``bandwidth``, default the data's sample
+rate c / (2 dr)).
+
+Error model (:func:`ffbp_error_model`): every interpolation stage (each merge and the final
+evaluation) adds the 2-D Keys-cubic error of a flat band at oversampling ``os`` in both dimensions
+(:mod:`sarnav.imaging.interpolation_error`); the subaperture images occupy disjoint Doppler bands,
+so their energies (and their errors') add: predicted ``eps = n_stages * eps_2d(os, os)``. The
+"tile" of this factorisation is the subaperture (``base_pulses`` x ``merge^levels`` pulses) and
+its polar cell (Delta_r, Delta_u). A subaperture that is not straight (navigation errors,
+manoeuvres) adds an error the model does not include: the residual of its positions about the
+line through c_J along v, ~ (4 pi / lambda) d_perp * angle-spread.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from sarnav.errors import ConfigError, InputDataError
+from sarnav.signal.data import PulseData, SarImage
+from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _S0, _S1, _S2, _S3, _S4, _S5,
+                                           _check_pulses, _image, _points, _wavelength, backproject_points)
+from sarnav.imaging.interpolation_error import interpolation_error, interpolation_error_2d
+
+__all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan"]
+
+_C = 299792458.0
+#: extra polar samples beyond the pixels' extent on each side (cubic support is 2)
+_MARGIN = 3
+
+
+@dataclass(frozen=True)
+class FfbpPlan:
+    """How :func:`ffbp` factorises: subaperture sizes, polar sampling and the predicted error."""
+
+    base_pulses: int
+    merge: int
+    levels: int
+    oversample: float
+    bandwidth: float
+    n_stages: int
+    predicted_error_db: float
+
+    @property
+    def final_pulses(self) -> int:
+        return self.base_pulses * self.merge ** self.levels
+
+
+def ffbp_error_model(oversample: float, n_stages: int, data_error: float = 0.0) -> float:
+    """Predicted image error [dB] of FFBP against exact back-projection (module doc).
+
+    ``10 log10(n_stages * eps_cubic_2d(os, os) + data_error)``; ``data_error`` (linear) adds the
+    range-interpolation error of the pulses when the exact reference interpolates them differently.
+    """
+    eps = n_stages * interpolation_error_2d("cubic", oversample, oversample) + data_error
+    return float(10.0 * math.log10(eps))
+
+
+def _int_arg(name, value, lo):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
+        raise ConfigError(name, f"must be an integer >= {lo}, got {value!r}")
+    return int(value)
+
+
+def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: int | None = None,
+              oversample: float = 4.0, bandwidth: float, cost=None) -> FfbpPlan:
+    """Choose the factorisation and predict its error.
+
+    Default ``levels``: the one of 0 .. (as many merges as fit) that minimises ``cost(levels)``
+    (operation count estimate, see :func:`ffbp`), or the largest when ``cost`` is None.
+    """
+    base_pulses = _int_arg("base_pulses", base_pulses, 1)
+    merge = _int_arg("merge", merge, 2)
+    if not (isinstance(oversample, (int, float)) and math.isfinite(oversample) and oversample >= 1.5):
+        raise ConfigError("oversample", f"must be a number >= 1.5 (polar samples per Nyquist sample), got {oversample!r}")
+    if levels is None:
+        levels = 0
+        while base_pulses * merge ** (levels + 1) <= n_pulses:
+            levels += 1
+        if cost is not None:
+            levels = min(range(levels + 1), key=cost)
+    levels = _int_arg("levels", levels, 0)
+    n_stages = levels + 1
+    return FfbpPlan(base_pulses, merge, levels, float(oversample), float(bandwidth), n_stages,
+                    ffbp_error_model(oversample, n_stages))
+
+
+# ---------------------------------------------------------------------------------------------
+# compiled kernel: evaluate a demodulated polar image at 3-D points, remodulate, accumulate
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _sample(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im, two_over_lambda):
+    """I(r(q), u(q)) exp(j 2 pi (2/lambda)(r(q) - ref_r)) with Keys cubic weights in (r, u); (re, im)."""
+    nr, nu = img_re.shape
+    a = -0.5
+    dx = qx - centre[0]
+    dy = qy - centre[1]
+    dz = qz - centre[2]
+    r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    u = (dx * v[0] + dy * v[1] + dz * v[2]) / r
+    fr = (r - r0) * inv_dr
+    fu = (u - u0) * inv_du
+    ir = int(math.floor(fr))
+    iu = int(math.floor(fu))
+    if ir < 1 or iu < 1 or ir > nr - 3 or iu > nu - 3:
+        return 0.0, 0.0
+    # Keys (1981) weights at distances 1+w, w, 1-w, 2-w (a = -1/2)
+    w = fr - ir
+    x1 = 1.0 + w
+    x2 = 1.0 - w
+    x3 = 2.0 - w
+    r_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+    r_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+    r_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+    r_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+    w = fu - iu
+    x1 = 1.0 + w
+    x2 = 1.0 - w
+    x3 = 2.0 - w
+    u_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+    u_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+    u_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+    u_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+    sr = 0.0
+    si = 0.0
+    for t in range(4):
+        row = ir - 1 + t
+        wr = r_a if t == 0 else (r_b if t == 1 else (r_c if t == 2 else r_d))
+        rr = (u_a * img_re[row, iu - 1] + u_b * img_re[row, iu] + u_c * img_re[row, iu + 1]
+              + u_d * img_re[row, iu + 2])
+        ri = (u_a * img_im[row, iu - 1] + u_b * img_im[row, iu] + u_c * img_im[row, iu + 1]
+              + u_d * img_im[row, iu + 2])
+        sr += wr * rr
+        si += wr * ri
+    cyc = (r - ref_r) * two_over_lambda
+    f = cyc - math.floor(cyc + 0.5)        # fractional cycle, exact in float64
+    xh = math.pi * f                       # exp(j 2 pi f) from sin/cos polynomials of pi f
+    t2 = xh * xh
+    sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
+    cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
+    c = cs * cs - sn * sn
+    s_ = 2.0 * sn * cs
+    return sr * c - si * s_, sr * s_ + si * c
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im, two_over_lambda,
+                out_re, out_im):  # pragma: no cover - compiled
+    """out += child polar image at the points (ref_r: (M,) parent ranges, 0 for the final pixels)."""
+    for i in numba.prange(pts.shape[0]):
+        a_, b_ = _sample(pts[i, 0], pts[i, 1], pts[i, 2], ref_r[i], centre, v, r0, inv_dr, u0, inv_du, img_re,
+                         img_im, two_over_lambda)
+        out_re[i] += a_
+        out_im[i] += b_
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img_re, img_im, two_over_lambda,
+           out_re, out_im):  # pragma: no cover - compiled
+    """out (Nr, Nu) += child image at the parent's polar grid points q(r, u), generated on the fly."""
+    nr, nu = out_re.shape
+    for i in numba.prange(nr):
+        r = pr0 + i * pdr
+        for j in range(nu):
+            u = pu0 + j * pdu
+            sw = math.sqrt(max(1.0 - u * u, 0.0))
+            qx = pc[0] + r * (u * pv[0] + sw * pw[0])
+            qy = pc[1] + r * (u * pv[1] + sw * pw[1])
+            qz = pc[2] + r * (u * pv[2] + sw * pw[2])
+            a_, b_ = _sample(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, img_re, img_im, two_over_lambda)
+            out_re[i, j] += a_
+            out_im[i, j] += b_
+
+
+# ---------------------------------------------------------------------------------------------
+# polar grids
+
+@dataclass
+class _Polar:
+    centre: np.ndarray
+    w: np.ndarray
+    r0: float
+    dr: float
+    nr: int
+    u0: float
+    du: float
+    nu: int
+    re: np.ndarray | None = None
+    im: np.ndarray | None = None
+
+    def points(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r = self.r0 + np.arange(self.nr) * self.dr
+        u = self.u0 + np.arange(self.nu) * self.du
+        e = u[None, :, None] * v + np.sqrt(np.clip(1.0 - u * u, 0.0, None))[None, :, None] * self.w
+        q = self.centre + r[:, None, None] * e                      # (nr, nu, 3)
+        return q.reshape(-1, 3), np.broadcast_to(r[:, None], (self.nr, self.nu)).reshape(-1)
+
+
+def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: np.ndarray, dr: float,
+                spacing: float, lam_eff: float, os: float) -> _Polar:
+    c = pos.mean(axis=0)
+    off = scene_centre - c
+    w = off - np.dot(off, v) * v
+    nw = np.linalg.norm(w)
+    if nw == 0:
+        raise InputDataError("grid", "scene centre lies on the track line: polar grid undefined")
+    w /= nw
+    d = hull - c
+    r = np.linalg.norm(d, axis=1)
+    u = d @ v / r
+    length = float(np.ptp((pos - c) @ v)) + spacing
+    du = lam_eff / (2.0 * length * os)
+    r0 = float(r.min()) - _MARGIN * dr
+    u0 = float(u.min()) - _MARGIN * du
+    nr = int(math.ceil((float(r.max()) + _MARGIN * dr - r0) / dr)) + 1
+    nu = int(math.ceil((float(u.max()) + _MARGIN * du - u0) / du)) + 1
+    return _Polar(c, w, r0, dr, nr, u0, du, nu)
+
+
+def _hull_points(pts: np.ndarray) -> np.ndarray:
+    """Pixels that bound the image's (r, u) extent: the border of a (Ny, Nx) grid plus a coarse interior."""
+    if pts.ndim == 3 and min(pts.shape[:2]) >= 2:
+        step = max(1, min(pts.shape[:2]) // 32)
+        parts = [pts[0], pts[-1], pts[:, 0], pts[:, -1], pts[::step, ::step].reshape(-1, 3)]
+        return np.concatenate([p.reshape(-1, 3) for p in parts])
+    return pts.reshape(-1, 3)
+
+
+def _tile_order(shape, tile: int = 32) -> np.ndarray:
+    """Flat pixel indices of a (Ny, Nx) (or any) grid visited tile by tile."""
+    if len(shape) != 2:
+        return np.arange(int(np.prod(shape)))
+    ny, nx = shape
+    iy, ix = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    key = ((iy // tile) * ((nx + tile - 1) // tile) + ix // tile) * (tile * tile) + (iy % tile) * tile + ix % tile
+    return np.argsort(key.ravel(), kind="stable")
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def _demod_kernel(values, r, two_over_lambda, out_re, out_im):  # pragma: no cover - compiled
+    for i in numba.prange(values.size):
+        cyc = r[i] * two_over_lambda
+        xh = -math.pi * (cyc - math.floor(cyc + 0.5))
+        t2 = xh * xh
+        sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
+        cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
+        c = cs * cs - sn * sn
+        s_ = 2.0 * sn * cs
+        out_re[i] = values[i].real * c - values[i].imag * s_
+        out_im[i] = values[i].real * s_ + values[i].imag * c
+
+
+def _demodulate_parts(values: np.ndarray, r: np.ndarray, lam: float):
+    """(re, im) of ``values * exp(-j 4 pi r / lambda)`` (phase reduced in float64, polynomial sin/cos)."""
+    out_re = np.empty(values.size)
+    out_im = np.empty(values.size)
+    _demod_kernel(np.ascontiguousarray(values.ravel()), np.ascontiguousarray(r.ravel()), 2.0 / lam, out_re, out_im)
+    return out_re, out_im
+
+
+def _demodulate(values: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
+    re, im = _demodulate_parts(values, r, lam)
+    return (re + 1j * im).reshape(values.shape)
+
+
+class _Former:
+    """Builds polar images recursively (depth first: memory of one branch only)."""
+
+    def __init__(self, rc, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample):
+        self.rc, self.pos, self.lam, self.v = rc, pos, lam, v
+        self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
+        self.plan, self.interpolation, self.upsample = plan, interpolation, upsample
+
+    def build(self, k0: int, k1: int, level: int) -> _Polar:
+        grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
+                           self.plan.oversample)
+        if level == 0:
+            q, rq = grid.points(self.v)
+            sub = PulseData(self.rc.data[k0:k1], self.rc.slant_range, self.rc.pulse_times[k0:k1], self.pos[k0:k1],
+                            None, compressed=True, wavelength=self.lam)
+            re, im = _demodulate_parts(backproject_points(sub, q, interpolation=self.interpolation,
+                                                          upsample=self.upsample), rq, self.lam)
+            grid.re = re.reshape(grid.nr, grid.nu)
+            grid.im = im.reshape(grid.nr, grid.nu)
+            return grid
+        grid.re = np.zeros((grid.nr, grid.nu))
+        grid.im = np.zeros((grid.nr, grid.nu))
+        step = self.plan.base_pulses * self.plan.merge ** (level - 1)
+        for j0 in range(k0, k1, step):
+            child = self.build(j0, min(k1, j0 + step), level - 1)
+            _merge(grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
+                   1.0 / child.dr, child.u0, 1.0 / child.du, child.re, child.im, 2.0 / self.lam, grid.re, grid.im)
+        return grid
+
+
+def _evaluate(g: _Polar, q, ref_r, v, lam, out_re, out_im):
+    _polar_eval(q, ref_r, g.centre, v, g.r0, 1.0 / g.dr, g.u0, 1.0 / g.du, g.re, g.im, 2.0 / lam, out_re, out_im)
+
+
+#: cost of one polar-image evaluation (16 taps) relative to one back-projected pixel-pulse (measured 3-5)
+_EVAL_COST = 5.0
+
+
+def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge):
+    """Operation count (pixel-pulse units) of the factorisation as a function of its number of levels."""
+    c = pos.mean(axis=0)
+    d = hull - c
+    r = np.linalg.norm(d, axis=1)
+    u = d @ v / r
+    n_r = np.ptp(r) * 2.0 * bw * os_ / _C + 2 * _MARGIN
+
+    def n_u(n_pulses):
+        return np.ptp(u) * 2.0 * n_pulses * spacing * os_ / lam_eff + 2 * _MARGIN
+
+    def cost(levels):
+        total = p * n_r * n_u(base)                                  # level-0 exact formation
+        for lev in range(1, levels + 1):
+            size = base * merge ** lev
+            total += _EVAL_COST * (p / size) * n_r * n_u(size) * merge
+        return total + _EVAL_COST * n_pix * math.ceil(p / (base * merge ** levels))
+
+    return cost
+
+
+def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
+         base_pulses: int = 16, merge: int = 4, levels: int | None = None, oversample: float = 4.0,
+         interpolation: str = "upsample", upsample: int = 4) -> SarImage:
+    """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
+
+    Parameters
+    ----------
+    rc, grid, positions, wavelength : as :func:`sarnav.imaging.backprojection.backproject` (pixel and
+        antenna positions in one Cartesian frame, float64).
+    bandwidth : signal bandwidth B [Hz] (sets the polar range sampling); default the data's sample
+        rate c / (2 dr).
+    base_pulses, merge, levels : factorisation: subapertures of ``base_pulses`` pulses formed exactly,
+        then ``levels`` merges of ``merge`` children each (default: as many as fit).
+    oversample : polar samples per Nyquist sample in range and angle (>= 1.5; error model in
+        :func:`ffbp_error_model`).
+    interpolation, upsample : range interpolation of the pulses in the level-0 formation.
+
+    Returns
+    -------
+    SarImage (complex128), ``metadata["algorithm"] = "ffbp"`` plus the plan and its predicted error.
+    """
+    g, pts = _points(grid)
+    data, rng, pos = _check_pulses(rc, positions)
+    lam = _wavelength(rc, wavelength)
+    dr_data = float(rng[1] - rng[0])
+    bw = _C / (2.0 * dr_data) if bandwidth is None else float(bandwidth)
+    if not (math.isfinite(bw) and bw > 0):
+        raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
+    p = data.shape[0]
+    if p < 2:
+        raise InputDataError("rc.data", "FFBP needs >= 2 pulses (use backproject)")
+    track = pos[-1] - pos[0]
+    if np.linalg.norm(track) == 0:
+        raise InputDataError("positions", "first and last antenna positions coincide: no track direction")
+    v = track / np.linalg.norm(track)
+    spacing = float(np.linalg.norm(track)) / (p - 1)
+    fc = _C / lam
+    lam_eff = lam / (1.0 + bw / (2.0 * fc))
+    hull = _hull_points(pts)
+    flat = pts.reshape(-1, 3)
+    centre = flat.mean(axis=0)
+    os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
+    cost = _cost_model(p, flat.shape[0], pos, v, hull, bw, os_, spacing, lam_eff, base_pulses, merge) \
+        if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) and isinstance(merge, int) \
+        and base_pulses >= 1 and merge >= 2 else None
+    plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
+                     cost=cost)
+    dr = _C / (2.0 * bw * plan.oversample)
+    rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
+    former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample)
+    order = _tile_order(pts.shape[:-1])          # pixels in 32 x 32 tiles: polar footprint stays in cache
+    tiled = np.ascontiguousarray(flat[order])
+    out_re = np.zeros(flat.shape[0])
+    out_im = np.zeros(flat.shape[0])
+    zero = np.zeros(flat.shape[0])
+    step = plan.final_pulses
+    for k0 in range(0, p, step):
+        sub = former.build(k0, min(p, k0 + step), plan.levels)
+        _evaluate(sub, tiled, zero, v, lam, out_re, out_im)
+    values = np.empty(flat.shape[0], dtype=np.complex128)
+    values[order] = out_re + 1j * out_im
+    img = _image(g, values.reshape(pts.shape[:-1]), rc, lam, interpolation, upsample, "ffbp")
+    img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
+                         "ffbp_oversample": plan.oversample, "ffbp_predicted_error_db": plan.predicted_error_db})
+    return img
+
+
+def polar_image(rc: PulseData, grid, positions=None, *, wavelength: float | None = None,
+                bandwidth: float | None = None, oversample: float = 1.0, interpolation: str = "upsample",
+                upsample: int = 4):
+    """The demodulated full-aperture polar image ``I(r, u)`` covering ``grid`` (exact back-projection).
+
+    ``I(r, u) = sum_k s_k(R_k(q)) exp(j 4 pi (R_k(q) - r) / lambda)`` at ``q(r, u)`` (module doc, step 1;
+    r from the aperture centre c, u = direction cosine against the track direction v). Along u it
+    is a sum of tones ``exp(-j 4 pi s_k u / lambda)``, one per pulse (s_k = (a_k - c).v): the
+    back-projected image with its spherical wavefront removed, the domain of phase autofocus.
+
+    Returns
+    -------
+    (values (Nr, Nu) complex128, r (Nr,) [m], u (Nu,), s (P,) pulse offsets along v [m], lambda [m])
+    """
+    g, pts = _points(grid)
+    data, rng, pos = _check_pulses(rc, positions)
+    lam = _wavelength(rc, wavelength)
+    bw = _C / (2.0 * float(rng[1] - rng[0])) if bandwidth is None else float(bandwidth)
+    track = pos[-1] - pos[0]
+    if data.shape[0] < 2 or np.linalg.norm(track) == 0:
+        raise InputDataError("positions", "need >= 2 pulses on a moving track to define the polar image")
+    v = track / np.linalg.norm(track)
+    flat = pts.reshape(-1, 3)
+    lam_eff = lam / (1.0 + bw / (2.0 * _C / lam))
+    spacing = float(np.linalg.norm(track)) / (data.shape[0] - 1)
+    pg = _polar_grid(pos, v, _hull_points(pts), flat.mean(axis=0), _C / (2.0 * bw * oversample), spacing, lam_eff,
+                     oversample)
+    q, rq = pg.points(v)
+    sub = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
+    vals = _demodulate(backproject_points(sub, q, interpolation=interpolation, upsample=upsample), rq, lam)
+    r = pg.r0 + np.arange(pg.nr) * pg.dr
+    u = pg.u0 + np.arange(pg.nu) * pg.du
+    return vals.reshape(pg.nr, pg.nu), r, u, (pos - pg.centre) @ v, lam

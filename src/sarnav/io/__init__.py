@@ -1,0 +1,9 @@
+"""sarnav.io: NGA standard files through sarkit (MIT; the maintained successor of sarpy).
+
+- ``frames``: the local NED frame of the simulations <-> WGS-84 ECEF at a geodetic reference point
+- ``cphd``: write a collect (raw or range-compressed pulses) as CPHD 1.0.1, read a CPHD into
+  ``PulseData`` plus its default image grid (:func:`cphd.write_collect`, :func:`cphd.read_collect`)
+- ``sicd``: write a back-projected image as SICD 1.3.0 with its geometry (:func:`sicd.write_image`)
+
+docs/io.md lists the fields written and how to validate the files (``cphdcheck``, ``sicdcheck``).
+"""

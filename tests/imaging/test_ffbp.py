@@ -1,0 +1,83 @@
+"""FFBP against exact back-projection: error = 10 log10(||g img - ref||^2 / ||ref||^2) after one fitted
+complex gain g (FastSAR tests/test_accuracy.py contract, anchors-wave2 §4.1), measured vs predicted.
+
+Slow test (2048^2 pixels, 2048 pulses): ``python -m pytest -q -m slow tests/imaging/test_ffbp.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sarnav.errors import ConfigError
+from sarnav.imaging.backprojection import backproject
+from sarnav.imaging.ffbp import ffbp, ffbp_error_model
+from sarnav.imaging.grid import GroundGrid
+from sarnav.signal.data import PulseData
+
+C = 299792458.0
+FC, BW = 9.75e9, 150e6
+LAM = C / FC
+
+
+def scene(npx, p, slant, px=0.5, n_targets=200, seed=1):
+    """Track north, scene at 30 deg depression; aperture for px azimuth resolution; pulses spaced at the
+    azimuth Nyquist of the scene width (the hardest case for FFBP: the scene fills the PRF band)."""
+    alt, east = 0.5 * slant, slant * np.sqrt(0.75)
+    aperture = LAM * slant / (2 * px)
+    pos = np.zeros((p, 3))
+    pos[:, 0] = (np.arange(p) - p / 2) * aperture / p
+    pos[:, 2] = -alt
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    w = npx * px
+    tg = np.column_stack([rng.uniform(-w / 2, w / 2, n_targets), east + rng.uniform(-w / 2, w / 2, n_targets),
+                          np.zeros(n_targets)])
+    amp = rng.standard_normal(n_targets) + 1j * rng.standard_normal(n_targets)
+    rt = np.linalg.norm(tg[None] - pos[:, None], axis=2)
+    dr = C / (4 * BW)                                   # fs = 2 B
+    r = rt.min() - 30 * dr + np.arange(int((rt.max() - rt.min()) / dr) + 60) * dr
+    data = np.zeros((p, r.size), complex)
+    for t in range(n_targets):
+        data += amp[t] * np.sinc(2 * BW / C * (r[None] - rt[:, t:t + 1])) * np.exp(-4j * np.pi * rt[:, t:t + 1] / LAM)
+    rc = PulseData(data.astype(np.complex64), r, np.arange(p) * 1e-3, pos, None, compressed=True, wavelength=LAM)
+    return rc, GroundGrid.centered(0.0, east, px, (npx, npx))
+
+
+def gain_error_db(img, ref):
+    g = np.vdot(img, ref) / np.vdot(img, img)
+    return float(10 * np.log10(np.sum(np.abs(g * img - ref) ** 2) / np.sum(np.abs(ref) ** 2)))
+
+
+@pytest.mark.parametrize("slant, oversample", [(5e3, 3.0), (5e3, 4.0), (700e3, 4.0)])
+def test_ffbp_error_matches_prediction(slant, oversample):
+    rc, grid = scene(192, 192, slant, n_targets=120)
+    ref = backproject(rc, grid, interpolation="upsample").data
+    img = ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, oversample=oversample)
+    pred = img.metadata["ffbp_predicted_error_db"]
+    assert pred == pytest.approx(ffbp_error_model(oversample, img.metadata["ffbp_levels"] + 1))
+    err = gain_error_db(img.data, ref)
+    assert abs(err - pred) < 2.0, (err, pred)
+    if oversample >= 4.0:
+        assert err < -40.0
+
+
+def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
+    rc, grid = scene(96, 96, 5e3, n_targets=40)
+    ref = backproject(rc, grid, interpolation="upsample").data
+    e = [gain_error_db(ffbp(rc, grid, bandwidth=BW, base_pulses=8, oversample=o).data, ref) for o in (2.0, 4.0)]
+    assert e[1] < e[0] - 10.0
+    with pytest.raises(ConfigError, match="^oversample"):
+        ffbp(rc, grid, oversample=1.0)
+    with pytest.raises(ConfigError, match="^merge"):
+        ffbp(rc, grid, merge=1)
+
+
+@pytest.mark.slow
+def test_ffbp_2048_square_below_minus_40_db():
+    """2048^2 pixels, 2048 pulses, 5 km: base subaperture 16 pulses, merges of 4, polar os 4."""
+    rc, grid = scene(2048, 2048, 5e3, n_targets=400)
+    ref = backproject(rc, grid, interpolation="upsample").data
+    img = ffbp(rc, grid, bandwidth=BW, oversample=4.0)
+    err = gain_error_db(img.data, ref)
+    assert err < -40.0
+    assert abs(err - img.metadata["ffbp_predicted_error_db"]) < 2.0
