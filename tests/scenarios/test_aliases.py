@@ -8,7 +8,7 @@ import pytest
 
 from sarnav.cli.main import main
 from sarnav.errors import ConfigError
-from sarnav.scenarios.aliases import RENAMED, UNTIL
+from sarnav.scenarios.aliases import RENAMED, RETIRED, UNTIL
 from sarnav.scenarios.config import load_scenario
 from sarnav.scenarios.registry import get_scenario
 
@@ -29,9 +29,12 @@ def test_an_old_file_loads_as_the_new_scenario_with_one_notice_per_renamed_key(p
     assert cfg == get_scenario(path.stem)  # every value carried over to its new key
     kind = cfg["scenario"]["kind"]
     renamed = [r for r in RENAMED if r.kind == kind]
-    assert len(notices) == len(renamed)
+    retired = [r for r in RETIRED if r.kind == kind and f"{r.key.split('.')[-1]} =" in path.read_text()]
+    assert len(notices) == len(renamed) + len(retired)
     for r, line in zip(renamed, notices):
         assert line == f"{r.old} is now {r.new} (the old name is accepted until sarnav {UNTIL})"
+    for r, line in zip(retired, notices[len(renamed):]):  # an old default dropped, with the reason
+        assert line.startswith(f"{r.key}: the value of this file was the default") and r.why in line
 
 
 @pytest.mark.parametrize("name,extra", [

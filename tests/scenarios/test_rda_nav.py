@@ -188,20 +188,35 @@ def test_image_mode_registration_error_is_small_and_justifies_r(image_runs):
     assert np.sqrt(np.mean(reg[..., 2] ** 2)) < 0.05
 
 
-def test_image_mode_measurement_sigma_is_the_registration_sigma_unless_noise_is_added():
+def test_image_mode_measurement_sigma_comes_from_each_image_unless_overridden():
     prm = rn.parse(rn.default_config())
-    sig, add = rn.measurement_sigma(prm, image=True)
-    np.testing.assert_array_equal(sig, prm.registration_sigma)
-    assert add == 0.0
+    assert prm.registration_sigma is None  # R from each image's predicted registration sigma
     sig, add = rn.measurement_sigma(prm, image=False)  # oracle: Table 2
     np.testing.assert_allclose(sig, [0.25, 0.25])
     assert add == 1.0
     cfg = rn.default_config()
+    cfg["sar"]["registration_sigma_m"] = [0.002, 0.03]  # the optional constant override
+    prm = rn.parse(cfg)
+    sig, add = rn.measurement_sigma(prm, image=True)
+    np.testing.assert_array_equal(sig, [0.002, 0.03])
+    assert add == 0.0
     cfg["sar"]["image_added_noise"] = True
     prm = rn.parse(cfg)
     sig, add = rn.measurement_sigma(prm, image=True)
-    np.testing.assert_allclose(sig, np.hypot([0.25, 0.25], prm.registration_sigma))
+    np.testing.assert_allclose(sig, np.hypot([0.25, 0.25], [0.002, 0.03]))
     assert add == 1.0
+
+
+def test_image_mode_predicted_registration_sigma_is_recorded_and_matches_the_errors(image_runs):
+    reg = np.concatenate([r.extras["registration_error"][1][:, 1:] for r in image_runs])
+    sig = np.concatenate([r.extras["registration_sigma"][1][:, 1:] for r in image_runs])
+    assert np.all(np.isfinite(sig)) and np.all(sig > 0)
+    # range ~2 mm, along track ~20 mm predicted; 16 samples per axis: the mean of z^2 is chi2_16 / 16 for a right
+    # prediction (99.9 % interval 0.25 .. 2.5), a sigma wrong by 2x in either direction fails
+    z2 = np.mean((reg / sig) ** 2, axis=0)
+    assert np.all((z2 > 0.25) & (z2 < 2.5)), z2
+    assert np.all(np.concatenate([r.extras["update_rejected"][1] for r in image_runs]) == 0)
+    assert np.all(np.concatenate([r.extras["pairs_fused"][1] for r in image_runs]) == 1)
 
 
 def test_image_mode_measured_toc_is_the_true_zero_doppler_time(image_runs):
@@ -230,16 +245,17 @@ def test_image_mode_is_reproducible():
 
 def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
     from sarnav.measurements.sar_image import SubApertureImager
+    from sarnav.scenarios import rda_nav_world as world
 
     cfg = rn.default_config()
     cfg["trajectory"]["duration"] = 2.0
     cfg["scene"]["clutter_per_run"] = False
     prm = rn.parse(cfg)
-    targets = rn.reference_targets(prm)
+    targets = world.reference_targets(prm)
 
     def imager(**kw):
-        return SubApertureImager(radar=prm.radar, truth=prm.trajectory, speed=prm.trajectory.speed, targets=targets,
-                                 scene_for=rn.scene_factory(prm, targets), reflector_amplitude=3.16,
+        return SubApertureImager(radar=prm.radar, truth=prm.trajectory, targets=targets,
+                                 scene_for=world.scene_factory(prm, targets), reflector_amplitude=3.16,
                                  snr_db=prm.snr_db, reference_seed=prm.scene["seed"], **kw)
 
     im = imager(noise_seeds=[11, 12])
@@ -268,6 +284,11 @@ def test_reference_targets_lie_in_the_swath_with_toc_inside_each_aperture():
     ("sar.second_order", 1), ("sar.registration_sigma_m", 0.02), ("sar.registration_sigma_m", [0.0, 0.02]),
     ("sar.image_added_noise", "no"), ("radar.snr_db", float("nan")), ("radar.snr_db", 200.0),
     ("radar.carrier_ghz", -1.0), ("imu.grade", "military"), ("filter.imu", {"grade": "military"}),
+    ("sar.algorithm", "omega-k"), ("sar.focus", "sharpest"), ("sar.gate_probability", 0.7),
+    ("sar.min_correlation", 1.5), ("scene.type", "forest"), ("scene.targets_per_image", 0),
+    ("scene.geolocation_sigma_m", [0.3, -0.1, 0.0]), ("scene.reference_coherence", 1.2),
+    ("scene.terrain_relief_m", -5.0), ("scene.clutter_density_m2", 0.0), ("radar.look_side", "up"),
+    ("radar.prf_hz", 50.0), ("radar.prf_hz", 2.0e5), ("radar.range_margin_m", -1.0), ("trajectory.type", "loop"),
 ])
 def test_bad_config_names_the_field(field, value):
     cfg = rn.default_config()

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2
 
-__all__ = [
+__all__ = ["rejection_counts", 
     "chi2_band",
     "sigma_containment",
     "nees_statistics",
@@ -233,7 +233,10 @@ def summarize(ds, confidence: float = 0.95) -> dict:
             for j, m in enumerate(meas)
         }
     if "registration_error" in ds:
-        out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units)
+        pred = ds["registration_sigma"].values if "registration_sigma" in ds else None
+        out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units, pred)
+    if "update_rejected" in ds:
+        out["sar_updates"] = rejection_counts(ds["update_rejected"], ds["pairs_fused"] if "pairs_fused" in ds else None)
     out.update(consistency_verdict(error, sigma, out["nees"]))
     return strict(out)
 
@@ -291,17 +294,24 @@ def _reason(parent: dict, key: str) -> str:
     return "not finite (undefined for these data)"
 
 
-def registration_statistics(reg: np.ndarray, meas: list[str], units: list[str] | None = None) -> dict:
+def registration_statistics(reg: np.ndarray, meas: list[str], units: list[str] | None = None,
+                            predicted: np.ndarray | None = None) -> dict:
     """Per measurement axis of an image-derived measurement: statistics of the registration error
     (measured minus geometric truth), ``reg`` (R, U, M) with NaN where an axis is not image-derived.
 
     Returns {meas: {units, count, mean, std, stderr, rms, p99_abs, max_abs}} for the axes with data: the
-    numbers that justify the R a filter gives those measurements."""
+    numbers that justify the R a filter gives those measurements. With ``predicted`` (R, U, M), the 1-sigma each
+    image predicted for its registration: ``predicted_sigma_rms`` (rms over the same samples), ``std_over_predicted``
+    (the measured std over it: 1 for a right prediction) and ``normalized_rms`` (rms of error / predicted sigma)."""
     reg = np.asarray(reg, dtype=np.float64)
     out = {}
     for j, m in enumerate(meas):
         e = reg[..., j].ravel()
-        e = e[np.isfinite(e)]
+        keep = np.isfinite(e)
+        if predicted is not None:
+            s = np.asarray(predicted, dtype=np.float64)[..., j].ravel()
+            keep &= np.isfinite(s) & (s > 0)
+        e = e[keep]
         if e.size == 0:
             continue
         out[m] = {
@@ -314,6 +324,28 @@ def registration_statistics(reg: np.ndarray, meas: list[str], units: list[str] |
             "p99_abs": float(np.percentile(np.abs(e), 99)),
             "max_abs": float(np.max(np.abs(e))),
         }
+        if predicted is not None:
+            s = s[keep]
+            rms_pred = float(np.sqrt(np.mean(s**2)))
+            out[m].update(predicted_sigma_rms=rms_pred,
+                          std_over_predicted=float(out[m]["std"] / rms_pred) if e.size > 1 else float("nan"),
+                          normalized_rms=float(np.sqrt(np.mean((e / s) ** 2))))
+    return out
+
+
+def rejection_counts(rejected, fused=None) -> dict:
+    """``{"updates": n, "with_all_pairs_fused": k, "pairs_fused": m, "rejected": {reason: count}}`` of a campaign's
+    SAR updates: ``rejected`` the ``update_rejected`` variable (run, update) whose ``flag_meanings`` attribute names
+    the codes (0 = fused), ``fused`` the ``pairs_fused`` variable (run, update) or None."""
+    codes = np.asarray(rejected.values if hasattr(rejected, "values") else rejected).astype(np.int64)
+    meanings = str(getattr(rejected, "attrs", {}).get("flag_meanings", "")).split()
+    counts = {}
+    for c, n in zip(*np.unique(codes[codes != 0], return_counts=True)):
+        name = meanings[c].replace("_", " ") if c < len(meanings) else f"code {c}"
+        counts[name] = int(n)
+    out = {"updates": int(codes.size), "with_all_pairs_fused": int(np.count_nonzero(codes == 0)), "rejected": counts}
+    if fused is not None:
+        out["pairs_fused"] = int(np.sum(np.asarray(fused.values if hasattr(fused, "values") else fused)))
     return out
 
 

@@ -79,6 +79,23 @@ class Prediction:
     def replace(self, **changes) -> "Prediction":
         return replace(self, **changes)
 
+    def masked(self, keep) -> "Prediction":
+        """The prediction with the components where ``keep`` (R, m) is False taken out of the update: their H rows,
+        C columns and Hessians are zero and their noise is decoupled (unit variance, no correlation), so a Kalman
+        update with them changes nothing (its gain columns are zero) while the shapes stay batched."""
+        keep = np.asarray(keep, dtype=bool)
+        if keep.shape != self.z_hat.shape:
+            raise InputDataError("keep", f"must be (R, m) = {self.z_hat.shape}, got {keep.shape}")
+        drop = ~keep
+        H = np.where(drop[:, :, None], 0.0, self.H)
+        pair = keep[:, :, None] & keep[:, None, :]
+        R = np.where(pair, self.R, 0.0)
+        idx = np.arange(self.dim)
+        R[:, idx, idx] = np.where(drop, 1.0, R[:, idx, idx])
+        C = None if self.C is None else np.where(drop[:, None, :], 0.0, self.C)
+        A = None if self.hessians is None else np.where(drop[:, :, None, None], 0.0, self.hessians)
+        return self.replace(H=H, R=R, C=C, hessians=A)
+
 
 def stack_predictions(parts: Sequence[Prediction]) -> Prediction:
     """One prediction of all components of ``parts`` (block-diagonal R; C and Hessians where any part has them)."""

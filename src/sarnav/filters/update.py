@@ -24,7 +24,7 @@ from sarnav.errors import InputDataError
 from sarnav.filters.ekf import correlated_update, joseph_update, normalized_squared
 from sarnav.filters.prediction import Prediction
 
-__all__ = ["Update", "joseph", "correlated"]
+__all__ = ["Update", "joseph", "correlated", "innovation_covariance", "chi2_gate", "present_nis"]
 
 
 @dataclass(frozen=True)
@@ -71,3 +71,45 @@ def correlated(P, pred: Prediction, z) -> Update:
     C = pred.C if pred.C is not None else np.zeros((pred.runs, pred.n_states, pred.dim))
     dx, P_post, S = correlated_update(P, pred.H, pred.R, C, r)
     return Update(dx, P_post, S, r)
+
+
+def innovation_covariance(P, pred: Prediction) -> np.ndarray:
+    """S = H P H^T + R + H C + C^T H^T (R, m, m): the covariance of the residual before the update."""
+    Ht = np.swapaxes(pred.H, -1, -2)
+    S = pred.H @ P @ Ht + pred.R
+    if pred.C is not None:
+        S = S + pred.H @ pred.C + np.swapaxes(pred.H @ pred.C, -1, -2)
+    return 0.5 * (S + np.swapaxes(S, -1, -2))
+
+
+def chi2_gate(P, pred: Prediction, z, groups, probability: float):
+    """Innovation gate: for each run and each group of components (lists of indices), the NIS of the group under its
+    own block of S; the group is rejected when it exceeds the chi-square quantile of 1 - ``probability`` (its dof =
+    the group size). ``probability`` is the rate at which a consistent filter rejects good measurements; 0 gates
+    nothing. Returns (NIS (R, G), accepted (R, G) bool)."""
+    from scipy.stats import chi2
+
+    S = innovation_covariance(P, pred)
+    r = np.asarray(z, dtype=np.float64) - pred.z_hat
+    nis = np.empty((pred.runs, len(groups)))
+    for g, idx in enumerate(groups):
+        idx = list(idx)
+        sub = S[:, idx][:, :, idx]
+        rg = r[:, idx]
+        finite = np.all(np.isfinite(rg), axis=1)
+        nis[:, g] = np.where(finite, normalized_squared(np.where(finite[:, None], rg, 0.0), sub), np.inf)
+    if not probability > 0:
+        return nis, np.isfinite(nis)
+    limits = np.array([chi2.isf(probability, len(idx)) for idx in groups])
+    return nis, nis <= limits
+
+
+def present_nis(residual, S, present) -> tuple[np.ndarray, np.ndarray]:
+    """(NIS over the components present (R,), their count (R,)): r_p^T S_pp^-1 r_p per run."""
+    runs = residual.shape[0]
+    nis, dof = np.zeros(runs), np.asarray(present, dtype=bool).sum(axis=1)
+    for i in range(runs):
+        idx = np.flatnonzero(present[i])
+        if idx.size:
+            nis[i] = float(residual[i, idx] @ np.linalg.solve(S[i][np.ix_(idx, idx)], residual[i, idx]))
+    return nis, dof

@@ -22,14 +22,15 @@ their mean removed before correlation, so the pedestal does not bias the peak to
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
 
-__all__ = ["Registration", "register", "register_axis", "cross_correlation"]
+__all__ = ["Registration", "register", "register_axis", "cross_correlation", "refine_shift", "distinctness",
+           "SeparableNoise", "magnitude_shift_precision"]
 
 
 @dataclass
@@ -228,3 +229,170 @@ def register_axis(reference, image, axis: int = 0, *, use_magnitude: bool = True
         centre, value = centre + offs[j], float(np.abs(fine[j]))
     norm = float(np.sqrt(np.sum(np.abs(x) ** 2) * np.sum(np.abs(y) ** 2)))
     return float(centre), (value / norm if norm > 0 else 0.0)
+
+
+def _magnitudes(reference, image):
+    c = np.abs(np.asarray(reference)).astype(np.float64)
+    y = np.abs(np.asarray(image)).astype(np.float64)
+    if c.shape != y.shape or c.ndim != 2 or min(c.shape) < 3:
+        raise InputDataError("image", f"reference and image must be equal 2-D arrays of >= 3x3, got {c.shape}, {y.shape}")
+    return c, y
+
+
+def _spline_gradient(c: np.ndarray, shift, axis: int, eps: float = 1e-3) -> np.ndarray:
+    """d/ds_axis of the cubic-spline shifted template ``ndimage.shift(c, s, order=3, mode="nearest")`` at ``shift``
+    (central difference in s): the Jacobian of the least-squares shift estimator. ``np.gradient`` of the samples is
+    not: on data sampled near Nyquist (range, fs/B ~ 1.2) a central difference of the samples underestimates the
+    derivative and so the gradient energy."""
+    from scipy import ndimage
+
+    d = np.zeros(2)
+    d[axis] = eps
+    s = np.asarray(shift, dtype=np.float64)
+    return (ndimage.shift(c, s + d, order=3, mode="nearest") - ndimage.shift(c, s - d, order=3, mode="nearest")) / (2 * eps)
+
+
+def refine_shift(reference, image, shift, iterations: int = 8) -> tuple[float, float]:
+    """Least-squares sub-pixel shift: Gauss-Newton on ``image = a * reference(shifted by s) + b`` started at ``shift``
+    (e.g. the correlation peak of :func:`register`); the estimator whose precision :func:`shift_precision` predicts.
+    Cubic-spline shifts, edges continued (``mode="nearest"``); steps are limited to 0.5 pixel per iteration."""
+    from scipy import ndimage
+
+    c, y = _magnitudes(reference, image)
+    s = np.asarray(shift, dtype=np.float64).copy()
+    for _ in range(int(iterations)):
+        cs = ndimage.shift(c, s, order=3, mode="nearest")
+        gy, gx = np.gradient(cs)
+        A = np.column_stack([cs.ravel(), np.ones(cs.size)])
+        (a, b), *_ = np.linalg.lstsq(A, y.ravel(), rcond=None)
+        r = (y - a * cs - b).ravel()
+        J = np.column_stack([-a * gy.ravel(), -a * gx.ravel(), cs.ravel(), np.ones(cs.size)])  # d(model)/d(s, a, b)
+        step, *_ = np.linalg.lstsq(J, r, rcond=None)
+        if not np.all(np.isfinite(step)):
+            raise InputDataError("image", "least-squares shift refinement diverged (no finite step): no match")
+        ds = np.clip(step[:2], -0.5, 0.5)  # Gauss-Newton step of (s, a, b); only s is kept
+        s += ds
+        if np.max(np.abs(ds)) < 1e-4:
+            break
+    return float(s[0]), float(s[1])
+
+
+@dataclass(frozen=True)
+class SeparableNoise:
+    """Receiver noise of a formed image, for the quadratic forms of :func:`magnitude_shift_precision`.
+
+    ``E[n(i, j) conj(n(i', j'))] = power * rows[i, i'] * rho[j' - j]`` (``rho[-d] = conj(rho[d])``): a full covariance
+    between rows (azimuth) and a stationary correlation along columns (range). Range compression is a convolution, so
+    the noise is stationary in range; the azimuth compression of a short block is not (RDA compresses a weak chirp
+    linearly on a zero-padded block and keeps the block's rows, so the noise variance and correlation change with the
+    row), and a stationary model of it under-states the variance of a shift by ~10 % near the block centre.
+    Separability holds while range migration within the block is below a range bin (RCMC then mixes columns little).
+    """
+
+    power: float
+    rows: np.ndarray
+    rho: np.ndarray
+
+    @classmethod
+    def from_images(cls, images, max_lag: int, power: float | None = None) -> "SeparableNoise":
+        """Estimate from realisations ``images`` (T, P, N) of the image-formation chain applied to noise alone:
+        row covariance averaged over columns and realisations, range correlation over rows, columns and realisations
+        (lags 0 .. max_lag - 1). ``power``: the noise power per pixel the model stands for (default: the images')."""
+        n = np.asarray(images, dtype=np.complex128)
+        if n.ndim != 3 or n.shape[0] < 1 or max_lag < 1 or n.shape[2] <= max_lag:
+            raise InputDataError("noise_images", f"need (T, P, N > {max_lag}) noise images, got {n.shape}")
+        p0 = float(np.mean(np.abs(n) ** 2))
+        if not p0 > 0:
+            raise InputDataError("noise_images", "have no power")
+        rows = np.einsum("tij,tkj->ik", n, np.conj(n)) / (n.shape[0] * n.shape[2] * p0)
+        N = n.shape[2]
+        rho = np.array([np.mean(n[:, :, :N - d] * np.conj(n[:, :, d:])) for d in range(max_lag)]) / p0
+        return cls(power=p0 if power is None else float(power), rows=rows, rho=rho)
+
+    def quadratic(self, h: np.ndarray, rows) -> float:
+        """``E|sum_ij conj(h_ij) n_ij|^2`` for ``h`` (m, k) placed on the image rows ``rows`` (m,) and k columns."""
+        m, k = h.shape
+        if k > self.rho.size:
+            raise InputDataError("h", f"spans {k} columns, the noise model {self.rho.size}")
+        d = np.arange(k)[None, :] - np.arange(k)[:, None]  # j' - j
+        P = np.where(d >= 0, self.rho[np.abs(d)], np.conj(self.rho[np.abs(d)]))
+        C = self.rows[np.ix_(rows, rows)]
+        return float(np.real(np.sum(C * (np.conj(h) @ P @ h.T)))) * self.power
+
+
+def magnitude_shift_precision(reference, image, shift, noise_reference, noise_image,
+                              mismatch: bool = True) -> tuple[float, float]:
+    """Predicted 1-sigma [pixels] (rows, columns) of the least-squares shift (:func:`refine_shift`) of two *complex*
+    images registered by their magnitudes: the first-order (Cramer-Rao-like) error of the shift from the receiver
+    noise of both images and, with ``mismatch``, from whatever else differs between them.
+
+    ``noise_reference``, ``noise_image``: (:class:`SeparableNoise`, rows (m,)) of each: the noise model of the image the
+    chip was cut from and the image rows it occupies. Where the signal dominates, a complex perturbation n enters the
+    magnitude as ``Re(n exp(-j phi))`` (phi the image phase), so with ``g_k = a d|template|/dk`` the gradient of the
+    fitted template and ``h = g_k exp(j phi)``: ``var(g_k^T m) = E|sum conj(h) n|^2 / 2`` for each image (the
+    reference's noise shifted with it and scaled by the fitted gain a), and ``var(s_k) = (sum) / (g_k^T g_k)^2``.
+
+    Receiver noise comes from the radar's noise floor and the image-formation chain (it is known, and a chip a few
+    azimuth correlation lengths long lets the fitted gain and offset absorb much of it, so its residual under-states
+    it). Scene changes between the passes (speckle decorrelated by time or baseline, geometry, focus) are not in that
+    model: they are in the fit's residual ``r = |image| - a |reference(shifted)| - b``. With ``mismatch`` the same
+    first-order form is evaluated with a locally stationary perturbation of power ``w_i`` = the residual power around
+    pixel i (averaged over a resolution-sized window, ``_local_power``, and divided by the fit's dof share
+    (P - 4) / P) and the noise model's correlation, and the larger of the two predictions is returned per axis: the
+    registration error is at least what the receiver noise makes, and the residual shows anything more
+    (docs/scenarios/rda-nav.md §3).
+    """
+    from scipy import ndimage
+
+    ref = np.asarray(reference, dtype=np.complex128)
+    img = np.asarray(image, dtype=np.complex128)
+    if ref.shape != img.shape or ref.ndim != 2 or min(ref.shape) < 3:
+        raise InputDataError("image", f"reference and image must be equal 2-D arrays of >= 3x3, got {ref.shape}, {img.shape}")
+    shifted = ndimage.shift(ref.real, shift, order=3, mode="nearest") + 1j * ndimage.shift(ref.imag, shift, order=3,
+                                                                                           mode="nearest")
+    cs = ndimage.shift(np.abs(ref), shift, order=3, mode="nearest")
+    A = np.column_stack([cs.ravel(), np.ones(cs.size)])
+    (a, b), *_ = np.linalg.lstsq(A, np.abs(img).ravel(), rcond=None)
+    w = None
+    if mismatch:
+        r = np.abs(img) - a * cs - b
+        w = _local_power(r, noise_image[0]) * r.size / max(r.size - 4, 1)
+    out = []
+    for axis in (0, 1):
+        g = a * _spline_gradient(np.abs(ref), shift, axis)
+        num = 0.5 * noise_image[0].quadratic(g * np.exp(1j * np.angle(img)), noise_image[1])
+        num += 0.5 * a * a * noise_reference[0].quadratic(g * np.exp(1j * np.angle(shifted)), noise_reference[1])
+        if w is not None:  # unit-power model, local power w: E|sum conj(h) n|^2 / 2 with h = g sqrt(2 w) e^{j phi}
+            unit = replace(noise_image[0], power=1.0)
+            num = max(num, 0.5 * unit.quadratic(g * np.sqrt(2.0 * w) * np.exp(1j * np.angle(img)), noise_image[1]))
+        energy = float(np.sum(g * g))
+        out.append(np.sqrt(max(num, 0.0)) / energy if energy > 0 else np.inf)
+    return float(out[0]), float(out[1])
+
+
+def _local_power(r: np.ndarray, noise: SeparableNoise) -> np.ndarray:
+    """Local mean of r^2 over a window of the noise's correlation lengths (rows: where the row correlation of the
+    model's central row falls below 1/2, columns: likewise for rho), at least 3 x 3 pixels: the power of a locally
+    stationary perturbation around each pixel."""
+    from scipy import ndimage
+
+    c = np.abs(noise.rows[noise.rows.shape[0] // 2])
+    c = c / max(c.max(), 1e-300)
+    ly = int(np.count_nonzero(c >= 0.5))
+    lx = int(np.count_nonzero(np.abs(noise.rho) >= 0.5 * np.abs(noise.rho[0]))) * 2 - 1
+    size = (min(max(3, 2 * ly + 1), r.shape[0]), min(max(3, 2 * lx + 1), r.shape[1]))
+    return ndimage.uniform_filter(r * r, size=size, mode="nearest")
+
+
+def distinctness(surface: np.ndarray, exclude: tuple[int, int]) -> float:
+    """Height of the highest correlation outside the main peak's neighbourhood (``exclude`` = half sizes in rows and
+    columns) relative to the main peak, for a magnitude correlation surface (``Registration.surface``): near 1 when
+    another match is as good (an ambiguous scene), near 0 for a distinct one."""
+    s = np.asarray(surface, dtype=np.float64)
+    i, j = np.unravel_index(int(np.argmax(s)), s.shape)
+    peak = s[i, j]
+    if not peak > 0:
+        return 1.0
+    mask = np.ones(s.shape, dtype=bool)
+    mask[max(i - exclude[0], 0):i + exclude[0] + 1, max(j - exclude[1], 0):j + exclude[1] + 1] = False
+    return float(s[mask].max() / peak) if mask.any() else 0.0

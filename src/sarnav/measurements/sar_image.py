@@ -1,24 +1,32 @@
-"""Image-derived SAR measurements: from echoes to the time and range of closest approach of a reference target.
+"""Image-derived SAR measurements: from echoes to the time and range of closest approach of reference targets.
 
-The extractor of the image-aided flight (NAVIGATION paper §3-4; docs/scenarios/rda-nav.md §1-§2), typed to nothing
-but radar parameters, a truth trajectory to fly the echoes along, the reference targets, a scene factory and seeds.
+The extractor of the image-aided flight (NAVIGATION paper §3-4; docs/scenarios/rda-nav.md §1-§3), typed to nothing
+but radar parameters, the truth trajectories to fly the echoes along, the reference targets, a scene factory and
+seeds.
 
 Per sub-aperture u (pulses ``u + k / prf``, k < round(prf), i.e. one second of pulses):
-  the scene (``scene_for(u, clutter_seed)``) is imaged by noise-free echoes along the *true* track; two
-  acquisitions of it differ only in their receiver noise (``snr_db``: per-sample SNR of a scatterer of amplitude
-  ``reflector_amplitude``, ``radar.echoes.add_receiver_noise``): the *reference pass*, an RDA image focused with
-  the true track of which a chip around the reference target is kept with the target's position inside the chip
-  (its geolocation), and the *in-flight pass*, with the run's own noise. Only the chip's pattern and that anchor
-  are used: the in-flight time axis is never taken from the reference.
+  the scene of the aperture (``scene_for(u, clutter_seed) -> AperturePasses``) is imaged twice by noise-free echoes:
+  the *in-flight pass* along the true track (``truth``) and the *reference pass* along ``reference_truth`` (by
+  default the same track; another pass has its own offset track and its own, partly decorrelated, clutter). Each
+  acquisition adds its own receiver noise (``snr_db``: per-sample SNR of a scatterer of amplitude
+  ``reflector_amplitude``, ``radar.echoes.add_receiver_noise``). The reference product is an image of the reference
+  pass focused with its true track (RDA, or BPA on a ground grid); of it a chip around each reference target is kept,
+  with the target's position inside the chip (its geolocation in the product). Only the chip's pattern and that
+  anchor are used: the in-flight time axis is never taken from the reference.
 Per run:
-  range compression of the in-flight pass; RDA + mapdrift (paper eqs. 14-16) with the *estimated* speed, restricted
-  to a slant-range window around the range the estimate predicts (thesis eq. 4.41); the chip is searched in that
-  image by 2-D correlation (paper eq. 46, magnitudes, sub-pixel); the anchor lands at the measured TOC eta0
-  (row -> pulse time) and range R0 (column -> slant range). Both come from radar timing only.
+  range compression of the in-flight pass; per target an image focused with the *estimated* trajectory around the
+  place the estimate and the map predict the target: RDA (straight tracks, the paper's processor; ``algorithm =
+  "rda"``) on a slant-range window, or back-projection (any track; ``"bpa"``) on a ground grid; the chip is searched
+  in it by 2-D correlation (paper eq. 46, magnitudes), refined by least squares; the anchor lands at the measured TOC
+  eta0 and range R0 of the target (RDA: row -> pulse time, column -> slant range; BPA: the matched ground point,
+  whose closest approach to the estimated track gives eta0 and R0). Both come from radar timing only.
+  Each match comes with its predicted 1-sigma (``imaging.registration.magnitude_shift_precision`` with the noise
+  model of the chain, ``SeparableNoise``; docs §3), its normalised correlation and its ambiguity (the best other
+  match); a failed image or registration, a weak or an ambiguous match gives a status instead of a number.
 
 Seeds (keys of ``SeedSequence``): clutter drawn per run (``clutter_seeds`` given) or once for all runs
 (``reference_seed``, cached); reference-pass noise ``[clutter seed or reference_seed, 3, u]``; in-flight noise
-``[noise_seeds[r], 4, u]``.
+``[noise_seeds[r], 4, u]``; noise model ``[reference_seed, 5, u, target, realisation]``.
 """
 
 from __future__ import annotations
@@ -30,61 +38,165 @@ from typing import Callable
 
 import numpy as np
 
-from sarnav.errors import InputDataError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.autofocus import mapdrift
+from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.rda import range_doppler
-from sarnav.imaging.registration import register
+from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_shift_precision, refine_shift, register
 from sarnav.radar.echoes import add_receiver_noise, simulate_echoes
 from sarnav.radar.params import RadarParams
 from sarnav.radar.scene import Scene
+from sarnav.rotations import dcm_to_euler, quat_to_dcm
+from sarnav.signal.data import SarImage
 from sarnav.trajectory.base import Trajectory
 from sarnav.trajectory.sampled import closest_approach, closest_sample_is_inside
 
-__all__ = ["STAGES", "ImagingSettings", "ApertureMeasurements", "SubApertureImager"]
+__all__ = ["STAGES", "FAILURES", "ALGORITHMS", "FOCUS", "ImagingSettings", "AperturePasses", "ApertureMeasurements",
+           "SubApertureImager", "focusing_track"]
 
-#: stages timed per image (seconds per run and aperture, ``ApertureMeasurements.seconds``)
+#: smallest relative step of the focusing speed for the focus sensitivity (SubApertureImager._focus_sensitivity)
+FOCUS_STEP = 0.003
+#: realisations of unit noise through the image-formation chain for the noise model (SubApertureImager._noise_model)
+NOISE_REALISATIONS = 4
+#: largest along-track half-size of a BPA search grid [m] (3 sigma of the filter's along-track uncertainty + chip)
+MAX_BPA_HALF_ALONG_M = 200.0
+#: stages timed per image (seconds per run and aperture, ``ApertureMeasurements.seconds``); "rda": image formation
 STAGES = ("echoes", "rda", "autofocus", "registration")
+ALGORITHMS = ("rda", "bpa")
+FOCUS = ("estimate", "mapdrift")
+#: why an image gave no measurement (``ApertureMeasurements.status``; 0 = measured)
+FAILURES = ("", "image formation or autofocus failed", "registration failed", "weak match (correlation)",
+            "ambiguous match")
 
 
 @dataclass(frozen=True)
 class ImagingSettings:
-    """Chip, search window, autofocus and registration settings (defaults: docs/scenarios/rda-nav.md §1).
+    """Chip, search window, image formation, autofocus and registration settings (docs/scenarios/rda-nav.md §1).
 
-    chip_half_az_cells : chip half-size along track in azimuth resolution cells (lambda R / (2 V T)).
+    chip_half_az_cells : chip half-size along track in azimuth resolution cells (lambda R / (2 V T)), at most a
+        quarter of the block.
     chip_half_range_m : chip half-size in slant range [m].
     search_half_range_m : slant-range half-window of the in-flight image around the predicted range [m].
+    search_half_along_m : BPA: the in-flight grid spans the chip, this margin [m] and 3 filter sigmas of the target's
+        along-track position on either side of the predicted target.
+    algorithm : "rda" (straight tracks; the paper's processor) or "bpa" (back-projection along the estimated track
+        on a ground grid: any track).
+    focus : ``"estimate"`` (default): the image used is focused with the estimated trajectory, and the measurement
+        model carries the along-track shift this focusing makes, measured by refocusing (docs §2); ``"mapdrift"``:
+        the paper's choice (RDA only), the mapdrift-refocused image (within the gate below) with no model of the shift.
+    autofocus : run mapdrift (RDA; its correction is recorded as ``autofocus_dk``, and used with focus="mapdrift").
     mapdrift_iterations : look correlations of mapdrift (the paper's single pass, G12).
     mapdrift_gate_sigma, mapdrift_gate_floor : a mapdrift correction implying a speed change beyond this many
         filter sigmas of the forward speed (or the floor [m/s]) is rejected and the image focused with the
-        estimated speed is used (a sparse scene's look correlation can be biased by scatterers seen in one look).
-    subpixel : sub-pixel method of the chip registration ("parabola": the upsampled-DFT refinement costs 25-60 ms
-        per call on 2 cores when OpenBLAS runs multi-threaded small complex matmuls).
+        estimated speed is used.
+    subpixel : sub-pixel method of the correlation peak ("parabola"), then refined by least squares
+        (``imaging.registration.refine_shift``).
+    min_correlation, max_ambiguity : a match is refused (``quality`` < min_correlation: the chip is not in the
+        image; ``ambiguity`` > max_ambiguity: another place matches nearly as well) and the update skipped.
     """
 
     chip_half_az_cells: float = 1.5
     chip_half_range_m: float = 4.0
     search_half_range_m: float = 12.0
+    search_half_along_m: float = 6.0
+    algorithm: str = "rda"
+    focus: str = "estimate"
+    autofocus: bool = True
     mapdrift_iterations: int = 1
     mapdrift_gate_sigma: float = 3.0
     mapdrift_gate_floor: float = 0.02
     subpixel: str = "parabola"
+    min_correlation: float = 0.5
+    max_ambiguity: float = 0.9
+
+    def __post_init__(self):
+        if self.algorithm not in ALGORITHMS:
+            raise ConfigError("sar.algorithm", f"must be one of {ALGORITHMS}, got {self.algorithm!r}")
+        if self.focus not in FOCUS:
+            raise ConfigError("sar.focus", f"must be one of {FOCUS}, got {self.focus!r}")
+        if self.algorithm == "bpa" and self.focus == "mapdrift":
+            raise ConfigError("sar.focus", "'mapdrift' refocuses an RDA image; with sar.algorithm = 'bpa' use 'estimate'")
+
+
+@dataclass(frozen=True)
+class AperturePasses:
+    """The scene of one sub-aperture as each pass sees it: ``flight`` (the in-flight pass) and ``reference`` (the pass
+    the reference product was made from; the same object when nothing changed between the passes)."""
+
+    flight: Scene
+    reference: Scene
 
 
 @dataclass
 class ApertureMeasurements:
-    """What one sub-aperture gives for R runs.
+    """What one sub-aperture gives for R runs and T reference targets.
 
-    toc : (R,) measured time of closest approach [s]; range : (R,) measured range of closest approach [m];
-    autofocus_dk : (R,) mapdrift FM-rate correction [Hz/s]; seconds : (R, len(STAGES)) time per stage;
-    capture : images of the first run when asked (reference, before / after autofocus, correlation surface).
+    toc : (R, T) measured time of closest approach [s]; range : (R, T) measured range of closest approach [m];
+    sigma : (R, T, 2) predicted 1-sigma of the range and along-track (speed x TOC) registration [m], from the image;
+    quality : (R, T) normalised correlation of the match; ambiguity : (R, T) height of the best other match relative
+    to it; lever : (R, T) TOC minus the aperture centre [s];
+    sensitivity, focus_offset : (R, T) the along-track registration's dependence on the focusing speed, measured by
+    refocusing the same data (``focus = "estimate"``; NaN otherwise): registration =
+    ``sensitivity [s] x (speed - V) + focus_offset [m]`` (``SubApertureImager._focus_sensitivity``), the spread of
+    that statistical linearisation included in ``sigma``;
+    status : (R, T) 0 = measured, else the index of the reason in :data:`FAILURES`;
+    autofocus_dk : (R,) mapdrift FM-rate correction [Hz/s]; speed : (R,) the speed the images were focused with [m/s];
+    seconds : (R, len(STAGES)) time per stage; capture : images of the first run when asked.
     """
 
     toc: np.ndarray
     range: np.ndarray
+    sigma: np.ndarray
+    quality: np.ndarray
+    ambiguity: np.ndarray
+    lever: np.ndarray
+    sensitivity: np.ndarray
+    focus_offset: np.ndarray
+    status: np.ndarray
     autofocus_dk: np.ndarray
+    speed: np.ndarray
     seconds: np.ndarray
     capture: dict | None = None
+
+    @classmethod
+    def empty(cls, runs: int, targets: int) -> "ApertureMeasurements":
+        nan = lambda *s: np.full(s, np.nan)  # noqa: E731
+        return cls(nan(runs, targets), nan(runs, targets), nan(runs, targets, 2), nan(runs, targets),
+                   nan(runs, targets), nan(runs, targets), nan(runs, targets), nan(runs, targets),
+                   np.zeros((runs, targets), dtype=np.int64), nan(runs), nan(runs), np.zeros((runs, len(STAGES))))
+
+
+def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
+    """(P, 3) antenna positions at the pulse ``times`` that a back-projection along the estimated track focuses with:
+    the estimate's position and velocity at the aperture centre, the velocity turned by the change of the heading of
+    its attitude ``q`` (K, 4) (else of its velocity) at each epoch ``ap_t`` (K,): constant speed and climb rate, the
+    turn the gyros measured.
+
+    Why not the INS positions themselves: at 10 m/s and 2 km the azimuth FM rate is 3 Hz/s, and the INS's own
+    acceleration error (a 2 mrad tilt x g = 0.02 m/s^2 along the line of sight) changes it by half: focused along
+    the INS positions, a target's zero-Doppler time moves by up to a tenth of a second (1 m along track, measured;
+    thesis ch. 4: tilt errors blur BPA images). The heading change from the gyros is good to their drift
+    (1 deg/hr), so a real turn is kept and the spurious accelerations are not; what remains are the errors of
+    position and velocity at the aperture centre, which the measurement models (the lever and, by refocusing, the
+    speed: docs §2)."""
+    ap_t = np.asarray(ap_t, dtype=np.float64)
+    i_c = len(ap_t) // 2
+    t_c = ap_t[i_c]
+    if q is None:
+        psi = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    else:
+        psi = np.unwrap(dcm_to_euler(quat_to_dcm(np.asarray(q, dtype=np.float64)))[2])
+    fine = np.union1d(ap_t, times)
+    turn = np.interp(fine, ap_t, psi - psi[i_c])
+    c, s = np.cos(turn), np.sin(turn)
+    v0 = np.asarray(v[i_c], dtype=np.float64)
+    vel = np.stack([c * v0[0] - s * v0[1], s * v0[0] + c * v0[1], np.full(fine.size, v0[2])], axis=1)
+    steps = np.diff(fine)[:, None] * 0.5 * (vel[1:] + vel[:-1])
+    path = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+    path -= path[int(np.searchsorted(fine, t_c))]
+    track = p[i_c] + path
+    return np.stack([np.interp(times, fine, track[:, i]) for i in range(3)], axis=1)
 
 
 def _crop_range(rc, r_lo, r_hi):
@@ -96,96 +208,194 @@ def _crop_range(rc, r_lo, r_hi):
     return replace(rc, data=rc.data[:, a:b], slant_range=r[a:b])
 
 
+def _ground_frame(velocity, look_side: str):
+    """(along (3,), across (3,)): horizontal unit vectors along the velocity and toward the look side."""
+    vh = np.array([velocity[0], velocity[1], 0.0])
+    along = vh / np.linalg.norm(vh)
+    across = np.array([-along[1], along[0], 0.0]) * (1.0 if look_side == "right" else -1.0)
+    return along, across
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """A BPA ground grid: ``centre`` + rows x ``along`` + columns x ``across`` (spacings ``da``, ``dg`` [m])."""
+
+    centre: np.ndarray
+    along: np.ndarray
+    across: np.ndarray
+    da: float
+    dg: float
+    shape: tuple
+
+    def points(self) -> np.ndarray:
+        i = (np.arange(self.shape[0]) - (self.shape[0] - 1) / 2) * self.da
+        j = (np.arange(self.shape[1]) - (self.shape[1] - 1) / 2) * self.dg
+        return self.centre + i[:, None, None] * self.along + j[None, :, None] * self.across
+
+    def point(self, row: float, col: float) -> np.ndarray:
+        return (self.centre + (row - (self.shape[0] - 1) / 2) * self.da * self.along
+                + (col - (self.shape[1] - 1) / 2) * self.dg * self.across)
+
+
 @dataclass
 class SubApertureImager:
-    """Makes the image-derived TOC and range of each sub-aperture's reference target for a batch of runs.
+    """Makes the image-derived TOC and range of each sub-aperture's reference targets for a batch of runs.
 
     Parameters
     ----------
-    radar : the radar (its PRF sets the pulses of a one-second sub-aperture).
-    truth : the true trajectory, along which the echoes are simulated (the sensor, not the filter).
-    speed : the true ground speed [m/s] (reference pass focusing).
-    targets : (U, 3) reference target of each sub-aperture (NED, m).
-    scene_for : ``(u, clutter_seed or None) -> Scene`` of sub-aperture u (reference target included).
+    radar : the radar (its PRF sets the pulses of a one-second sub-aperture; its look side the ground frame).
+    truth : the true trajectory, along which the in-flight echoes are simulated (the sensor, not the filter).
+    targets : (U, T, 3) true positions of the reference targets of each sub-aperture (NED, m).
+    scene_for : ``(u, clutter_seed or None) -> AperturePasses`` of sub-aperture u (reference targets included).
     reflector_amplitude, snr_db : receiver noise definition (``radar.echoes``).
     reference_seed : key of the shared scene's noise when the clutter is the same for every run.
-    clutter_seeds : one per run (clutter redrawn per run) or None (one scene for all runs, cached).
     noise_seeds : one per run (in-flight receiver noise).
+    clutter_seeds : one per run (clutter redrawn per run) or None (one scene for all runs, cached).
+    reference_truth : the reference pass's true trajectory (default: ``truth``).
     settings : :class:`ImagingSettings`.
     capture_aperture : keep the images of this sub-aperture of the first run (figures), or None.
     """
 
     radar: RadarParams
     truth: Trajectory
-    speed: float
     targets: np.ndarray
-    scene_for: Callable[[int, int | None], Scene]
+    scene_for: Callable[[int, int | None], AperturePasses]
     reflector_amplitude: float
     snr_db: float
     reference_seed: int
     noise_seeds: list
     clutter_seeds: list | None = None
+    reference_truth: Trajectory | None = None
     settings: ImagingSettings = field(default_factory=ImagingSettings)
     capture_aperture: int | None = None
 
     def __post_init__(self):
         self.targets = np.asarray(self.targets, dtype=np.float64)
+        if self.targets.ndim == 2:
+            self.targets = self.targets[:, None, :]
+        if self.targets.ndim != 3 or self.targets.shape[2] != 3:
+            raise InputDataError("targets", f"must be (U, T, 3), got {self.targets.shape}")
         self.n_pulses = int(round(self.radar.prf))
         self.noise_seeds = [int(s) for s in self.noise_seeds]
         self.clutter_seeds = None if self.clutter_seeds is None else [int(s) for s in self.clutter_seeds]
         if self.clutter_seeds is not None and len(self.clutter_seeds) != len(self.noise_seeds):
             raise InputDataError("clutter_seeds", f"need one per run: {len(self.clutter_seeds)} for "
                                  f"{len(self.noise_seeds)} runs")
+        if self.reference_truth is None:
+            self.reference_truth = self.truth
         self._cache: dict[tuple, dict] = {}
+        self._noise_cache: dict[tuple, SeparableNoise] = {}
+        self._along_sigma = None
+        self._q_run = None
 
+    # --- the reference product --------------------------------------------------------------------
     def _noisy(self, raw, key):
         """Range-compressed copy of the noise-free echoes ``raw`` with receiver noise from ``key``: one acquisition."""
         rng = np.random.default_rng(np.random.SeedSequence(key))
         return range_compress(add_receiver_noise(raw, self.reflector_amplitude, self.snr_db, rng))
 
     def aperture(self, u: int, clutter_seed: int | None = None) -> dict:
-        """Noise-free echoes of sub-aperture u and its reference chip (cached when the scene is shared)."""
+        """Noise-free in-flight echoes of sub-aperture u and the reference chips (cached when the scene is shared)."""
         if (u, clutter_seed) in self._cache:
             return self._cache[(u, clutter_seed)]
         t0 = time.perf_counter()
-        st = self.settings
         times = u + np.arange(self.n_pulses) / self.radar.prf
         truth = self.truth.state(times)
-        raw = simulate_echoes(self.radar, truth.position, times, self.scene_for(u, clutter_seed))
+        passes = self.scene_for(u, clutter_seed)
+        raw = simulate_echoes(self.radar, truth.position, times, passes.flight)
+        same_pass = passes.reference is passes.flight and self.reference_truth is self.truth
+        ref_truth = truth if self.reference_truth is self.truth else self.reference_truth.state(times)
+        raw_ref = raw if same_pass else simulate_echoes(self.radar, ref_truth.position, times, passes.reference)
         key = [self.reference_seed, 3, u] if clutter_seed is None else [clutter_seed, 3, u]
-        rc_ref = self._noisy(raw, key)
-        targ = self.targets[u]
-        eta_ref, r_ref, _ = closest_approach(targ, times, truth.position)
-        ref = range_doppler(_crop_range(rc_ref, r_ref - st.search_half_range_m, r_ref + st.search_half_range_m),
-                            self.speed)
+        rc_ref = self._noisy(raw_ref, key)
+        chips = [self._reference_chip(u, k, rc_ref, raw_ref, times, ref_truth) for k in range(self.targets.shape[1])]
+        entry = {"times": times, "raw": raw, "chips": chips, "seconds": time.perf_counter() - t0}
+        if clutter_seed is None:  # per-run scenes are used once: do not keep them
+            self._cache[(u, clutter_seed)] = entry
+        return entry
+
+    def _az_resolution(self, r0: float, speed: float) -> float:
+        return self.radar.wavelength * r0 / (2 * speed * self.n_pulses / self.radar.prf)
+
+    def _reference_chip(self, u, k, rc_ref, raw_ref, times, ref_truth) -> dict:
+        st = self.settings
+        targ = self.targets[u, k]
+        eta, r0, _ = closest_approach(targ, times, ref_truth.position)
+        v_ref = np.linalg.norm(ref_truth.velocity[len(times) // 2])
+        if st.algorithm == "bpa":
+            return self._reference_chip_bpa(u, k, rc_ref, raw_ref, times, ref_truth, targ, eta, r0, v_ref)
+        ref = range_doppler(_crop_range(rc_ref, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref)
         prf = self.radar.prf
-        fi = (eta_ref - times[0]) * prf
-        fj = (r_ref - ref.x[0]) / ref.dx
+        fi, fj = (eta - times[0]) * prf, (r0 - ref.x[0]) / ref.dx
         i0, j0 = int(round(fi)), int(round(fj))
-        res_az = self.radar.wavelength * r_ref / (2 * self.speed * self.n_pulses / prf)
-        hi = min(self.n_pulses // 4, max(4, int(math.ceil(st.chip_half_az_cells * res_az / (self.speed / prf)))))
+        hi = min(self.n_pulses // 4, max(4, int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref)
+                                                            / (v_ref / prf)))))
         hj = int(math.ceil(st.chip_half_range_m / ref.dx))
         rows = np.arange(i0 - hi, i0 + hi + 1) % self.n_pulses  # RDA blocks are circular in azimuth
         cols = np.arange(j0 - hj, j0 + hj + 1)
         if cols[0] < 0 or cols[-1] >= ref.shape[1]:
             raise InputDataError("scene.ground_range_max", "reference chip leaves the reference image")
-        chip = np.abs(ref.data[np.ix_(rows, cols)])
-        entry = {"times": times, "raw": raw, "chip": chip, "anchor": (fi - i0, fj - j0),
-                 "seconds": time.perf_counter() - t0, "reference": ref}
-        if clutter_seed is None:  # per-run scenes are used once: do not keep them
-            self._cache[(u, clutter_seed)] = entry
-        return entry
+        if (u, k) not in self._noise_cache:  # the same for every run's scene: cached
+            self._noise_cache[(u, k)] = self._noise_model(u, k, raw_ref, lambda rc: range_doppler(
+                _crop_range(rc, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref).data, cols.size)
+        return {"chip": ref.data[np.ix_(rows, cols)], "anchor": (fi - i0, fj - j0), "rows": rows,
+                "noise": self._noise_cache[(u, k)], "reference": ref, "speed": v_ref}
 
-    def measure(self, u: int, ap_t, ap_p, ap_v, speed_sigma=None) -> ApertureMeasurements:
-        """Measured TOC, range and mapdrift correction of sub-aperture u for every run.
+    def _bpa_spacing(self, r0: float, g0: float, speed: float) -> tuple[float, float]:
+        """(along, ground-range) pixel spacing [m] of BPA grids: a twentieth of the azimuth resolution (at most the
+        pulse spacing), and one slant-range bin projected on the ground."""
+        da = min(speed / self.radar.prf, self._az_resolution(r0, speed) / 20.0)
+        return da, self.radar.range_bin_spacing * r0 / g0
+
+    def _reference_chip_bpa(self, u, k, rc_ref, raw_ref, times, ref_truth, targ, eta, r0, v_ref) -> dict:
+        st = self.settings
+        i_c = int(np.argmin(np.abs(times - eta)))
+        along, across = _ground_frame(ref_truth.velocity[i_c], self.radar.look_side)
+        g0 = float(np.hypot(*(targ - ref_truth.position[i_c])[:2]))
+        da, dg = self._bpa_spacing(r0, g0, v_ref)
+        hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref) / da))
+        hj = int(math.ceil(st.chip_half_range_m * r0 / g0 / dg))
+        grid = _Grid(targ, along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
+        ref = backproject(rc_ref, grid.points(), positions=ref_truth.position)
+        if (u, k) not in self._noise_cache:
+            wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
+            self._noise_cache[(u, k)] = self._noise_model(
+                u, k, raw_ref, lambda rc: backproject(rc, wide.points(), positions=ref_truth.position).data, 2 * hj + 1)
+        return {"chip": ref.data, "anchor": (0.0, 0.0), "rows": np.arange(2 * hi + 1), "noise": self._noise_cache[(u, k)],
+                "reference": ref, "speed": v_ref, "grid": grid}
+
+    def _noise_model(self, u, k, raw, form, chip_columns: int) -> SeparableNoise:
+        """Receiver noise of a formed image (``imaging.registration.SeparableNoise``): the image-formation chain
+        ``form(range-compressed pulses) -> image`` applied to NOISE_REALISATIONS realisations of unit white noise,
+        scaled to the raw per-sample noise power ``amplitude^2 / 10^(snr/10)`` (``radar.echoes``). The model the
+        predicted registration sigma rests on (docs/scenarios/rda-nav.md §3): known from the radar and the
+        processor, not fitted to the image."""
+        imgs = []
+        for t in range(NOISE_REALISATIONS):
+            rng = np.random.default_rng(np.random.SeedSequence([self.reference_seed, 5, u, k, t]))
+            unit = (rng.standard_normal(raw.data.shape) + 1j * rng.standard_normal(raw.data.shape)) / math.sqrt(2.0)
+            imgs.append(form(range_compress(replace(raw, data=unit))))
+        model = SeparableNoise.from_images(np.stack(imgs), chip_columns)
+        return replace(model, power=model.power * self.reflector_amplitude**2 / 10.0 ** (self.snr_db / 10.0))
+
+    # --- the in-flight images ---------------------------------------------------------------------
+    def measure(self, u: int, ap_t, ap_p, ap_v, speed_sigma=None, map_targets=None,
+                along_sigma=None, ap_q=None) -> ApertureMeasurements:
+        """Measured TOC, range and their predicted sigma of each reference target of sub-aperture u, every run.
 
         ``ap_t`` (K,), ``ap_p`` / ``ap_v`` (R, K, 3): the estimated trajectory over the aperture (INS output);
-        ``speed_sigma`` (R,): the filter's 1-sigma of the forward speed (mapdrift gate, :class:`ImagingSettings`).
+        ``speed_sigma`` (R,): the filter's 1-sigma of the forward speed (mapdrift gate); ``map_targets`` (R, T, 3):
+        where the reference product (the map) puts the targets, by which the images are centred (default: the
+        true positions ``targets[u]``); ``along_sigma`` (R,): the filter's 1-sigma of the target's along-track
+        position in an image focused with the estimate (the zero-Doppler cross-range; sizes the BPA search grid);
+        ``ap_q`` (R, K, 4): the estimated attitude (BPA: the focusing track follows its heading, :func:`focusing_track`).
         """
-        R = ap_p.shape[0]
+        R, T = ap_p.shape[0], self.targets.shape[1]
         if len(self.noise_seeds) != R:
             raise InputDataError("noise_seeds", f"need one per run for {R} runs, got {len(self.noise_seeds)}")
-        out = ApertureMeasurements(np.empty(R), np.empty(R), np.empty(R), np.zeros((R, len(STAGES))))
+        if map_targets is None:
+            map_targets = np.broadcast_to(self.targets[u], (R, T, 3))
+        out = ApertureMeasurements.empty(R, T)
         for r in range(R):
             if self.clutter_seeds is None:
                 ap = self.aperture(u)
@@ -194,53 +404,195 @@ class SubApertureImager:
                 ap = self.aperture(u, self.clutter_seeds[r])
                 out.seconds[r, 0] += ap["seconds"]
             sigma = None if speed_sigma is None else speed_sigma[r]
-            self._measure_run(u, r, ap, ap_t, ap_p[r], ap_v[r], sigma, out)
+            self._along_sigma = along_sigma
+            self._q_run = None if ap_q is None else ap_q[r]
+            self._measure_run(u, r, ap, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
         return out
 
-    def _measure_run(self, u, r, ap, ap_t, p_run, v_run, speed_sigma, out) -> None:
-        st, prf = self.settings, self.radar.prf
+    def _measure_run(self, u, r, ap, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
         t0 = time.perf_counter()
-        times, chip = ap["times"], ap["chip"]
+        times = ap["times"]
         rc = self._noisy(ap["raw"], [self.noise_seeds[r], 4, u])  # the in-flight acquisition
         out.seconds[r, 0] += time.perf_counter() - t0
-        t0 = time.perf_counter()
-        targ = self.targets[u]
-        p_hat = np.stack([np.interp(times, ap_t, p_run[:, i]) for i in range(3)], axis=1)
+        if self.settings.algorithm == "bpa":
+            p_hat = focusing_track(times, ap_t, p_run, v_run, self._q_run)
+        else:
+            p_hat = np.stack([np.interp(times, ap_t, p_run[:, i]) for i in range(3)], axis=1)
         speed_hat = float(np.linalg.norm(np.mean(v_run, axis=0)))
+        out.speed[r] = speed_hat
+        for k in range(self.targets.shape[1]):
+            try:
+                if self.settings.algorithm == "bpa":
+                    self._measure_bpa(u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, map_targets[k], out)
+                else:
+                    self._measure_rda(u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, map_targets[k], out)
+            except (InputDataError, np.linalg.LinAlgError) as err:  # one bad image never aborts the campaign
+                out.status[r, k] = 1 if getattr(err, "field", "") in ("rc", "sar", "speed") else 2
+                out.toc[r, k] = out.range[r, k] = np.nan
+
+    def _judge(self, r, k, quality, ambiguity, out) -> None:
+        out.quality[r, k], out.ambiguity[r, k] = quality, ambiguity
+        if not quality >= self.settings.min_correlation:
+            out.status[r, k] = FAILURES.index("weak match (correlation)")
+        elif not ambiguity <= self.settings.max_ambiguity:
+            out.status[r, k] = FAILURES.index("ambiguous match")
+
+    def _measure_rda(self, u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, targ, out) -> None:
+        st, prf, times, ch = self.settings, self.radar.prf, ap["times"], ap["chips"][k]
+        t0 = time.perf_counter()
         if closest_sample_is_inside(targ, times, p_hat):
             r_hat = closest_approach(targ, times, p_hat)[1]
         else:
             r_hat = float(np.linalg.norm(targ - p_hat[len(times) // 2]))
         sub = _crop_range(rc, r_hat - st.search_half_range_m, r_hat + st.search_half_range_m).with_positions(p_hat)
+        image = range_doppler(sub, speed_hat)
         t1 = time.perf_counter()
-        af = mapdrift(sub, speed_hat, max_iterations=st.mapdrift_iterations)
-        gate = max(st.mapdrift_gate_floor, st.mapdrift_gate_sigma * (0.0 if speed_sigma is None else speed_sigma))
-        image = af.image if abs(af.speed - speed_hat) <= gate else range_doppler(sub, speed_hat)
+        af = None
+        if st.autofocus and k == 0:
+            af = mapdrift(sub, speed_hat, max_iterations=st.mapdrift_iterations)
+            out.autofocus_dk[r] = af.fm_rate_error
+            gate = max(st.mapdrift_gate_floor, st.mapdrift_gate_sigma * (0.0 if speed_sigma is None else speed_sigma))
+            if st.focus == "mapdrift" and abs(af.speed - speed_hat) <= gate:
+                image = af.image
+                out.speed[r] = float(af.speed)
         t2 = time.perf_counter()
-        row, col, coarse = self._register(np.abs(image.data), chip, ap["anchor"])
-        out.toc[r] = times[0] + (row % self.n_pulses) / prf
-        out.range[r] = image.x[0] + col * image.dx
-        out.autofocus_dk[r] = af.fm_rate_error
+        coarse, i1, j1 = self._coarse(np.abs(image.data), np.abs(ch["chip"]))
+        row, col, info = self._fine(image.data, ch, i1, j1)
+        out.toc[r, k] = times[0] + (row % self.n_pulses) / prf
+        out.range[r, k] = image.x[0] + col * image.dx
+        out.sigma[r, k] = (info["sigma_px"][1] * image.dx, info["sigma_px"][0] / prf * speed_hat)
+        out.lever[r, k] = out.toc[r, k] - 0.5 * (times[0] + times[-1])
+        if st.focus == "estimate":
+            refocus = lambda dv: range_doppler(sub, speed_hat + dv).data  # noqa: E731
+            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, row, i1, j1,
+                                                            lambda d: d / prf * speed_hat)
+            out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
+            out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
+        self._judge(r, k, info["quality"], distinctness(coarse.surface, (ch["chip"].shape[0] // 2,
+                                                                         ch["chip"].shape[1] // 2)), out)
         t3 = time.perf_counter()
-        if r == 0 and u == self.capture_aperture and out.capture is None:
-            out.capture = dict(reference=ap["reference"], before=range_doppler(sub, speed_hat), after=af.image,
+        if r == 0 and k == 0 and u == self.capture_aperture and out.capture is None:
+            out.capture = dict(reference=ch["reference"], before=range_doppler(sub, speed_hat),
+                               after=image if af is None else af.image,
                                correlation=(coarse.surface, coarse.lags_y, coarse.lags_x), speed_hat=speed_hat,
-                               autofocus_speed=float(af.speed), used="mapdrift" if image is af.image else "estimate",
+                               autofocus_speed=float(speed_hat if af is None else af.speed),
+                               used="mapdrift" if (af is not None and image is af.image) else "estimate",
                                run=0, aperture=u)
         out.seconds[r, 1:] += (t1 - t0, t2 - t1, t3 - t2)
 
-    def _register(self, img, chip, anchor):
-        """(row, col) of the anchor in ``img`` (fractional pixels) and the coarse registration.
+    def _measure_bpa(self, u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, targ, out) -> None:
+        st, times, ch = self.settings, ap["times"], ap["chips"][k]
+        t0 = time.perf_counter()
+        ref_grid = ch["grid"]
+        i_c = len(times) // 2
+        along, across = _ground_frame(p_hat[-1] - p_hat[0], self.radar.look_side)
+        r0 = float(np.linalg.norm(targ - p_hat[i_c]))
+        g0 = float(np.hypot(*(targ - p_hat[i_c])[:2]))
+        # the target appears where its range history matches the estimated track's: moved along track by the
+        # navigation's zero-Doppler lever (thesis §4.3.2), so the grid spans the filter's along-track uncertainty
+        chip_half = (ch["chip"].shape[0] // 2) * ref_grid.da
+        half_along = chip_half + st.search_half_along_m + 3.0 * float(self._along_sigma[r] if self._along_sigma is not None
+                                                                    else 0.0)
+        if half_along > MAX_BPA_HALF_ALONG_M:
+            raise InputDataError("sar", f"the along-track search ({half_along:.0f} m) exceeds {MAX_BPA_HALF_ALONG_M} m")
+        shape = (2 * int(math.ceil(half_along / ref_grid.da)) + 1,
+                 2 * int(math.ceil(st.search_half_range_m * r0 / g0 / ref_grid.dg)) + 1)
+        grid = _Grid(np.asarray(targ, dtype=np.float64), along, across, ref_grid.da, ref_grid.dg, shape)
+        data = backproject(rc, grid.points(), positions=p_hat).data
+        t1 = time.perf_counter()
+        coarse, i1, j1 = self._coarse(np.abs(data), np.abs(ch["chip"]), circular=False)
+        row, col, info = self._fine(data, ch, i1, j1, circular=False)
+        q_hat = grid.point(row, col)
+        eta, rng_ = self._closest(q_hat, times, p_hat)
+        out.toc[r, k], out.range[r, k] = eta, rng_
+        out.sigma[r, k] = (info["sigma_px"][1] * grid.dg * g0 / r0, info["sigma_px"][0] * grid.da)
+        out.lever[r, k] = eta - 0.5 * (times[0] + times[-1])
+        if st.focus == "estimate":  # refocus a neighbourhood of the match with the track stretched along itself
+            m, n = ch["chip"].shape[0] + 20, ch["chip"].shape[1] + 10
+            local = replace(grid, centre=grid.point(i1, j1), shape=(m, n))
+            centre = p_hat[i_c]
+            refocus = lambda dv: backproject(rc, local.points(),  # noqa: E731
+                                             positions=centre + (1.0 + dv / speed_hat) * (p_hat - centre)).data
+            row_l = row - i1 + (m - 1) / 2
+            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, row_l, (m - 1) // 2,
+                                                            (n - 1) // 2, lambda d: d * grid.da, circular=False)
+            out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
+            out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
+        self._judge(r, k, info["quality"], distinctness(coarse.surface, (ch["chip"].shape[0] // 2,
+                                                                         ch["chip"].shape[1] // 2)), out)
+        t2 = time.perf_counter()
+        if r == 0 and k == 0 and u == self.capture_aperture and out.capture is None:
+            img = SarImage(data, (np.arange(shape[0]) - (shape[0] - 1) / 2) * grid.da,
+                           (np.arange(shape[1]) - (shape[1] - 1) / 2) * grid.dg, "along_track", "ground_range")
+            out.capture = dict(reference=ch["reference"], before=img, after=img,
+                               correlation=(coarse.surface, coarse.lags_y, coarse.lags_x), speed_hat=speed_hat,
+                               autofocus_speed=speed_hat, used="estimate", run=0, aperture=u)
+        out.seconds[r, 1:] += (t1 - t0, 0.0, t2 - t1)
 
-        Coarse: the chip at the centre of a canvas the size of the image, integer correlation peak; fine: the chip
-        against the image cut (circularly in azimuth) around that peak, sub-pixel."""
+    @staticmethod
+    def _closest(q, times, p_hat):
+        """(TOC, range of closest approach) of the estimated track ``p_hat`` to the ground point ``q``."""
+        if not closest_sample_is_inside(q, times, p_hat):
+            raise InputDataError("sar", "the matched point's closest approach lies outside the aperture")
+        eta, rng_, _ = closest_approach(q, times, p_hat)
+        return float(eta), float(rng_)
+
+    # --- registration -----------------------------------------------------------------------------
+    def _coarse(self, img, chip, circular: bool = True):
+        """Integer registration of the chip: the chip at the centre of a canvas the size of the image, correlation
+        peak; (registration, row, column of the chip centre in ``img``)."""
         hi, hj = chip.shape[0] // 2, chip.shape[1] // 2
+        if img.shape[0] < chip.shape[0] or img.shape[1] < chip.shape[1]:
+            raise InputDataError("sar", f"the image {img.shape} is smaller than the reference chip {chip.shape}")
         canvas = np.zeros_like(img)
         ci, cj = img.shape[0] // 2, img.shape[1] // 2
         canvas[ci - hi:ci + hi + 1, cj - hj:cj + hj + 1] = chip
         coarse = register(canvas, img, use_magnitude=True, subpixel="none")
         i1 = ci + int(coarse.shift_pixels[0])
+        if not circular:
+            i1 = min(max(i1, hi), img.shape[0] - hi - 1)
         j1 = min(max(cj + int(coarse.shift_pixels[1]), hj), img.shape[1] - hj - 1)
-        cut = img[np.ix_(np.arange(i1 - hi, i1 + hi + 1) % img.shape[0], np.arange(j1 - hj, j1 + hj + 1))]
+        return coarse, i1, j1
+
+    def _fine(self, image, ch, i1, j1, precision: bool = True, circular: bool = True):
+        """(row, col) of the anchor in ``image`` (fractional pixels) from the chip against the image cut around
+        (i1, j1) (circularly in azimuth for RDA blocks): correlation peak, refined by least squares
+        (``imaging.registration.refine_shift``); its predicted 1-sigma in pixels from the receiver-noise model
+        (``magnitude_shift_precision``, docs/scenarios/rda-nav.md §3) and the normalised correlation of the match."""
+        chip_c, anchor = ch["chip"], ch["anchor"]
+        chip = np.abs(chip_c)
+        hi, hj = chip.shape[0] // 2, chip.shape[1] // 2
+        rows = np.arange(i1 - hi, i1 + hi + 1)
+        rows = rows % image.shape[0] if circular else rows
+        window = np.ix_(rows, np.arange(j1 - hj, j1 + hj + 1))
+        cut = np.abs(image[window])
         fine = register(chip, cut, use_magnitude=True, subpixel=self.settings.subpixel)
-        return i1 + fine.shift_pixels[0] + anchor[0], j1 + fine.shift_pixels[1] + anchor[1], coarse
+        shift = refine_shift(chip, cut, fine.shift_pixels)
+        noise_rows = rows if circular else ch["rows"]
+        sigma = (magnitude_shift_precision(chip_c, image[window], shift, (ch["noise"], ch["rows"]),
+                                           (ch["noise"], noise_rows)) if precision else (np.nan, np.nan))
+        return i1 + shift[0] + anchor[0], j1 + shift[1] + anchor[1], {"sigma_px": sigma, "quality": fine.peak}
+
+    def _focus_sensitivity(self, refocus, ch, speed_hat, speed_sigma, row, i1, j1, along_m,
+                           circular: bool = True) -> tuple[float, float, float]:
+        """How the along-track registration [m] depends on the focusing speed, statistically linearised over the
+        filter's uncertainty of the speed (docs/scenarios/rda-nav.md §2).
+
+        The same data are focused at ``V_i = speed_hat + x_i`` with x in (-h, 0, +h), h = sqrt(3) sigma_V (at least
+        ``FOCUS_STEP`` speed_hat) (``refocus(x)``: RDA with that speed; BPA with the estimated positions stretched
+        along track by 1 + x / speed_hat) and registered at the same place: g_i (``along_m(row)``: the along-track
+        metres of a row). The unscented weights (1/6, 2/3, 1/6) of V ~ N(speed_hat, sigma_V^2) give the regression
+        g(V) = mean + slope (V - speed_hat) + e with slope = (g_+ - g_-) / 2h, and with q = (g_+ + g_-) / 2 - g_0:
+        mean - g_0 = q / 3, var(e) = 2 q^2 / 9. An image focused with a wrong speed moves a target whose TOC is off
+        the aperture centre (about 2 (eta0 - eta_c) (V - speed_hat) for a strong azimuth chirp; irregular for weak
+        ones, K T^2 of a few), so the measured along-track registration is ``slope (speed_hat - V) - q/3 + e``.
+        Returns (slope [s], -q/3 [m], sqrt(var e) [m])."""
+        n = self.n_pulses
+        step = max(FOCUS_STEP * speed_hat, math.sqrt(3.0) * (0.0 if speed_sigma is None else float(speed_sigma)))
+        g = []
+        for sgn in (1.0, -1.0):
+            r_i = self._fine(refocus(sgn * step), ch, i1, j1, precision=False, circular=circular)[0]
+            d = ((r_i - row + n / 2) % n - n / 2) if circular else (r_i - row)  # circular rows, relative to g_0
+            g.append(along_m(d))
+        q = 0.5 * (g[0] + g[1])
+        return (g[0] - g[1]) / (2.0 * step), -q / 3.0, math.sqrt(2.0 / 9.0) * abs(q)

@@ -177,3 +177,51 @@ def clutter_beside_track(rng: np.random.Generator, origin, heading: float, speed
     pos = beside_track(origin, heading, speed, toc, gr)
     amp = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2.0)
     return Scene(pos, amp)
+
+
+LOOK_SIGN = {"right": 1.0, "left": -1.0}
+
+
+def beside_trajectory(trajectory, tocs, ground_ranges, look_side: str = "right", height=None) -> np.ndarray:
+    """(K, 3) points beside any trajectory (a ``trajectory.base.Trajectory``, NED) whose zero-Doppler time is
+    ``tocs[k]`` [s]: ``ground_ranges[k]`` [m] (horizontal distance) to the ``look_side`` of the ground track, on the
+    horizontal normal of the velocity v at ``tocs[k]``, moved along the horizontal track direction by
+    ``v_D (p_D - q_D) / |v_h|`` so that ``v . (p - q) = 0`` (a zero-squint radar that climbs or descends sees the
+    ground ahead or behind its normal: 300 m at 3 m/s climb, 10 m/s and 1000 m). ``height``: ``None`` (ground,
+    D = 0) or a function (N, E) -> height above the reference [m] (a terrain model; D = -height; the along-track
+    move uses the height at the normal's foot). For a straight, level track this is :func:`beside_track`."""
+    if look_side not in LOOK_SIGN:
+        raise ConfigError("radar.look_side", f"must be one of {tuple(LOOK_SIGN)}, got {look_side!r}")
+    tocs = np.asarray(tocs, dtype=np.float64)
+    st = trajectory.state(tocs)
+    p, v = np.atleast_2d(st.position), np.atleast_2d(st.velocity)
+    vh = np.hypot(v[:, 0], v[:, 1])
+    if np.any(vh <= 0):
+        raise InputDataError("trajectory", "has no horizontal velocity at a target's time of closest approach")
+    uh = np.stack([v[:, 0] / vh, v[:, 1] / vh, np.zeros_like(vh)], axis=1)
+    w = np.stack([-uh[:, 1], uh[:, 0], np.zeros_like(vh)], axis=1) * LOOK_SIGN[look_side]  # right of v
+    q = np.stack([p[:, 0], p[:, 1], np.zeros_like(vh)], axis=1) + np.asarray(ground_ranges, dtype=np.float64)[:, None] * w
+    if height is not None:
+        q[:, 2] = -np.asarray(height(q[:, 0], q[:, 1]), dtype=np.float64)
+    q += (v[:, 2] * (p[:, 2] - q[:, 2]) / vh)[:, None] * uh  # zero Doppler at the TOC
+    if height is not None:
+        q[:, 2] = -np.asarray(height(q[:, 0], q[:, 1]), dtype=np.float64)
+    return q
+
+
+def clutter_beside_trajectory(rng: np.random.Generator, trajectory, toc_window, ground_range, n: int,
+                              look_side: str = "right", height=None) -> Scene:
+    """``n`` unit-mean-power Rayleigh scatterers beside any trajectory (:func:`beside_trajectory`): TOC uniform in
+    ``toc_window`` (absolute times [s]), ground range uniform in ``ground_range`` [m]; draws in this order: TOCs,
+    ground ranges, real parts, imaginary parts (as :func:`clutter_beside_track`)."""
+    toc = rng.uniform(toc_window[0], toc_window[1], n)
+    gr = rng.uniform(ground_range[0], ground_range[1], n)
+    pos = beside_trajectory(trajectory, toc, gr, look_side, height)
+    amp = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2.0)
+    return Scene(pos, amp)
+
+
+def slant_ranges(trajectory, points, times) -> np.ndarray:
+    """(K,) distance [m] from the trajectory's position at ``times[k]`` to ``points[k]`` (K, 3)."""
+    p = np.atleast_2d(trajectory.state(np.asarray(times, dtype=np.float64)).position)
+    return np.linalg.norm(np.asarray(points, dtype=np.float64).reshape(-1, 3) - p, axis=1)

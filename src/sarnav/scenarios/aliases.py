@@ -13,7 +13,7 @@ from typing import Callable
 
 from sarnav.errors import ConfigError
 
-__all__ = ["RENAMED", "UNTIL", "rename_keys", "rename_key"]
+__all__ = ["RENAMED", "RETIRED", "UNTIL", "rename_keys", "rename_key"]
 
 #: the release that stops accepting the old names
 UNTIL = "0.3"
@@ -48,6 +48,24 @@ RENAMED: tuple[Renamed, ...] = (
     Renamed("bpa-sensitivity", "geometry.target_ground_range", "scene.target_ground_range"),
     Renamed("bpa-sensitivity", "radar.prf", "radar.prf_hz"),
     Renamed("bpa-sensitivity", "radar.range_margin", "radar.range_margin_m"),
+)
+
+
+@dataclass(frozen=True)
+class Retired:
+    """``key`` of scenarios of ``kind`` had the default ``values`` (one per scenario of the kind) that is a default
+    no more: a file that still carries one of them did not choose it, so it is dropped with ``why`` as the notice; any
+    other value is the user's and kept."""
+
+    kind: str
+    key: str
+    values: tuple
+    why: str
+
+
+RETIRED: tuple[Retired, ...] = (
+    Retired("rda-nav", "sar.registration_sigma_m", ([0.00125, 0.0315], [0.0007, 0.0024]),
+            "the registration sigma now comes from each image (issue 10); the constant is an optional override"),
 )
 
 
@@ -104,6 +122,16 @@ def rename_keys(cfg: dict, kind: str, prefix: str = "") -> list[str]:
             node = node.setdefault(t, {})
         node[leaf] = value if r.convert is None else r.convert(value)
         notices.append(_notice(prefix, r))
+    for r in RETIRED:
+        if r.kind == kind and _has(cfg, r.key):
+            *tables, leaf = r.key.split(".")
+            node = cfg
+            for t in tables:
+                node = node[t]
+            if node[leaf] in [list(v) for v in r.values]:
+                del node[leaf]
+                notices.append(f"{prefix}{r.key}: the value of this file was the default of sarnav 0.2 and is "
+                               f"dropped: {r.why}")
     base = cfg.get("base") if kind == "study" else None
     if isinstance(base, dict) and isinstance(base.get("scenario"), dict):
         base_kind = base["scenario"].get("kind")

@@ -42,7 +42,11 @@ __all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "
 
 #: optional 3-sigma overrides of an IMU grade, in source units (``sensors.imu.ImuGrade.from_three_sigma``)
 IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
-TRAJECTORY_TYPES = ("straight", "maneuver")
+TRAJECTORY_TYPES = ("straight", "maneuver", "turning")
+#: turn rate of the level S-turn ``turning`` [deg/s]: at 10 m/s its radius (2.3 km) exceeds the rda-nav stand-off
+#: (1.8 km); a standard-rate 3 deg/s turn (radius 191 m) would put a side-looking radar's targets beyond the turn's
+#: centre, where their range is a maximum, not a minimum
+DEFAULT_TURN_RATE_DEG_S = 0.25
 #: an aircraft's speed [m/s] and an IMU's sample rate [Hz]: validation limits
 MAX_SPEED = 1.0e4
 MAX_IMU_RATE = 1.0e4
@@ -72,6 +76,10 @@ def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None =
         duration = require_finite("trajectory.duration", get(cfg, "trajectory", "duration"), 1.0, max_duration, "s")
     if ttype == "maneuver":
         return Maneuvering.s_turn_climb(start, speed, heading, duration)
+    if ttype == "turning":
+        rate = require_finite("trajectory.turn_rate_deg_s", tr.get("turn_rate_deg_s", DEFAULT_TURN_RATE_DEG_S),
+                              lo=0.0, hi=30.0, unit="deg/s")
+        return Maneuvering.s_turn(start, speed, heading, duration, rate)
     return StraightLevel(start, speed, heading, duration)
 
 

@@ -142,13 +142,15 @@ class ErrorStateFlight:
     def fly_interval(self, u: int) -> dict:
         """INS + covariance over update interval u; records every epoch but the last (recorded by
         :meth:`after_update`). Returns {"j": index of the last epoch, "t": (steps + 1,) epochs, "p", "v":
-        (R, steps + 1, 3) the INS position and velocity at them, "f_mean": (R, 3) f^n of the last step}."""
+        (R, steps + 1, 3) the INS position and velocity at them, "q": (R, steps + 1, 4) its attitude, "f_mean": (R, 3)
+        f^n of the last step}."""
         m, c, steps = self.m, self.c, self.steps
         k0 = u * m
         nu_blk, om_blk, ba_blk, bg_blk = self._imu.next(m)
         p_hist = np.empty((self.R, steps + 1, 3))
         v_hist = np.empty((self.R, steps + 1, 3))
-        p_hist[:, 0], v_hist[:, 0] = self.nav.p, self.nav.v
+        q_hist = np.empty((self.R, steps + 1, 4))
+        p_hist[:, 0], v_hist[:, 0], q_hist[:, 0] = self.nav.p, self.nav.v, self.nav.q
         f_mean = None
         for s in range(steps):
             a, b = s * c, (s + 1) * c
@@ -160,12 +162,12 @@ class ErrorStateFlight:
             Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, c * self.dt)
             self.P = propagate_covariance(self.P, Phi, Qd)
             j = u * steps + s + 1
-            p_hist[:, s + 1], v_hist[:, s + 1] = self.nav.p, self.nav.v
+            p_hist[:, s + 1], v_hist[:, s + 1], q_hist[:, s + 1] = self.nav.p, self.nav.v, self.nav.q
             if s < steps - 1:
                 self.record(j, self.truth_at(j, ba_blk[:, b], bg_blk[:, b]))
         j = (u + 1) * steps
         self.truth = self.truth_at(j, ba_blk[:, m], bg_blk[:, m])
-        return {"j": j, "t": self.t_out[u * steps:j + 1], "p": p_hist, "v": v_hist, "f_mean": f_mean}
+        return {"j": j, "t": self.t_out[u * steps:j + 1], "p": p_hist, "v": v_hist, "q": q_hist, "f_mean": f_mean}
 
     def after_update(self, j: int, dx, P_post) -> None:
         """Feed the error-state estimate back into the INS (eq. 3.23), take the posterior covariance, restart

@@ -64,6 +64,19 @@ class Maneuvering(Trajectory):
         climb = RateProfile(tuple(s), (0.0, 0.0, 3.0, -3.0, 0.0), tr)
         return cls(start, speed, heading, turn, climb, duration)
 
+    @classmethod
+    def s_turn(cls, start, speed, heading, duration, rate_deg_s: float = 3.0):
+        """A level S-turn (the ``turning`` trajectory type): straight until 1/6 of ``duration``, turn right at
+        ``rate_deg_s`` until 2/6, straight until 3/6, turn left at the same rate until 4/6, then straight; no climb.
+        Transitions last min(4 s, duration/12)."""
+        duration = require_positive("trajectory.duration", duration, "s")
+        d = np.radians(rate_deg_s)
+        tr = min(4.0, duration / 12.0)
+        s = [0.0, duration / 6, 2 * duration / 6, 3 * duration / 6, 4 * duration / 6]
+        turn = RateProfile(tuple(s), (0.0, d, 0.0, -d, 0.0), tr)
+        climb = RateProfile(tuple(s), (0.0, 0.0, 0.0, 0.0, 0.0), tr)
+        return cls(start, speed, heading, turn, climb, duration)
+
     def _heading(self, t):
         return self.heading + self.turn_rate.integral(t)
 
