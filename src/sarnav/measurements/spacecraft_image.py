@@ -91,7 +91,7 @@ class ImagingConfig:
     max_iter: int = 60
     refine: tuple = (0.5, 0.25)
     registration: str = "orb"
-    min_inliers: int = 3
+    min_inliers: int = 6
     smoothing: float = 1.0
     residual_px: float = 2.0
 

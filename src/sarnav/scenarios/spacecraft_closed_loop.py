@@ -67,7 +67,9 @@ def default_config() -> dict:
                       "bright_amplitude": 8.0, "coherence": 0.7, "half_along_m": 900.0, "half_range_m": 650.0,
                       "map_spacing_m": 7.5}
     cfg["autofocus"] = {"step": 1.0, "max_iter": 60, "refine": [0.5, 0.25]}  # eq. 3 / Algorithm 1 (L510)
-    cfg["registration"] = {"method": "orb", "min_inliers": 3, "smoothing_px": 1.0, "residual_px": 2.0}
+    # min_inliers: the paper's 3 (L193) is the minimum (an affine has 6 unknowns); 3 points always fit an affine exactly,
+    # so a noise image would "match": 6 inliers make a random match improbable (docs/spacecraft.md, departure)
+    cfg["registration"] = {"method": "orb", "min_inliers": 6, "smoothing_px": 1.0, "residual_px": 2.0}
     return cfg
 
 
