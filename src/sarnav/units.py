@@ -34,6 +34,10 @@ def rad_to_deg(x):
     return np.divide(x, DEG)
 
 
+def km_to_m(x):
+    return np.multiply(x, 1000.0)
+
+
 def deg_per_hr_to_rad_per_s(x):
     """Gyro bias: deg/hr -> rad/s."""
     return np.multiply(x, DEG / HOUR)

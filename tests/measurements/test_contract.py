@@ -135,3 +135,73 @@ def test_simulate_has_the_stated_noise_and_reads_the_truth_bias(case):
     noise = np.random.default_rng(3).standard_normal((runs, m.dim))
     np.testing.assert_allclose(m.simulate(truth, noise=noise), m.predict(truth).z_hat + sigma * noise, rtol=0,
                                atol=1e-9 * np.max(np.abs(z)))
+
+
+# --- the contract generalised to the orbital state (issue 11): the spacecraft centre-pixel measurement -------------
+
+from sarnav.filters.mekf import reset  # noqa: E402
+from sarnav.ins.orbital import OrbitalNavState  # noqa: E402
+from sarnav.measurements.spacecraft import (CenterPixelMeasurement, SarMeasurementNoise,  # noqa: E402
+                                            boresight_intersection, simulate_image)
+from sarnav.trajectory.orbit import antenna_dcm, initial_ecef_state, lvlh_dcm, table2_elements  # noqa: E402
+
+LOOK = antenna_dcm(np.radians(34.3))
+NOISE = SarMeasurementNoise(D=np.diag([25.0, 16.0, 36.0]))
+
+
+def _orbital_truth(runs):
+    r, v = initial_ecef_state(table2_elements())
+    return OrbitalNavState(np.tile(r, (runs, 1)), np.tile(v, (runs, 1)), np.tile([1.0, 0, 0, 0], (runs, 1)))
+
+
+def _orbital_estimate(rng, runs):
+    t = _orbital_truth(runs)
+    dx = np.concatenate([rng.normal(0, 500, (runs, 3)), rng.normal(0, 5, (runs, 3)), rng.normal(0, 1e-3, (runs, 3))], 1)
+    return reset(t, dx)
+
+
+def _centre_pixel(runs, model):
+    t = _orbital_truth(runs)
+    T_eb = lvlh_dcm(t.r, t.v)
+    r_f = boresight_intersection(t.r, LOOK @ T_eb)
+    return CenterPixelMeasurement(T_eb, LOOK, r_f, NOISE, velocity_model=model)
+
+
+ORBITAL = {"centre-pixel-speed": "speed", "centre-pixel-effective": "effective"}
+
+
+@pytest.mark.parametrize("name", sorted(ORBITAL))
+def test_orbital_measurement_follows_the_contract(name):
+    runs = 3
+    m = _centre_pixel(runs, ORBITAL[name])
+    assert isinstance(m, Measurement) and not m.has_hessians and m.dim == len(m.names) == len(m.units) == 4
+    est = _orbital_estimate(np.random.default_rng(4), runs)
+    pred = m.predict(est)
+    assert pred.z_hat.shape == (runs, 4) and pred.H.shape == (runs, 4, m.n_states) and pred.hessians is None
+    assert pred.names == m.names and np.all(np.linalg.eigvalsh(pred.R) > 0)  # R + B: B gives the angles their noise
+    # H against central differences: the truth is the estimate corrected by dx (mekf.reset: the MEKF's convention)
+    steps = np.array([1.0] * 3 + [1e-3] * 3 + [1e-7] * 3)
+    J = np.zeros_like(pred.H)
+    for j in range(9):
+        dx = np.zeros((runs, 9))
+        dx[:, j] = steps[j]
+        J[:, :, j] = (m.predict(reset(est, dx)).z_hat - m.predict(reset(est, -dx)).z_hat) / (2 * steps[j])
+    scale = np.max(np.abs(pred.H), axis=-1, keepdims=True)
+    np.testing.assert_allclose(J / scale, pred.H / scale, atol=2e-6)
+
+
+@pytest.mark.parametrize("name", sorted(ORBITAL))
+def test_orbital_simulation_has_the_stated_noise(name):
+    """simulate_image: y - z_hat (predicted from the geolocated r_f at the truth) has the covariance R + B."""
+    runs = 4000
+    truth = _orbital_truth(runs)
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(9).spawn(runs)]
+    meas, y, r_f_true = simulate_image(truth, lvlh_dcm(truth.r, truth.v), LOOK, NOISE, rngs, ORBITAL[name])
+    pred = meas.predict(truth)
+    e = y - pred.z_hat
+    sigma = np.sqrt(np.diag(pred.R.mean(axis=0)))
+    assert np.all(np.abs(e.mean(axis=0)) < 4 * sigma / np.sqrt(runs))
+    assert np.all(np.abs(e.std(axis=0) - sigma) < 4 * sigma / np.sqrt(2 * runs))
+    # the same unit normals give the same measurement (a fixed draw order)
+    again = meas.simulate(truth, noise=np.zeros((runs, 2)))
+    np.testing.assert_allclose(again[:, 2], np.linalg.norm(r_f_true - truth.r, axis=1))

@@ -24,9 +24,10 @@ from sarnav.scenarios.registry import get_scenario
 
 #: one scenario per kind; the run property shortens the flight (unless the mutation is the duration itself)
 KINDS = {"telemetry": "telemetry", "rda-nav": "rda-nav", "image": "point-target", "bpa-sensitivity": "bpa-sensitivity",
-         "study": "telemetry-imu-grade"}
+         "study": "telemetry-imu-grade", "spacecraft": "spacecraft-tc2", "spacecraft-closed-loop": "spacecraft-closed-loop"}
 SHORTEN = {"telemetry": {("trajectory", "duration"): 2.0}, "rda-nav": {("trajectory", "duration"): 2.0},
-           "study": {("base", "trajectory", "duration"): 1.0}}
+           "study": {("base", "trajectory", "duration"): 1.0}, "spacecraft": {("simulation", "duration"): 20.0},
+           "spacecraft-closed-loop": {("simulation", "duration"): 5.0}}
 
 NUMBERS = st.one_of(
     st.floats(min_value=-1e300, max_value=1e300, allow_nan=False, allow_infinity=False),

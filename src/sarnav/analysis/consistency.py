@@ -189,6 +189,8 @@ def summarize(ds, confidence: float = 0.95) -> dict:
     n_runs = error.shape[0]
     fin = final_sigma(sigma)
     final_err_rms = np.sqrt(np.nanmean(error[:, -1, :] ** 2, axis=0))
+    final_mean = np.nanmean(error[:, -1, :], axis=0)
+    final_sample = np.nanstd(error[:, -1, :], axis=0, ddof=1) if n_runs > 1 else np.full(len(states), np.nan)
     contain = sigma_containment(error, sigma, 3.0)
     s_units = list(ds["state"].attrs.get("units", [""] * len(states)))
     m_units = list(ds["meas"].attrs.get("units", [""] * len(meas)))
@@ -198,6 +200,8 @@ def summarize(ds, confidence: float = 0.95) -> dict:
             "final_sigma": float(fin[i]),
             "final_3sigma": float(3.0 * fin[i]),
             "final_error_rms": float(final_err_rms[i]),
+            "final_sample_sigma": float(final_sample[i]),
+            "final_mean_error": float(final_mean[i]),
             "fraction_inside_3sigma": float(contain[i]),
         }
         for i, s in enumerate(states)

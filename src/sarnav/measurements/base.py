@@ -10,6 +10,12 @@ noise. It has two faces:
   simulated, and it is the only place truth becomes a measurement: image-derived measurements come from
   ``sarnav.measurements.sar_image``, and kinds use ``simulate`` for SAR only in the mode named ``oracle``.
 
+The contract is generalised to the spacecraft's orbital state (``ins.orbital.OrbitalNavState``: r, v, q_mu; the
+MEKF's 9 error states of ``filters.mekf``): ``measurements.spacecraft.CenterPixelMeasurement`` derives from
+:class:`Measurement` with ``layout = None`` and ``n_states = 9``, predicts from an ``OrbitalNavState`` (H w.r.t. the
+MEKF's dx = truth - estimate, no Hessians: ``has_hessians = False``), and its geolocation noise sits in the r_f it is
+built on (R + B of eq. 33), so its simulation is ``measurements.spacecraft.simulate_image``.
+
 ``noise``, when given, are the unit normals to use (R, m) — for kinds whose draw order is fixed elsewhere;
 otherwise each run's Generator in ``rngs`` draws them. Update strategies (Joseph, correlated noise, second
 order, delayed state, underweighting) are in ``sarnav.filters`` and never in a model.
@@ -56,6 +62,8 @@ class Measurement(ABC):
     names: tuple[str, ...] = ()
     units: tuple[str, ...] = ()
     layout: ErrorStateLayout
+    #: whether ``predict`` provides Hessians (second-order strategies need them)
+    has_hessians: bool = True
 
     @property
     def dim(self) -> int:

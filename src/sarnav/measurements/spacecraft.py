@@ -12,8 +12,17 @@ y = [tan az, tan el, slant range, in-track speed] of the image centre pixel r_f 
 The measured angles are zero by construction (the centre pixel is on the boresight, paper L311; gap G10): the
 filter predicts them from the *geolocated* r_f,geo = r_f + N(0, D), so their whole noise is B. R = diag(0, 0,
 sigma_range^2, sigma_vic^2) (Table 3: 1 m, 0.54 m/s); the prediction's R is R + B (B is measurement noise: the
-geolocation error is seen once, paper L413). In-track speed (gap G9): the model is |v_ECEF| as in eq. 22 (the
-open loop simulates it the same way, L484); a closed loop must define the processor's effective velocity.
+geolocation error is seen once, paper L413). In-track speed (gap G9): ``velocity_model="speed"`` is |v_ECEF| as in
+eq. 22 (the open loop simulates it the same way, L484); ``velocity_model="effective"`` is the velocity a hyperbolic
+range-Doppler processor focuses with, the effective radar velocity V_r of the centre pixel (the closed loop's
+autofocus measures it)::
+
+    R(eta)^2 = |r(t_m + eta) - r_f|^2 = R0^2 + 2 d.v eta + (|v|^2 + d.a) eta^2 + O(eta^3),   d = r - r_f
+    V_r^2 = |v|^2 + d.a,   a = g_l(r) - 2 w x v   (eqs. 8-9 with a_b = 0: the ECEF acceleration, r_f fixed)
+    dV_r/dr = (a + G d) / (2 V_r),   dV_r/dv = (v + [w x] d) / V_r,   dV_r/dr_f = -a / (2 V_r)
+
+(G = dg_l/dr of eq. 14; at zero Doppler d.v = 0 and the range history is the hyperbola sqrt(R0^2 + V_r^2 eta^2) to
+second order; V_r ~ 7.2 km/s here against |v| ~ 7.6 km/s).
 
 The true centre pixel (open loop, L484) is the near intersection of the true boresight with the WGS-84 ellipsoid
 at zero height: p(t) = r + t u, u = M^T e_z, A t^2 + 2 B t + C = 0 with A = (u_x^2 + u_y^2)/a^2 + u_z^2/b^2,
@@ -29,14 +38,36 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError, require_positive
 from sarnav.filters.prediction import Prediction
-from sarnav.frames.earth import WGS84_A, WGS84_B
+from sarnav.measurements.base import Measurement
+from sarnav.frames.earth import OMEGA_EARTH, WGS84_A, WGS84_B
+from sarnav.frames.gravity import local_gravity, local_gravity_gradient
 from sarnav.ins.orbital import OrbitalNavState
 from sarnav.rotations import quat_to_dcm, skew
 
 __all__ = ["SarMeasurementNoise", "CenterPixelMeasurement", "boresight_intersection", "simulate_image",
-           "MEASUREMENT_NAMES"]
+           "MEASUREMENT_NAMES", "MEASUREMENT_UNITS", "VELOCITY_MODELS", "effective_velocity"]
 
 MEASUREMENT_NAMES = ("tan_az", "tan_el", "range", "v_ic")
+MEASUREMENT_UNITS = ("1", "1", "m", "m/s")
+#: what the fourth component measures (gap G9): eq. 22's |v| or the processor's effective velocity
+VELOCITY_MODELS = ("speed", "effective")
+
+
+def effective_velocity(r, v, r_f):
+    """(V_r (R,), dV_r/dr (R, 3), dV_r/dv (R, 3), dV_r/dr_f (R, 3)): the effective radar velocity of the centre pixel
+    r_f seen from (r, v) ECEF (module docstring, gap G9)."""
+    r, v = np.atleast_2d(np.asarray(r, dtype=float)), np.atleast_2d(np.asarray(v, dtype=float))
+    d = r - np.atleast_2d(np.asarray(r_f, dtype=float))
+    w = np.array([0.0, 0.0, OMEGA_EARTH])
+    a = local_gravity(r) - 2.0 * np.cross(w, v)
+    vr2 = np.einsum("ri,ri->r", v, v) + np.einsum("ri,ri->r", d, a)
+    if np.any(vr2 <= 0):
+        raise InputDataError("state", "effective velocity undefined (|v|^2 + d.a <= 0)")
+    vr = np.sqrt(vr2)
+    G = local_gravity_gradient(r)
+    d_dr = (a + np.einsum("rij,rj->ri", G, d)) / (2.0 * vr[:, None])
+    d_dv = (v + np.cross(w, d)) / vr[:, None]
+    return vr, d_dr, d_dv, -a / (2.0 * vr[:, None])
 
 
 @dataclass(frozen=True)
@@ -100,7 +131,7 @@ def boresight_intersection(r, T_es):
     return r + t[:, None] * u
 
 
-class CenterPixelMeasurement:
+class CenterPixelMeasurement(Measurement):
     """y = [tan az, tan el, slant range, in-track speed] of one image (module docstring), batched over R runs.
 
     Parameters
@@ -109,12 +140,23 @@ class CenterPixelMeasurement:
     T_bs : (3, 3) body -> nominal antenna (``trajectory.orbit.antenna_dcm``).
     r_f : (R, 3) or (3,) ECEF centre pixel the filter uses (geolocated: r_f,geo) [m].
     noise : :class:`SarMeasurementNoise`.
+    velocity_model : "speed" (|v|, eq. 22) or "effective" (V_r, gap G9).
+
+    Part of the one measurement contract (:class:`sarnav.measurements.base.Measurement`, generalised there to the
+    orbital state): ``predict(state) -> Prediction`` with H w.r.t. dx = truth - estimate of ``filters.mekf``
+    (rX rY rZ vX vY vZ muX muY muZ) and R = diag(0, 0, sigma_range^2, sigma_vic^2) + B; no Hessians.
     """
 
     names = MEASUREMENT_NAMES
-    dim = 4
+    units = MEASUREMENT_UNITS
+    layout = None  # the MEKF's 9 error states (filters.mekf.STATE_NAMES), not an ErrorStateLayout
+    n_states = 9
+    has_hessians = False
 
-    def __init__(self, T_eb, T_bs, r_f, noise: SarMeasurementNoise):
+    def __init__(self, T_eb, T_bs, r_f, noise: SarMeasurementNoise, velocity_model: str = "speed"):
+        if velocity_model not in VELOCITY_MODELS:
+            raise InputDataError("velocity_model", f"must be one of {VELOCITY_MODELS}, got {velocity_model!r}")
+        self.velocity_model = velocity_model
         self.T_eb = np.asarray(T_eb, dtype=float)
         self.T_bs = np.asarray(T_bs, dtype=float)
         self.r_f = np.atleast_2d(np.asarray(r_f, dtype=float))
@@ -143,16 +185,19 @@ class CenterPixelMeasurement:
         """(z_hat (R, 4), H (R, 4, 9), H~ (R, 4, 3)) at the estimate (eqs. 20-32, 34)."""
         M, r_sf, rs = self._geometry(state)
         rng = np.linalg.norm(r_sf, axis=1)
-        speed = np.linalg.norm(state.v, axis=1)
-        z_hat = np.stack([rs[:, 0] / rs[:, 2], rs[:, 1] / rs[:, 2], rng, speed], axis=1)
         J = self._dphi_drs(rs)
         H = np.zeros((state.runs, 4, 9))
         H[:, :2, :3] = -J @ M  # eqs. 24, 26
         H[:, :2, 6:] = J @ skew(rs)  # eqs. 30-31
         H[:, 2, :3] = -r_sf / rng[:, None]  # eq. 27
-        H[:, 3, 3:6] = state.v / speed[:, None]  # eq. 28
         Ht = np.zeros((state.runs, 4, 3))
         Ht[:, :3] = -H[:, :3, :3]  # eq. 34 (T4)
+        if self.velocity_model == "speed":
+            speed = np.linalg.norm(state.v, axis=1)
+            H[:, 3, 3:6] = state.v / speed[:, None]  # eq. 28
+        else:  # G9: effective velocity of the centre pixel
+            speed, H[:, 3, :3], H[:, 3, 3:6], Ht[:, 3] = effective_velocity(state.r, state.v, self.r_f)
+        z_hat = np.stack([rs[:, 0] / rs[:, 2], rs[:, 1] / rs[:, 2], rng, speed], axis=1)
         return z_hat, H, Ht
 
     def predict(self, state: OrbitalNavState) -> Prediction:
@@ -176,11 +221,13 @@ class CenterPixelMeasurement:
         noise = np.asarray(noise, dtype=float)
         y = np.zeros((truth.runs, 4))
         y[:, 2] = np.linalg.norm(r_f_true - truth.r, axis=1) + noise[:, 0]
-        y[:, 3] = np.linalg.norm(truth.v, axis=1) + noise[:, 1]
+        speed = (np.linalg.norm(truth.v, axis=1) if self.velocity_model == "speed"
+                 else effective_velocity(truth.r, truth.v, r_f_true)[0])
+        y[:, 3] = speed + noise[:, 1]
         return y
 
 
-def simulate_image(truth: OrbitalNavState, T_eb, T_bs, noise: SarMeasurementNoise, rngs):
+def simulate_image(truth: OrbitalNavState, T_eb, T_bs, noise: SarMeasurementNoise, rngs, velocity_model: str = "speed"):
     """One open-loop image (paper §VI.B): (measurement built on r_f,geo = r_f + N(0, D), y (R, 4), r_f,true (R, 3)).
 
     Per run, 5 normals from its generator (``SarMeasurementNoise.draw``): geolocation, range, speed.
@@ -188,5 +235,5 @@ def simulate_image(truth: OrbitalNavState, T_eb, T_bs, noise: SarMeasurementNois
     draws = noise.draw(rngs)
     T_es = quat_to_dcm(truth.q_mu) @ np.asarray(T_bs) @ np.asarray(T_eb)
     r_f_true = boresight_intersection(truth.r, np.broadcast_to(T_es, (truth.runs, 3, 3)))
-    meas = CenterPixelMeasurement(T_eb, T_bs, r_f_true + draws[:, :3], noise)
+    meas = CenterPixelMeasurement(T_eb, T_bs, r_f_true + draws[:, :3], noise, velocity_model)
     return meas, meas.simulate(truth, noise=draws[:, 3:]), r_f_true

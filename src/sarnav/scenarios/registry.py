@@ -48,6 +48,8 @@ KINDS: dict[str, str] = {
     "rda-nav": "sarnav.scenarios.rda_nav:RdaNavKind",
     "bpa-sensitivity": "sarnav.scenarios.bpa_sensitivity:BpaSensitivityKind",
     "image": "sarnav.scenarios.imaging:ImageKind",
+    "spacecraft": "sarnav.scenarios.spacecraft:SpacecraftKind",
+    "spacecraft-closed-loop": "sarnav.scenarios.spacecraft_closed_loop:ClosedLoopKind",
 }
 
 # fmt: off
@@ -61,6 +63,9 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("rda-nav-flexsar", "rda-nav", "Paper Tables 4-6: simulated FlexSAR-like flight at 60 m/s", "sarnav.scenarios.rda_nav:flexsar_config"),
     ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
     ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "sarnav.scenarios.imaging:point_target_config"),
+    ScenarioEntry("spacecraft-tc1", "spacecraft", "Pogorelsky et al. 2022 TC-1 open loop: LEO MEKF, misalignment 0.1 deg, Lear underweighting, 100 runs x 600 s", "sarnav.scenarios.spacecraft:tc1_config"),
+    ScenarioEntry("spacecraft-tc2", "spacecraft", "Pogorelsky et al. 2022 TC-2 open loop: LEO MEKF, misalignment 0.01 deg, 100 runs x 600 s", "sarnav.scenarios.spacecraft:tc2_config"),
+    ScenarioEntry("spacecraft-closed-loop", "spacecraft-closed-loop", "Pogorelsky et al. 2022 closed loop, simulated: L-band echoes, autofocus v_ic, registration r_f, 3 updates", "kind:"),
     ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "sarnav.scenarios.imaging:scatterers_config"),
 )
 # fmt: on

@@ -31,11 +31,11 @@ from sarnav.filters.ekf import normalized_squared
 from sarnav.filters.mekf import STATE_NAMES, MekfModel, disperse, error_state, propagate, reset
 from sarnav.filters.underweighting import LearUnderweighting, underweighted_update
 from sarnav.ins.orbital import OrbitalNavState
-from sarnav.measurements.spacecraft import MEASUREMENT_NAMES, SarMeasurementNoise, simulate_image
+from sarnav.measurements.spacecraft import MEASUREMENT_NAMES, SarMeasurementNoise, boresight_intersection, simulate_image
 from sarnav.rotations import quat_multiply, quat_normalize, rotvec_to_quat
-from sarnav.trajectory.orbit import KeplerElements, OrbitTruth, antenna_dcm, lvlh_dcm, table2_elements
+from sarnav.trajectory.orbit import STEERING, KeplerElements, OrbitTruth, antenna_dcm, body_dcm, lvlh_dcm, table2_elements
 
-__all__ = ["OpenLoopParams", "OpenLoopResult", "run_open_loop", "radial_intrack_crosstrack", "orbit_frame_dcm"]
+__all__ = ["OpenLoopParams", "OpenLoopResult", "run_open_loop", "check_geometry", "radial_intrack_crosstrack", "orbit_frame_dcm"]
 
 
 def _steps(field_name: str, value: float, dt: float) -> int:
@@ -56,7 +56,8 @@ class OpenLoopParams:
     mekf : Q_PSD, dt (0.01 s) and the G6/G7 switches; underweighting : None or a :class:`LearUnderweighting`;
     truth_misalignment_psd [rad^2/s] : 0 (default, G17/G18: the true misalignment is constant, as the paper states,
     while the filter still adds Q_mu) or a random-walk PSD of the true misalignment (the filter's own model when
-    equal to ``mekf.q_misalignment``).
+    equal to ``mekf.q_misalignment``); steering : body attitude law (``trajectory.orbit.STEERING``: "lvlh", the
+    paper's, or "zero-doppler", the closed loop's).
     """
 
     elements: KeplerElements = field(default_factory=table2_elements)
@@ -74,8 +75,11 @@ class OpenLoopParams:
     mekf: MekfModel = field(default_factory=MekfModel)
     underweighting: LearUnderweighting | None = None
     truth_misalignment_psd: float = 0.0
+    steering: str = "lvlh"
 
     def __post_init__(self):
+        if self.steering not in STEERING:
+            raise ConfigError("antenna.steering", f"must be one of {tuple(STEERING)}, got {self.steering!r}")
         for name, unit in (("sigma_r0", "m"), ("sigma_v0", "m/s"), ("sigma_mu0", "rad")):
             require_positive(f"initial.{name}", getattr(self, name), unit)
         if not (math.isfinite(self.truth_misalignment_psd) and self.truth_misalignment_psd >= 0):
@@ -215,9 +219,22 @@ def run_open_loop(params: OpenLoopParams, seeds: Sequence[np.random.SeedSequence
                           truth_orbit.r[idx], truth_orbit.v[idx])
 
 
+def check_geometry(params: OpenLoopParams) -> None:
+    """Raise ConfigError("antenna.look_angle_deg") when the true boresight misses the WGS-84 ellipsoid at t = 0 or at
+    any update time of the flight (the truth orbit is integrated once, RK4 at ``truth_dt``)."""
+    truth = OrbitTruth(params.elements, params.duration, params.truth_dt)
+    k = np.unique(np.r_[0, np.rint(params.update_steps() * params.mekf.dt / params.truth_dt).astype(int)])
+    r, v = truth.r[k], truth.v[k]
+    T_es = antenna_dcm(params.look_angle, params.squint) @ body_dcm(r, v, params.steering)
+    try:
+        boresight_intersection(r, T_es)
+    except ConfigError as err:
+        raise ConfigError("antenna.look_angle_deg", err.message) from None
+
+
 def _update(u, truth, est, P, T_bs, params, rngs, out):
     """One image: simulate it from the truth, predict from the estimate, underweighted Joseph update, reset."""
-    T_eb = lvlh_dcm(truth.r, truth.v)  # perfect ADS (G4)
+    T_eb = body_dcm(truth.r, truth.v, params.steering)  # perfect ADS (G4)
     meas, y, _ = simulate_image(truth, T_eb, T_bs, params.noise, rngs)
     pred = meas.predict(est)
     residual = y - pred.z_hat

@@ -30,7 +30,7 @@ from sarnav.frames.gravity import J2_COEFF, gravitation_vec
 from sarnav.rotations import quat_to_dcm
 
 __all__ = ["KeplerElements", "table2_elements", "elements_to_eci", "propagate_rk4_eci", "OrbitTruth",
-           "lvlh_dcm", "antenna_dcm", "ecef_to_antenna_dcm", "right_ascension_of_node", "initial_ecef_state", "MIN_PERIGEE_RADIUS"]
+           "lvlh_dcm", "zero_doppler_dcm", "body_dcm", "STEERING", "antenna_dcm", "ecef_to_antenna_dcm", "right_ascension_of_node", "initial_ecef_state", "MIN_PERIGEE_RADIUS"]
 
 #: smallest accepted perigee radius [m]: the WGS-84 equatorial radius + 100 km (below it the orbit hits the Earth
 #: or the atmosphere that the J2-only model ignores)
@@ -199,6 +199,33 @@ def lvlh_dcm(r, v, omega: float = OMEGA_EARTH):
     y = -h / np.linalg.norm(h, axis=-1, keepdims=True)
     x = np.cross(y, z)
     return np.stack([x, y, z], axis=-2)
+
+
+def zero_doppler_dcm(r, v):
+    """T_e^b (..., 3, 3) of a zero-Doppler-steered body: x_b = v/|v| (ECEF velocity), y_b = -(r x v)/|r x v|,
+    z_b = x_b x y_b (about nadir, within the radial-velocity angle |v_r|/|v| ~ 1 mrad).
+
+    Every boresight in the y_b-z_b plane (zero squint) is perpendicular to the ECEF velocity, so the beam centre is at
+    zero Doppler for the ground, fixed in ECEF (the closed loop's gap decision G3/G9: total zero-Doppler steering;
+    docs/spacecraft.md). ``lvlh_dcm`` (the paper's LVLH) instead looks ~3 deg off zero Doppler at this orbit.
+    """
+    r = np.asarray(r, dtype=float)
+    v = np.asarray(v, dtype=float)
+    x = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    h = np.cross(r, v)
+    y = -h / np.linalg.norm(h, axis=-1, keepdims=True)
+    return np.stack([x, y, np.cross(x, y)], axis=-2)
+
+
+#: body attitude laws: name -> T_e^b(r, v) (ECEF position and velocity)
+STEERING = {"lvlh": lvlh_dcm, "zero-doppler": zero_doppler_dcm}
+
+
+def body_dcm(r, v, steering: str = "lvlh"):
+    """T_e^b of the attitude law ``steering`` (:data:`STEERING`)."""
+    if steering not in STEERING:
+        raise ConfigError("antenna.steering", f"must be one of {tuple(STEERING)}, got {steering!r}")
+    return STEERING[steering](r, v)
 
 
 def antenna_dcm(look_angle: float, squint: float = 0.0):
