@@ -64,7 +64,7 @@ def analytic(target, n_pulses: int, n: int = 320) -> PulseData:
 
 
 def error_db(a, b) -> float:
-    return float(10 * np.log10(np.sum(np.abs(a - b) ** 2) / np.sum(np.abs(b) ** 2)))
+    return float(10 * np.log10(np.sum(np.abs(a - b) ** 2) / np.sum(np.abs(b) ** 2) + 1e-300))   # identical: -3000
 
 
 @pytest.mark.parametrize("source", ["simulated", "analytic"])

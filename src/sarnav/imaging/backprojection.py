@@ -408,13 +408,15 @@ def _check_pulses(rc: PulseData, positions):
     return data, rng, pos
 
 
-def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
+def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int, dtype=np.complex128):
     """Band-limited interpolation of every pulse by FFT zero-padding: (P, (N-1)*factor + 1) samples
-    on the range axis ``rng[0] + i dr / factor`` (the wrapped tail beyond the last sample dropped)."""
+    on the range axis ``rng[0] + i dr / factor`` (the wrapped tail beyond the last sample dropped).
+    ``dtype`` complex64: FFTs in single precision (the compiled kernels keep complex64 samples anyway;
+    rounding ~1e-7 of the samples, -130 dB), complex128 for the float64 reference."""
     n = data.shape[1]
     workers = max(1, numba.get_num_threads())          # the FFTs use the kernel's threads
-    spec = sfft.fft(data, axis=1, workers=workers)
-    fine = np.zeros((data.shape[0], n * factor), dtype=np.complex128)
+    spec = sfft.fft(np.asarray(data, dtype=dtype), axis=1, workers=workers)
+    fine = np.zeros((data.shape[0], n * factor), dtype=dtype)
     h = (n + 1) // 2                      # non-negative frequencies 0 .. h-1
     fine[:, :h] = spec[:, :h]
     fine[:, n * factor - (n - h):] = spec[:, h:]
@@ -422,7 +424,8 @@ def _upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int):
         nyq = spec[:, n // 2]
         fine[:, n // 2] = 0.5 * nyq
         fine[:, n * factor - n // 2] = 0.5 * nyq
-    out = sfft.ifft(fine, axis=1, workers=workers) * factor
+    out = sfft.ifft(fine, axis=1, workers=workers, overwrite_x=True)
+    out *= factor
     m = (n - 1) * factor + 1
     dr = (rng[1] - rng[0]) / factor
     return out[:, :m], rng[0] + np.arange(m) * dr
@@ -469,12 +472,12 @@ def _check_interpolation(interpolation: str, upsample: int) -> int:
     return int(upsample)
 
 
-def _prepare(rc, positions, interpolation, upsample, wavelength):
+def _prepare(rc, positions, interpolation, upsample, wavelength, dtype=np.complex128):
     upsample = _check_interpolation(interpolation, upsample)
     data, rng, pos = _check_pulses(rc, positions)
     lam = _wavelength(rc, wavelength)
     if interpolation == "upsample":
-        data, rng = _upsample_pulses(data, rng, upsample)
+        data, rng = _upsample_pulses(data, rng, upsample, dtype)
     return data, rng, pos, lam
 
 
@@ -530,7 +533,7 @@ def _check_blocks(block, pulse_block) -> None:
 def _form(rc, positions, interpolation, upsample, wavelength, block, pulse_block, flat=None, plane=None):
     """(re, im) float64 of the compiled back-projection at ``flat`` (M, 3) points or on ``plane``
     (origin, e_row, e_col, ny, nx: pixels origin + i e_row + j e_col, row-major)."""
-    data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
+    data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength, np.complex64)
     n = data.shape[1]
     padded = np.zeros((data.shape[0], n + 2 * _PAD), dtype=np.complex64)
     padded[:, _PAD:_PAD + n] = data
@@ -544,9 +547,19 @@ def _form(rc, positions, interpolation, upsample, wavelength, block, pulse_block
                     pos, padded, *common, out_re, out_im)
     else:
         origin, e_row, e_col, ny, nx = plane
+        # row segments along the axis of slower range change (the along-track one): neighbouring pixels then read
+        # neighbouring samples (cache); the result is the same sum either way
+        centre = origin + 0.5 * (ny - 1) * e_row + 0.5 * (nx - 1) * e_col
+        los = centre - pos[pos.shape[0] // 2]
+        swap = abs(np.dot(e_col, los)) / np.linalg.norm(e_col) > abs(np.dot(e_row, los)) / np.linalg.norm(e_row)
+        if swap:
+            e_row, e_col, ny, nx = e_col, e_row, nx, ny
         out_re = np.zeros(ny * nx)
         out_im = np.zeros(ny * nx)
         _bpa_plane_kernel(origin, e_row, e_col, ny, nx, pos, padded, *common, out_re, out_im)
+        if swap:
+            out_re = np.ascontiguousarray(out_re.reshape(ny, nx).T).ravel()
+            out_im = np.ascontiguousarray(out_im.reshape(ny, nx).T).ravel()
     return out_re, out_im
 
 
