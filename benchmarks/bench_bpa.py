@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_bpa.py                      # 1024 x 1024 pixels, 1024 pulses
-    python benchmarks/bench_bpa.py --size 256 --pulses 256   # quick
+    python benchmarks/bench_bpa.py --size 256 --pulses 256 --rounds 2   # quick
     pip install -e '.[bench]'                            # FastSAR (optional), the C++ peer
 
 FastSAR (MIT, PyPI ``fastsar``): ``fastsar.form_image(S, ant, fmin, df, n, n, sp, sp, e1, e2,
@@ -11,6 +11,10 @@ algorithm="bp")`` from the phase history of the same pulses (``sarnav.signal.pha
 FastSAR's grid pixel i sits at (i - n/2) sp, so sarnav's grid is shifted by half a pixel to match),
 timed on its default cubic x8 and on linear x8; its image is compared with sarnav's (error after
 one fitted complex gain). Both use the same threads (``NUMBA_NUM_THREADS`` / ``OMP_NUM_THREADS``).
+The machine may be shared: every configuration is timed once per round, sarnav and FastSAR interleaved,
+and the rates and the per-round ratios are printed as median [min, max] over ``--rounds``, from wall
+time and from CPU time (work / (process CPU time / threads): what the kernels used, less sensitive to
+other processes than the wall time).
 
 Prints pixel-pulses per second ("backprojections/s", one pixel x one pulse) of
 ``sarnav.imaging.backprojection.backproject`` for each interpolation, of the float64 numpy
@@ -96,21 +100,6 @@ def error_db(a, b) -> float:
     return float(10 * np.log10(np.sum(np.abs(a - b) ** 2) / np.sum(np.abs(b) ** 2)))
 
 
-def best_time(fn, repeat: int, threads: int = 1) -> tuple[float, float]:
-    """Best wall time and best CPU time / threads over ``repeat`` calls [s].
-
-    CPU time per thread is reported too because the machine is shared: when other processes load
-    the cores the wall time grows while the CPU time the kernel really used grows much less.
-    """
-    wall, cpu = np.inf, np.inf
-    for _ in range(repeat):
-        t0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        wall = min(wall, time.perf_counter() - t0)
-        cpu = min(cpu, (time.process_time() - c0) / threads)
-    return wall, cpu
-
-
 def exact_image(rc, grid, tg, amp):
     """BPA with every pulse sample evaluated analytically at the pixel range (no interpolation)."""
     lam = C / FC
@@ -126,8 +115,8 @@ def exact_image(rc, grid, tg, amp):
     return out.reshape(grid.shape)
 
 
-def fastsar_rates(rc, size: int, repeat: int, work: int, reference: np.ndarray) -> dict:
-    """FastSAR exact BP (cubic x8 default, linear x8) on the same pulses; {} when FastSAR is absent."""
+def fastsar_former(rc, size: int):
+    """{interp: callable forming FastSAR's exact BP image of the same pulses} (cubic x8 default, linear x8), or {}."""
     try:
         import fastsar
     except ImportError:
@@ -137,18 +126,61 @@ def fastsar_rates(rc, size: int, repeat: int, work: int, reference: np.ndarray) 
     ant = rc.positions - centre
     ph = pulses_to_phase_history(rc, np.linalg.norm(ant, axis=1))
     s = ph.data.astype(np.complex64)
-    out = {}
-    for interp in ("cubic", "linear"):
-        def run():
-            return fastsar.form_image(s, ant, ph.fx0[0], ph.fx_step[0], size, size, SPACING, SPACING, (1.0, 0.0, 0.0),
-                                      (0.0, 1.0, 0.0), algorithm="bp", window=False, interp=interp)
-        img = run()                                                     # compiles on first use
-        t, t_cpu = best_time(run, repeat, int(os.environ.get("OMP_NUM_THREADS", numba.get_num_threads())))
-        g = np.vdot(img, reference) / np.vdot(img, img)
-        out[interp] = work / t
-        print(f"fastsar bp {interp:6s} x8   : {work / t:10.3e} pixel-pulses/s  ({t:6.2f} s; CPU {work / t_cpu:9.3e})  "
-              f"error vs sarnav upsample {error_db(g * img, reference):6.1f} dB")
-    return out
+
+    def make(interp):
+        return lambda: fastsar.form_image(s, ant, ph.fx0[0], ph.fx_step[0], size, size, SPACING, SPACING,
+                                          (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), algorithm="bp", window=False,
+                                          interp=interp)
+    return {"fastsar cubic x8": make("cubic"), "fastsar linear x8": make("linear")}
+
+
+def timed(fn) -> tuple[float, float, object]:
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = fn()
+    return time.perf_counter() - t0, time.process_time() - c0, out
+
+
+#: (sarnav configuration, FastSAR configuration) ratios printed: same interpolation first, then the defaults
+PAIRS = (("sarnav upsample x8", "fastsar linear x8"), ("sarnav linear", "fastsar linear x8"),
+         ("sarnav cubic", "fastsar cubic x8"), ("sarnav upsample x4", "fastsar cubic x8"))
+
+
+def rounds(rc, grid, size: int, n_rounds: int, work: int) -> tuple[dict, dict]:
+    """Every configuration timed once per round, sarnav and FastSAR interleaved (the same load on both):
+    {name: [(wall, cpu), ...]} and {name: image of the last round}."""
+    confs = {f"sarnav {m}": (lambda m=m: backproject(rc, grid, interpolation=m).data)
+             for m in ("nearest", "linear", "cubic")}
+    for up in (4, 8):
+        confs[f"sarnav upsample x{up}"] = (lambda up=up: backproject(rc, grid, interpolation="upsample",
+                                                                    upsample=up).data)
+    confs.update(fastsar_former(rc, size))
+    times = {k: [] for k in confs}
+    images = {}
+    for k, fn in confs.items():                      # compile / warm up
+        images[k] = np.asarray(fn())
+    for r in range(n_rounds):
+        for k, fn in confs.items():
+            wall, cpu, images[k] = timed(fn)
+            times[k].append((wall, cpu))
+        print(f"  round {r + 1}/{n_rounds}: " + ", ".join(f"{k} {work / t[-1][0]:.3g}" for k, t in times.items()),
+              flush=True)
+    return times, images
+
+
+def report(times: dict, work: int, threads: int, rate_np: float) -> None:
+    print(f"pixel-pulses/s over {len(next(iter(times.values())))} rounds: median [min, max]; CPU = work / (CPU time / "
+          f"{threads} threads)")
+    for k, t in times.items():
+        wall = np.array([work / a for a, _ in t])
+        cpu = np.array([work / (b / threads) for _, b in t])
+        print(f"  {k:20s} wall {np.median(wall):9.3e} [{wall.min():9.3e}, {wall.max():9.3e}]  CPU {np.median(cpu):9.3e} "
+              f"[{cpu.min():9.3e}, {cpu.max():9.3e}]  x numpy {np.median(wall) / rate_np:6.1f}")
+    for a, b in PAIRS:
+        if a in times and b in times:
+            rw = np.array([tb[0] / ta[0] for ta, tb in zip(times[a], times[b])])      # per-round rate ratios
+            rc_ = np.array([tb[1] / ta[1] for ta, tb in zip(times[a], times[b])])
+            print(f"  {a} / {b}: wall {np.median(rw):.2f} [{rw.min():.2f}, {rw.max():.2f}], CPU {np.median(rc_):.2f} "
+                  f"[{rc_.min():.2f}, {rc_.max():.2f}] (goal >= 1.0)")
 
 
 def main(argv=None):
@@ -157,50 +189,52 @@ def main(argv=None):
     ap.add_argument("--pulses", type=int, default=1024)
     ap.add_argument("--numpy-pulses", type=int, default=32, help="pulses the numpy baseline is timed on")
     ap.add_argument("--check", type=int, default=128, help="side of the pixel block compared with numpy")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=5, help="timing rounds (every configuration once per round)")
     ap.add_argument("--targets", type=int, default=20)
+    ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
     args = ap.parse_args(argv)
 
-    print(f"numba {numba.__version__}, threads {numba.get_num_threads()}, cpus {os.cpu_count()}, "
-          f"SVML {numba.config.USING_SVML}")
+    threads = numba.get_num_threads()
+    print(f"numba {numba.__version__}, threads {threads}, OMP_NUM_THREADS {os.environ.get('OMP_NUM_THREADS')}, "
+          f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
     half = 0.5 * args.size * SPACING
     rc, tg, amp = scene(args.pulses, half, args.targets)
     # FastSAR's pixel i is at (i - n/2) * spacing: shift sarnav's centred grid by half a pixel to match
     grid = GroundGrid(regular_axis(-0.5 * SPACING, SPACING, args.size, "grid.north"),
                       regular_axis(GROUND_RANGE - 0.5 * SPACING, SPACING, args.size, "grid.east"))
     work = args.size * args.size * args.pulses
-    print(f"image {args.size}x{args.size}, {args.pulses} pulses, {rc.data.shape[1]} range samples")
+    print(f"image {args.size}x{args.size}, {args.pulses} pulses, {rc.data.shape[1]} range samples, fs/B = "
+          f"{FS / BANDWIDTH:g}")
 
     # numpy float64 baseline, timed on fewer pulses and scaled (cost is linear in pulses)
     npulses = min(args.numpy_pulses, args.pulses)
-    t_np, _ = best_time(lambda: backproject_numpy(rc, grid, interpolation="linear", pulses=slice(0, npulses)),
-                        max(1, args.repeat - 1))
+    t_np = min(timed(lambda: backproject_numpy(rc, grid, interpolation="linear", pulses=slice(0, npulses)))[0]
+               for _ in range(2))
     rate_np = args.size * args.size * npulses / t_np
     print(f"numpy float64 linear : {rate_np:10.3e} pixel-pulses/s (timed on {npulses} pulses, scaled)")
 
+    times, images = rounds(rc, grid, args.size, args.rounds, work)
+    report(times, work, threads, rate_np)
     c = min(args.check, args.size)
     i0 = (args.size - c) // 2
     sub = PointGrid(grid.points()[i0:i0 + c, i0:i0 + c])
-    rates = {}
-    img_ref = {}
-    for interp in ("nearest", "linear", "cubic", "upsample"):
-        backproject(rc, GroundGrid.centered(0.0, GROUND_RANGE, SPACING, (8, 8)), interpolation=interp)  # compile
-        img = {}
-        t, t_cpu = best_time(lambda: img.__setitem__("a", backproject(rc, grid, interpolation=interp)), args.repeat,
-                             numba.get_num_threads())
-        img_ref[interp] = img["a"].data
-        rates[interp] = work / t
-        ref = backproject_numpy(rc, sub, interpolation=interp).data
-        err = error_db(img["a"].data[i0:i0 + c, i0:i0 + c], ref)
-        print(f"numba {interp:9s}      : {rates[interp]:10.3e} pixel-pulses/s  ({t:6.2f} s; from CPU time per "
-              f"thread {work / t_cpu:9.3e})  ratio to numpy {rates[interp] / rate_np:6.1f}x  "
-              f"error vs float64 numpy {err:7.1f} dB")
-    peer = fastsar_rates(rc, args.size, args.repeat, work, img_ref["upsample"])
-    for mode, peer_mode in (("linear", "linear"), ("upsample", "linear"), ("cubic", "cubic")):
-        if peer_mode in peer:
-            print(f"sarnav {mode} / fastsar {peer_mode}: {rates[mode] / peer[peer_mode]:.2f}x (goal >= 1.0x)")
+    for k, img in images.items():
+        if k.startswith("sarnav"):
+            mode = k.split()[1]
+            up = int(k.split("x")[-1]) if "upsample" in k else 4
+            ref = backproject_numpy(rc, sub, interpolation=mode, upsample=up).data
+            print(f"  {k:20s} error vs float64 numpy (same interpolation) "
+                  f"{error_db(img[i0:i0 + c, i0:i0 + c], ref):7.1f} dB")
+        else:
+            ref = images["sarnav upsample x8"]
+            g = np.vdot(img, ref) / np.vdot(img, img)
+            print(f"  {k:20s} error vs sarnav upsample x8 {error_db(g * img, ref):7.1f} dB")
+    if not args.no_table:
+        interpolation_table()
 
-    # interpolation accuracy against the exact band-limited image (small image, fewer pulses)
+
+def interpolation_table() -> None:
+    """Each interpolation's error against the exact band-limited image (small image, fewer pulses)."""
     small = GroundGrid.centered(0.0, GROUND_RANGE, SPACING, (64, 64))
     print("interpolation error vs exact band-limited image (64x64 px, 128 pulses, 5 targets):")
     for osr in (1.25, 2.0, 4.0):
@@ -214,6 +248,7 @@ def main(argv=None):
             pred = 10 * np.log10(interpolation_error(kernel, os_eff))
             row.append(f"{interp}{up if up else ''} {error_db(a, exact):6.1f} ({pred:5.1f})")
         print(f"  fs/B = {osr:4.2f}: " + ", ".join(row) + " dB  (predicted, sarnav.imaging.interpolation_error)")
+
 
 if __name__ == "__main__":
     main()

@@ -48,12 +48,16 @@ def gain_error_db(img, ref):
     return float(10 * np.log10(np.sum(np.abs(g * img - ref) ** 2) / np.sum(np.abs(ref) ** 2)))
 
 
-@pytest.mark.parametrize("slant, oversample", [(5e3, 3.0), (5e3, 4.0), (700e3, 4.0)])
-def test_ffbp_error_matches_prediction(slant, oversample):
+@pytest.mark.parametrize("slant, oversample, levels", [(5e3, 3.0, None), (5e3, 4.0, None), (700e3, 4.0, None),
+                                                       (700e3, 4.0, 2)])
+def test_ffbp_error_matches_prediction(slant, oversample, levels):
+    """levels None: the cost model's plan (1 level at os 3, none at os 4); 2: two merges of 4 at 700 km (the
+    polar images' float64 geometry and complex64 storage at spaceborne range)."""
     rc, grid = scene(192, 192, slant, n_targets=120)
     ref = backproject(rc, grid, interpolation="upsample").data
-    img = ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, oversample=oversample)
+    img = ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, oversample=oversample, levels=levels)
     pred = img.metadata["ffbp_predicted_error_db"]
+    assert levels is None or img.metadata["ffbp_levels"] == levels
     assert pred == pytest.approx(ffbp_error_model(oversample, img.metadata["ffbp_levels"] + 1))
     err = gain_error_db(img.data, ref)
     assert abs(err - pred) < 2.0, (err, pred)
@@ -74,10 +78,14 @@ def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
 
 @pytest.mark.slow
 def test_ffbp_2048_square_below_minus_40_db():
-    """2048^2 pixels, 2048 pulses, 5 km: base subaperture 16 pulses, merges of 4, polar os 4."""
+    """2048^2 pixels, 2048 pulses, 5 km: base subaperture 16 pulses, merges of 4 (the cost model's plan: one, so the
+    tile is a 64-pulse subaperture), polar cells c / (2 B os) x lambda / (2 l os) at os 4. ``-s`` prints the numbers."""
     rc, grid = scene(2048, 2048, 5e3, n_targets=400)
     ref = backproject(rc, grid, interpolation="upsample").data
     img = ffbp(rc, grid, bandwidth=BW, oversample=4.0)
     err = gain_error_db(img.data, ref)
+    md = img.metadata
+    print(f"2048^2: error {err:.1f} dB, predicted {md['ffbp_predicted_error_db']:.1f} dB; base {md['ffbp_base_pulses']} "
+          f"pulses, merge {md['ffbp_merge']}, levels {md['ffbp_levels']}, os {md['ffbp_oversample']}")
     assert err < -40.0
-    assert abs(err - img.metadata["ffbp_predicted_error_db"]) < 2.0
+    assert abs(err - md["ffbp_predicted_error_db"]) < 2.0

@@ -22,13 +22,15 @@ LAM = C / FC
 ALT, EAST, SPEED, PRF = 1000.0, 1800.0, 50.0, 400.0
 
 
-def data(target, fs, p=128, n=240):
+def data(target, fs, p=128, n=240, r_start=None):
+    """Ideal compressed pulses of one target on the range axis r_start + i c / (2 fs) (default: 60 m before the
+    target's closest range; pass the axis start to keep the sample lattice fixed while the target moves)."""
     t = (np.arange(p) - 0.5 * (p - 1)) / PRF
     pos = np.zeros((p, 3))
     pos[:, 0] = SPEED * t
     pos[:, 2] = -ALT
     r_t = np.linalg.norm(target - pos, axis=1)
-    r = r_t.min() - 60.0 + np.arange(n) * C / (2 * fs)
+    r = (r_t.min() - 60.0 if r_start is None else r_start) + np.arange(n) * C / (2 * fs)
     d = np.sinc(2 * BW / C * (r[None] - r_t[:, None])) * np.exp(-4j * np.pi * r_t[:, None] / LAM)
     return PulseData(d, r, t, pos, None, compressed=True, wavelength=LAM)
 
@@ -54,7 +56,8 @@ def test_default_at_fs_over_b_1p2_places_peaks_and_correlates(frac):
     k = np.floor((r0 - rc0.slant_range[0]) / cell)
     r_want = rc0.slant_range[0] + (k + frac) * cell
     target = np.array([0.07, np.sqrt(r_want**2 - ALT**2), 0.0])
-    rc = data(target, fs)
+    rc = data(target, fs, r_start=rc0.slant_range[0])           # the same sample lattice: the target is `frac` off it
+    assert ((r_want - rc.slant_range[0]) / cell) % 1.0 == pytest.approx(frac)
     grid = SlantGrid([0, 0, -ALT], [1, 0, 0], target, np.arange(-24, 24) * 0.2 + 0.03,
                      r_want + np.arange(-24, 24) * 0.2 + 0.05)
     assert resolve_interpolation(rc, "auto", 4) == ("upsample", 4)
@@ -68,6 +71,8 @@ def test_default_at_fs_over_b_1p2_places_peaks_and_correlates(frac):
     lin = backproject(rc, grid, interpolation="linear")          # what the old default did
     corr_lin = abs(np.vdot(lin.data, ref)) / (np.linalg.norm(lin.data) * np.linalg.norm(ref))
     assert corr_lin < corr
+    # the old default fails the same contract here (0.14 to 0.32 cell): the test tells the two apart
+    assert abs(index_to_coordinate(lin.x, peak_location(lin)[1]) - r_want) > cell / 20
 
 
 def test_auto_uses_linear_on_oversampled_data_and_the_error_model_is_ordered():

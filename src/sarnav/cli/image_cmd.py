@@ -1,6 +1,8 @@
-"""``sarnav image SCENARIO|FILE.toml``: simulate one block of echoes, focus it (RDA or BPA, optional autofocus) and
-write ``image.npz``, ``image.png`` and ``metrics.json`` to ``--out`` (default ``./sarnav-out/image-<scenario>/``).
-Parses and prints only: the work is ``sarnav.scenarios.imaging.run_image``."""
+"""``sarnav image SCENARIO|FILE.toml|FILE.cphd``: simulate one block of echoes and focus it (RDA or BPA, optional
+autofocus), or form an image from a CPHD file (BPA or FFBP); write ``image.npz``, ``image.png`` and ``metrics.json``
+to ``--out`` (default ``./sarnav-out/image-<name>/``), with ``--cphd`` the simulated collect as ``collect.cphd``, with
+``--sicd`` the back-projected image as ``image.nitf``. Parses and prints only: the work is
+``sarnav.scenarios.imaging.run_image`` and ``sarnav.scenarios.cphd_image.run_cphd_image``."""
 
 from __future__ import annotations
 
@@ -9,28 +11,64 @@ from pathlib import Path
 
 NAME = "image"
 DEFAULT_OUT_ROOT = "sarnav-out"
-DESCRIPTION = ("Simulate one block of echoes, focus it (RDA or BPA, optional autofocus) and write image.npz, "
-               "image.png and metrics.json to --out (default ./sarnav-out/image-<scenario>/).")
+DESCRIPTION = ("Simulate one block of echoes and focus it (RDA or BPA, optional autofocus), or form an image from a "
+               "CPHD file (BPA or FFBP); write image.npz, image.png and metrics.json to --out (default "
+               "./sarnav-out/image-<name>/), with --cphd the collect as collect.cphd, with --sicd the image as image.nitf.")
 ALGORITHMS = ("rda", "bpa")  # == sarnav.imaging.straight_block.ALGORITHMS (tested)
+CPHD_ALGORITHMS = ("bpa", "ffbp")  # == sarnav.scenarios.cphd_image.ALGORITHMS (tested)
 IMAGE_SCENARIOS = ("point-target", "scatterers")  # the registered scenarios of kind "image" (tested)
 
 
 def add_parser(subparsers) -> None:
-    p = subparsers.add_parser(NAME, help="form one SAR image of a simulated scene", description=DESCRIPTION)
-    p.add_argument("scenario", metavar="SCENARIO", help=f"{' | '.join(IMAGE_SCENARIOS)} or FILE.toml")
-    p.add_argument("--algorithm", choices=ALGORITHMS, help="image formation (image.algorithm)")
+    p = subparsers.add_parser(NAME, help="form one SAR image of a simulated scene or of a CPHD file",
+                              description=DESCRIPTION)
+    p.add_argument("scenario", metavar="SCENARIO", help=f"{' | '.join(IMAGE_SCENARIOS)}, FILE.toml or FILE.cphd")
+    p.add_argument("--algorithm", choices=ALGORITHMS + ("ffbp",),
+                   help="image formation: rda | bpa for a scenario (image.algorithm), bpa (default) | ffbp for a CPHD")
     p.add_argument("--window", metavar="NAME", help="azimuth window: none, hamming, taylor, kaiser (image.window)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, TOML value), repeatable")
-    p.add_argument("--out", help=f"output directory (default: ./{DEFAULT_OUT_ROOT}/image-<scenario>)")
+    p.add_argument("--out", help=f"output directory (default: ./{DEFAULT_OUT_ROOT}/image-<name>)")
+    p.add_argument("--cphd", action="store_true", help="also write the simulated collect as OUT/collect.cphd")
+    p.add_argument("--sicd", action="store_true", help="also write the back-projected image as OUT/image.nitf (SICD)")
+    p.add_argument("--spacing", metavar="M", help="FILE.cphd: pixel spacing [m] on the file's image plane "
+                   "(default: its image grid)")
+    p.add_argument("--extent", metavar="X[,Y]", help="FILE.cphd: image size [m] along the file's uIAX, uIAY about "
+                   "its image grid's centre (default: its image grid)")
+    p.add_argument("--filter", metavar="FILE.npy", help="FILE.cphd: weights of the frequency samples (1-D .npy)")
+    p.add_argument("--overwrite", action="store_true", help="replace another scenario's results in --out")
     p.set_defaults(handler=run)
+
+
+def _cphd(args) -> int:
+    from sarnav.errors import ConfigError
+    from sarnav.scenarios.cphd_image import run_cphd_image
+
+    for flag, given in (("--set", args.overrides), ("--cphd", args.cphd)):
+        if given:
+            raise ConfigError(flag, f"applies to simulated scenarios, not to the CPHD file {args.scenario!r}")
+    path = Path(args.scenario)
+    out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{path.stem}"
+    report = run_cphd_image(path, out, algorithm=args.algorithm or "bpa", spacing=args.spacing, extent=args.extent,
+                            window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite)
+    shape = report["image_shape"]
+    print(f"{path.name}: {report['algorithm']} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses -> {out}")
+    return 0
 
 
 def run(args) -> int:
     from sarnav.errors import ConfigError
+    from sarnav.scenarios.cphd_image import is_cphd
     from sarnav.scenarios.config import load_scenario
     from sarnav.scenarios.imaging import run_image
 
+    if is_cphd(args.scenario):
+        return _cphd(args)
+    for flag, given in (("--spacing", args.spacing), ("--extent", args.extent), ("--filter", args.filter)):
+        if given is not None:
+            raise ConfigError(flag, "applies to a CPHD file (sarnav image FILE.cphd), not to a simulated scenario")
+    if args.algorithm == "ffbp":
+        raise ConfigError("--algorithm", f"ffbp forms images of a CPHD file; a scenario takes one of {ALGORITHMS}")
     overrides = list(args.overrides)
     if args.algorithm:
         overrides.append(f"image.algorithm={args.algorithm}")
@@ -45,7 +83,7 @@ def run(args) -> int:
                           f"run it with `sarnav run {args.scenario}`")
     name = cfg["scenario"]["name"] or Path(str(args.scenario)).stem
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{name}"
-    report = run_image(cfg, out)
+    report = run_image(cfg, out, overwrite=args.overwrite, cphd=args.cphd, sicd=args.sicd)
     shape = report["image_shape"]
     print(f"{name}: {cfg['image']['algorithm']} image {shape[0]}x{shape[1]} -> {out}")
     if "point_target" in report:
@@ -55,4 +93,6 @@ def run(args) -> int:
             print(f"  {axis:>11}: IRW {d['irw_m']['measured']:.4g} m (theory {d['irw_m']['theory']:.4g}), "
                   f"PSLR {d['pslr_db']['measured']:.2f} dB ({d['pslr_db']['theory']:.2f}), "
                   f"ISLR {d['islr_db']['measured']:.2f} dB ({d['islr_db']['theory']:.2f})")
+    for f in report.get("files", []):
+        print(f"  wrote {out / f}")
     return 0

@@ -15,7 +15,10 @@ Algorithm (Ulander, Hellsten & Stenstrom, IEEE TAES 39(3) 2003, "fast factorized
    subaperture length along v).
 3. Each merge groups ``merge`` consecutive subapertures into a parent with a ``merge`` times finer u
    sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (2-D Keys cubic
-   interpolation of each child at the parent's grid points, float64 geometry).
+   interpolation of each child at the parent's grid points, float64 geometry). Kernels: per block of
+   points a vectorised float64 pass locates each point on the child (``_locate``), a vectorised float32
+   pass computes the 8 Keys weights and the phase factor, a scalar pass gathers the 16 complex64 taps
+   (``_taps``); formed polar images are stored as complex64 (rounding ~-140 dB).
 4. The pixels finally take ``A(p) = sum_J I_J(r_J(p), u_J(p)) e^{j4pi r_J(p)/lambda}``.
 
 Sampling: Delta_r = c / (2 B os), Delta_u = lambda / (2 (l_J + dx)(1 + B / 2 f_c) os) with ``os`` the
@@ -43,7 +46,7 @@ import numpy as np
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _S0, _S1, _S2, _S3, _S4, _S5,
-                                           _check_pulses, _image, _points, _wavelength, backproject_points)
+                                           _check_pulses, _cis, _image, _points, _wavelength, backproject_points)
 from sarnav.imaging.interpolation_error import interpolation_error, interpolation_error_2d
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan"]
@@ -113,10 +116,9 @@ def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: i
 # compiled kernel: evaluate a demodulated polar image at 3-D points, remodulate, accumulate
 
 @numba.njit(fastmath=True, cache=True, inline="always")
-def _sample(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im, two_over_lambda):
-    """I(r(q), u(q)) exp(j 2 pi (2/lambda)(r(q) - ref_r)) with Keys cubic weights in (r, u); (re, im)."""
-    nr, nu = img_re.shape
-    a = -0.5
+def _locate(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda):  # pragma: no cover
+    """Where point q falls on a polar image (float64): (flat index of its 4 x 4 Keys support, range and angle
+    weights in [0, 1), fractional cycle of 2 (r(q) - ref_r) / lambda; 2 marks a point off the image)."""
     dx = qx - centre[0]
     dy = qy - centre[1]
     dz = qz - centre[2]
@@ -124,76 +126,113 @@ def _sample(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im
     u = (dx * v[0] + dy * v[1] + dz * v[2]) / r
     fr = (r - r0) * inv_dr
     fu = (u - u0) * inv_du
-    ir = int(math.floor(fr))
-    iu = int(math.floor(fu))
-    if ir < 1 or iu < 1 or ir > nr - 3 or iu > nu - 3:
-        return 0.0, 0.0
-    # Keys (1981) weights at distances 1+w, w, 1-w, 2-w (a = -1/2)
-    w = fr - ir
-    x1 = 1.0 + w
-    x2 = 1.0 - w
-    x3 = 2.0 - w
-    r_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
-    r_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
-    r_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
-    r_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
-    w = fu - iu
-    x1 = 1.0 + w
-    x2 = 1.0 - w
-    x3 = 2.0 - w
-    u_a = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
-    u_b = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
-    u_c = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
-    u_d = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
-    sr = 0.0
-    si = 0.0
-    for t in range(4):
-        row = ir - 1 + t
-        wr = r_a if t == 0 else (r_b if t == 1 else (r_c if t == 2 else r_d))
-        rr = (u_a * img_re[row, iu - 1] + u_b * img_re[row, iu] + u_c * img_re[row, iu + 1]
-              + u_d * img_re[row, iu + 2])
-        ri = (u_a * img_im[row, iu - 1] + u_b * img_im[row, iu] + u_c * img_im[row, iu + 1]
-              + u_d * img_im[row, iu + 2])
-        sr += wr * rr
-        si += wr * ri
+    ir = math.floor(fr)
+    iu = math.floor(fu)
+    valid = (ir >= 1.0) & (iu >= 1.0) & (ir <= nr - 3.0) & (iu <= nu - 3.0)
+    irc = min(max(ir, 1.0), nr - 3.0)
+    iuc = min(max(iu, 1.0), nu - 3.0)
     cyc = (r - ref_r) * two_over_lambda
     f = cyc - math.floor(cyc + 0.5)        # fractional cycle, exact in float64
-    xh = math.pi * f                       # exp(j 2 pi f) from sin/cos polynomials of pi f
-    t2 = xh * xh
-    sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
-    cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
-    c = cs * cs - sn * sn
-    s_ = 2.0 * sn * cs
-    return sr * c - si * s_, sr * s_ + si * c
+    return (np.uint32((irc - 1.0) * nu + (iuc - 1.0)), np.float32(fr - ir), np.float32(fu - iu),
+            np.float32(f if valid else 2.0))
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _keys4(w):  # pragma: no cover - compiled
+    """Keys (1981, a = -1/2) weights of the taps at distances 1 + w, w, 1 - w, 2 - w (float32)."""
+    a = np.float32(-0.5)
+    x1 = np.float32(1.0) + w
+    x2 = np.float32(1.0) - w
+    x3 = np.float32(2.0) - w
+    return (((a * x1 - 5 * a) * x1 + 8 * a) * x1 - 4 * a, ((a + 2) * w - (a + 3)) * w * w + 1,
+            ((a + 2) * x2 - (a + 3)) * x2 * x2 + 1, ((a * x3 - 5 * a) * x3 + 8 * a) * x3 - 4 * a)
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _weights(n, wr, wu, f, tab):  # pragma: no cover - compiled
+    """tab[0:4] range and tab[4:8] angle Keys weights, tab[8:10] cos and sin of 2 pi f (vectorised float32)."""
+    for i in range(n):
+        tab[0, i], tab[1, i], tab[2, i], tab[3, i] = _keys4(wr[i])
+        tab[4, i], tab[5, i], tab[6, i], tab[7, i] = _keys4(wu[i])
+        tab[8, i], tab[9, i] = _cis(f[i])
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _taps(img, nu, n, base, tab, out_re, out_im, o0):  # pragma: no cover - compiled
+    """out[o0 + i] += the 4 x 4 Keys interpolation of the flat complex64 polar image at base[i], times
+    tab[8, i] + j tab[9, i] (scalar gathers)."""
+    for i in range(n):
+        b = base[i]
+        sr = np.float32(0.0)
+        si = np.float32(0.0)
+        for t in range(4):
+            row = b + np.uint32(t * nu)
+            p0 = img[row]
+            p1 = img[row + np.uint32(1)]
+            p2 = img[row + np.uint32(2)]
+            p3 = img[row + np.uint32(3)]
+            rr = tab[4, i] * p0.real + tab[5, i] * p1.real + tab[6, i] * p2.real + tab[7, i] * p3.real
+            ri = tab[4, i] * p0.imag + tab[5, i] * p1.imag + tab[6, i] * p2.imag + tab[7, i] * p3.imag
+            sr += tab[t, i] * rr
+            si += tab[t, i] * ri
+        c = tab[8, i]
+        s = tab[9, i]
+        out_re[o0 + i] += sr * c - si * s
+        out_im[o0 + i] += sr * s + si * c
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
-def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img_re, img_im, two_over_lambda,
+def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda, block,
                 out_re, out_im):  # pragma: no cover - compiled
-    """out += child polar image at the points (ref_r: (M,) parent ranges, 0 for the final pixels)."""
-    for i in numba.prange(pts.shape[0]):
-        a_, b_ = _sample(pts[i, 0], pts[i, 1], pts[i, 2], ref_r[i], centre, v, r0, inv_dr, u0, inv_du, img_re,
-                         img_im, two_over_lambda)
-        out_re[i] += a_
-        out_im[i] += b_
+    """out += polar image ``img`` ((nr, nu) complex64) at the points, remodulated by
+    exp(j 4 pi (r(q) - ref_r) / lambda) (ref_r: (M,) parent ranges, 0 for the final pixels). Blocks of points
+    in parallel; per block a vectorised float64 pass (``_locate``), a vectorised float32 pass (weights and
+    phase factor) and a scalar pass of 16-tap gathers (``_taps``)."""
+    nr, nu = img.shape
+    flat = img.ravel()
+    m = pts.shape[0]
+    for blk in numba.prange((m + block - 1) // block):
+        i0 = blk * block
+        n = min(m, i0 + block) - i0
+        base = np.empty(n, np.uint32)
+        wr = np.empty(n, np.float32)
+        wu = np.empty(n, np.float32)
+        f = np.empty(n, np.float32)
+        tab = np.empty((10, n), np.float32)
+        for i in range(n):
+            base[i], wr[i], wu[i], f[i] = _locate(pts[i0 + i, 0], pts[i0 + i, 1], pts[i0 + i, 2], ref_r[i0 + i],
+                                                  centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda)
+        _weights(n, wr, wu, f, tab)
+        _taps(flat, nu, n, base, tab, out_re, out_im, i0)
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
-def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img_re, img_im, two_over_lambda,
+def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, two_over_lambda,
            out_re, out_im):  # pragma: no cover - compiled
-    """out (Nr, Nu) += child image at the parent's polar grid points q(r, u), generated on the fly."""
+    """out (Nr, Nu) += child image ``img`` (complex64) at the parent's polar grid points q(r, u), generated on the
+    fly row by row (float64), interpolated as in ``_polar_eval``."""
     nr, nu = out_re.shape
+    cnr, cnu = img.shape
+    flat = img.ravel()
+    ore = out_re.ravel()
+    oim = out_im.ravel()
     for i in numba.prange(nr):
         r = pr0 + i * pdr
+        base = np.empty(nu, np.uint32)
+        wr = np.empty(nu, np.float32)
+        wu = np.empty(nu, np.float32)
+        f = np.empty(nu, np.float32)
+        tab = np.empty((10, nu), np.float32)
         for j in range(nu):
             u = pu0 + j * pdu
             sw = math.sqrt(max(1.0 - u * u, 0.0))
             qx = pc[0] + r * (u * pv[0] + sw * pw[0])
             qy = pc[1] + r * (u * pv[1] + sw * pw[1])
             qz = pc[2] + r * (u * pv[2] + sw * pw[2])
-            a_, b_ = _sample(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, img_re, img_im, two_over_lambda)
-            out_re[i, j] += a_
-            out_im[i, j] += b_
+            base[j], wr[j], wu[j], f[j] = _locate(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu,
+                                                  two_over_lambda)
+        _weights(nu, wr, wu, f, tab)
+        _taps(flat, cnu, nu, base, tab, ore, oim, i * nu)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -209,8 +248,7 @@ class _Polar:
     u0: float
     du: float
     nu: int
-    re: np.ndarray | None = None
-    im: np.ndarray | None = None
+    img: np.ndarray | None = None          # (nr, nu) complex64, once formed
 
     def points(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r = self.r0 + np.arange(self.nr) * self.dr
@@ -260,9 +298,10 @@ def _tile_order(shape, tile: int = 32) -> np.ndarray:
     return np.argsort(key.ravel(), kind="stable")
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(fastmath=True, cache=True)
 def _demod_kernel(values, r, two_over_lambda, out_re, out_im):  # pragma: no cover - compiled
-    for i in numba.prange(values.size):
+    # serial: ~1 ns a point; a parallel region per subaperture cost more than the work on a loaded machine
+    for i in range(values.size):
         cyc = r[i] * two_over_lambda
         xh = -math.pi * (cyc - math.floor(cyc + 0.5))
         t2 = xh * xh
@@ -304,21 +343,34 @@ class _Former:
                             None, compressed=True, wavelength=self.lam)
             re, im = _demodulate_parts(backproject_points(sub, q, interpolation=self.interpolation,
                                                           upsample=self.upsample), rq, self.lam)
-            grid.re = re.reshape(grid.nr, grid.nu)
-            grid.im = im.reshape(grid.nr, grid.nu)
+            grid.img = _complex64(re, im, grid.nr, grid.nu)
             return grid
-        grid.re = np.zeros((grid.nr, grid.nu))
-        grid.im = np.zeros((grid.nr, grid.nu))
+        re = np.zeros((grid.nr, grid.nu))
+        im = np.zeros((grid.nr, grid.nu))
         step = self.plan.base_pulses * self.plan.merge ** (level - 1)
         for j0 in range(k0, k1, step):
             child = self.build(j0, min(k1, j0 + step), level - 1)
             _merge(grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
-                   1.0 / child.dr, child.u0, 1.0 / child.du, child.re, child.im, 2.0 / self.lam, grid.re, grid.im)
+                   1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, re, im)
+        grid.img = _complex64(re, im, grid.nr, grid.nu)
         return grid
 
 
+def _complex64(re, im, nr, nu) -> np.ndarray:
+    """A formed polar image as (nr, nu) complex64 (its float32 rounding, ~-140 dB, is far below the interpolation's)."""
+    out = np.empty((nr, nu), np.complex64)
+    out.real = re.reshape(nr, nu)
+    out.imag = im.reshape(nr, nu)
+    return out
+
+
+#: points per parallel work item of the final evaluation (a 16 x 16 tile of pixels: their polar footprint is small)
+_EVAL_BLOCK = 256
+
+
 def _evaluate(g: _Polar, q, ref_r, v, lam, out_re, out_im):
-    _polar_eval(q, ref_r, g.centre, v, g.r0, 1.0 / g.dr, g.u0, 1.0 / g.du, g.re, g.im, 2.0 / lam, out_re, out_im)
+    _polar_eval(q, ref_r, g.centre, v, g.r0, 1.0 / g.dr, g.u0, 1.0 / g.du, g.img, 2.0 / lam, _EVAL_BLOCK, out_re,
+                out_im)
 
 
 #: cost of one polar-image evaluation (16 taps) relative to one back-projected pixel-pulse (measured 3-5)

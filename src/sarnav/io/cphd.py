@@ -31,7 +31,7 @@ from sarnav.imaging.grid import PlaneGrid, regular_axis
 from sarnav.imaging.range_compression import range_compress
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
-__all__ = ["write_collect", "read_collect", "read_phase_history", "CPHD_NS"]
+__all__ = ["write_collect", "read_collect", "read_phase_history", "image_grid", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.0.1"
 _C = 299792458.0
@@ -52,16 +52,23 @@ def _pvp_xml() -> dict:
     return out
 
 
-def _to_ecef(rc: PulseData, reference_point, frame: str) -> tuple[np.ndarray, np.ndarray]:
+def _to_ecef(rc: PulseData, reference_point, frame: str, scene_point=None) -> tuple[np.ndarray, np.ndarray]:
+    """(antenna positions, SRP) in ECEF: the SRP is the reference point, or ``scene_point`` (NED at the reference
+    point when frame = "ned", ECEF when frame = "ecef")."""
     ref = check_reference_point(reference_point)
     pos = np.asarray(rc.positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 3 or not np.all(np.isfinite(pos)):
         raise InputDataError("pulses.positions", "must be a finite (P, 3) array (found NaN/inf or a bad shape)")
-    if frame == "ned":
-        return ned_to_ecef(pos, ref), wgs84.geodetic_to_cartesian(ref)
-    if frame == "ecef":
-        return pos, wgs84.geodetic_to_cartesian(ref)
-    raise ConfigError("frame", f"must be 'ned' or 'ecef', got {frame!r}")
+    if frame not in ("ned", "ecef"):
+        raise ConfigError("frame", f"must be 'ned' or 'ecef', got {frame!r}")
+    if scene_point is None:
+        srp = wgs84.geodetic_to_cartesian(ref)
+    else:
+        sp = np.asarray(scene_point, dtype=np.float64)
+        if sp.shape != (3,) or not np.all(np.isfinite(sp)):
+            raise ConfigError("scene_point", f"must be 3 finite coordinates [m], got {scene_point!r}")
+        srp = ned_to_ecef(sp, ref) if frame == "ned" else sp
+    return (ned_to_ecef(pos, ref) if frame == "ned" else pos), srp
 
 
 def _compressed(pulses: PulseData, params, window) -> PulseData:
@@ -163,7 +170,8 @@ def _xml(ph, pvp, ecef_srp, llh, half, spacing, n_samples, fmt, start) -> et._El
 
 def write_collect(path, pulses: PulseData, reference_point, *, params=None, frame: str = "ned",
                   window=None, image_half_extent=None, image_spacing: float | None = None,
-                  signal_format: str = "CF8", collection_start: datetime.datetime | None = None) -> PhaseHistory:
+                  signal_format: str = "CF8", collection_start: datetime.datetime | None = None,
+                  scene_point=None) -> PhaseHistory:
     """Write a collect as a CPHD 1.0.1 file (module doc); returns the phase history written.
 
     Parameters
@@ -174,6 +182,9 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
     reference_point : (lat deg, lon deg, hae m) of the scene reference point: the SRP / IARP, and
         the origin of the NED frame when ``frame="ned"``.
     frame : "ned" (positions relative to the reference point, the simulations' frame) or "ecef".
+    scene_point : (3,) the SRP / IARP instead of the reference point itself (NED at the reference
+        point, or ECEF with ``frame="ecef"``): the centre of the imaged scene, so that the file's
+        image area and grid cover it.
     image_half_extent : (x, y) half sizes [m] of the image area along uIAX (east) and uIAY
         (north); default a square of half the slant swath. image_spacing : image-grid spacing [m];
         default the range sample spacing.
@@ -182,8 +193,8 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
     if signal_format not in _FORMATS:
         raise ConfigError("signal_format", f"must be one of {tuple(_FORMATS)}, got {signal_format!r}")
     rc = _compressed(pulses, params, window)
-    ecef, srp = _to_ecef(rc, reference_point, frame)
-    llh = check_reference_point(reference_point)
+    ecef, srp = _to_ecef(rc, reference_point, frame, scene_point)
+    llh = wgs84.cartesian_to_geodetic(srp)
     times = np.asarray(rc.pulse_times, dtype=np.float64)
     if times.size > 1 and np.any(np.diff(times) <= 0):
         raise InputDataError("pulses.pulse_times", "must be strictly increasing")
@@ -215,21 +226,33 @@ def _need(xml, path: str, what: str):
 
 def read_phase_history(path) -> tuple[PhaseHistory, object, np.ndarray]:
     """(PhaseHistory of the first channel (ECEF), the XML helper, SRP ECEF of the reference vector)."""
-    with open(path, "rb") as f, skcphd.Reader(f) as r:
-        tree = r.metadata.xmltree
-        xml = skcphd.XmlHelper(tree)
-        dom = _need(xml, "./{*}Global/{*}DomainType", "Global/DomainType")
-        if dom != "FX":
-            raise InputDataError("cphd.Global.DomainType", f"only FX-domain CPHD is supported, got {dom!r}")
-        ch = _need(xml, "./{*}Data/{*}Channel/{*}Identifier", "Data/Channel/Identifier")
-        for name in _REQUIRED_PVPS:
-            if tree.find(f"./{{*}}PVP/{{*}}{name}") is None:
-                raise InputDataError(f"cphd.PVP.{name}", "missing required per-vector parameter")
-        sig, pvp = r.read_channel(ch)
-        sgn = int(_need(xml, "./{*}Global/{*}SGN", "Global/SGN"))
+    try:
+        with open(path, "rb") as f, skcphd.Reader(f) as r:
+            tree = r.metadata.xmltree
+            xml = skcphd.XmlHelper(tree)
+            dom = _need(xml, "./{*}Global/{*}DomainType", "Global/DomainType")
+            if dom != "FX":
+                raise InputDataError("cphd.Global.DomainType", f"only FX-domain CPHD is supported, got {dom!r}")
+            ch = _need(xml, "./{*}Data/{*}Channel/{*}Identifier", "Data/Channel/Identifier")
+            for name in _REQUIRED_PVPS:
+                if tree.find(f"./{{*}}PVP/{{*}}{name}") is None:
+                    raise InputDataError(f"cphd.PVP.{name}", "missing required per-vector parameter")
+            sig, pvp = r.read_channel(ch)
+            sgn = int(_need(xml, "./{*}Global/{*}SGN", "Global/SGN"))
+    except InputDataError:
+        raise
+    except OSError as err:
+        raise InputDataError("cphd", f"cannot read {str(path)!r}: {err.strerror or err}") from None
+    except Exception as err:  # noqa: BLE001 - sarkit raises many kinds on a file that is not a CPHD
+        raise InputDataError("cphd", f"{str(path)!r} is not a readable CPHD 1.x file ({type(err).__name__}: "
+                             f"{str(err)[:120]})") from None
+    for name in ("TxPos", "RcvPos", "SRPPos", "TxTime", "SC0", "SCSS", "TOA1", "TOA2"):
+        bad = ~np.isfinite(np.asarray(pvp[name], dtype=np.float64).reshape(len(pvp), -1)).all(axis=1)
+        if bad.any():
+            raise InputDataError(f"cphd.PVP.{name}", f"must be finite: NaN/inf in vector {int(np.argmax(bad))}")
+    if not np.all(np.isfinite(sig)):
+        raise InputDataError("cphd.Signal", "contains NaN/inf samples")
     tx, rx, srp = pvp["TxPos"], pvp["RcvPos"], pvp["SRPPos"]
-    if not (np.all(np.isfinite(tx)) and np.all(np.isfinite(rx)) and np.all(np.isfinite(srp))):
-        raise InputDataError("cphd.PVP.TxPos", "antenna or SRP positions contain NaN/inf")
     ref = 0.5 * (np.linalg.norm(tx - srp, axis=1) + np.linalg.norm(rx - srp, axis=1))
     ph = PhaseHistory(np.asarray(sig), pvp["SC0"], pvp["SCSS"], 0.5 * (tx + rx), ref, pvp["TxTime"],
                       np.stack([pvp["TOA1"], pvp["TOA2"]], axis=1), sgn)
@@ -263,13 +286,15 @@ def _default_grid(xml, srp) -> PlaneGrid:
     return PlaneGrid(iarp, uiax, uiay, lines, samples, "iax", "iay")
 
 
-def read_collect(path, range_axis=None, *, oversample: float = 1.0) -> tuple[PulseData, PlaneGrid]:
+def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None) -> tuple[PulseData, PlaneGrid]:
     """Read a monostatic FX-domain CPHD: (range-compressed PulseData in ECEF, default image grid).
 
     The pulses land on one absolute range axis (``range_axis`` or the default of
     :func:`sarnav.signal.phase_history.default_range_axis`), wavelength c / FxC. The default grid is
     the file's SceneCoordinates image grid (IARP + line uIAX + sample uIAY, ECEF), or its image area
-    sampled at c / (2 FxBW) when the file has no image grid.
+    sampled at c / (2 FxBW) when the file has no image grid. ``filter``: optional (N,) weights of
+    the frequency samples (``phase_history_to_pulses``; a phase history shorter than the filter is
+    an error).
 
     Raises
     ------
@@ -277,6 +302,42 @@ def read_collect(path, range_axis=None, *, oversample: float = 1.0) -> tuple[Pul
     """
     ph, xml, srp = read_phase_history(path)
     fxc = float(_need(xml, "./{*}Channel/{*}Parameters/{*}FxC", "Channel/Parameters/FxC"))
-    rc = phase_history_to_pulses(ph, range_axis, wavelength=_C / fxc, oversample=oversample,
+    rc = phase_history_to_pulses(ph, range_axis, wavelength=_C / fxc, oversample=oversample, filter=filter,
                                  metadata={"source": "cphd", "file": str(path)})
     return rc, _default_grid(xml, srp)
+
+
+def _positive(name: str, v) -> float:
+    v = float(v) if isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) else math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError(name, f"must be finite and > 0 m, got {v!r}")
+    return v
+
+
+def image_grid(grid: PlaneGrid, spacing=None, extent=None) -> PlaneGrid:
+    """``grid`` (a CPHD's image grid, ``read_collect``) resampled on the same plane about the same centre.
+
+    spacing : pixel spacing [m] along both axes (default: the grid's own row and column spacings).
+    extent : (x, y) full size [m] along the row and column axes (uIAX, uIAY), or one number for both
+        (default: the grid's own extent). The pixels are ``centre + (i - (n-1)/2) spacing`` with
+        ``n = floor(extent / spacing) + 1``.
+    """
+    rows, cols = np.asarray(grid.rows), np.asarray(grid.cols)
+    if spacing is None:
+        sp = (float(rows[1] - rows[0]), float(cols[1] - cols[0]))
+    else:
+        sp = (_positive("spacing", spacing),) * 2
+    if extent is None:
+        ext = (float(rows[-1] - rows[0]), float(cols[-1] - cols[0]))
+    else:
+        ext = tuple(extent) if np.ndim(extent) == 1 else (extent, extent)
+        if len(ext) != 2:
+            raise ConfigError("extent", f"must be one or two sizes [m], got {extent!r}")
+        ext = tuple(_positive("extent", e) for e in ext)
+    n = [int(math.floor(e / s + 1e-9)) + 1 for e, s in zip(ext, sp)]
+    if min(n) < 2:
+        raise ConfigError("extent", f"must span at least two pixels of {sp[0]:g} m, got {ext[0]:g} x {ext[1]:g} m")
+    new_rows = regular_axis(0.5 * float(rows[0] + rows[-1]), sp[0], n[0], "grid.rows")
+    new_cols = regular_axis(0.5 * float(cols[0] + cols[-1]), sp[1], n[1], "grid.cols")
+    return PlaneGrid(grid.origin, grid.row_direction, grid.col_direction, new_rows, new_cols, grid.row_name,
+                     grid.col_name)

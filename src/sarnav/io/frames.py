@@ -13,7 +13,8 @@ import sarkit.wgs84 as wgs84
 
 from sarnav.errors import InputDataError
 
-__all__ = ["ned_basis", "ned_to_ecef", "ecef_to_ned", "check_reference_point"]
+__all__ = ["ned_basis", "ned_to_ecef", "ecef_to_ned", "check_reference_point", "ground_grid_to_ecef",
+           "grid_to_ecef"]
 
 
 def check_reference_point(reference_point) -> np.ndarray:
@@ -52,3 +53,22 @@ def ground_grid_to_ecef(grid, reference_point):
     origin, rot = ned_basis(reference_point)
     o = origin + rot @ np.array([0.0, 0.0, float(grid.down)])
     return PlaneGrid(o, rot[:, 0], rot[:, 1], grid.north, grid.east, "north", "east")
+
+
+def grid_to_ecef(grid, reference_point):
+    """Any plane grid in NED at the reference point (``GroundGrid``, ``SlantGrid``, ``PlaneGrid``) as the same
+    pixels on a ``PlaneGrid`` in ECEF (same axes and names; a rigid transform, so distances are unchanged)."""
+    from sarnav.imaging.grid import GroundGrid, PlaneGrid, SlantGrid
+
+    if isinstance(grid, GroundGrid):
+        return ground_grid_to_ecef(grid, reference_point)
+    origin, rot = ned_basis(reference_point)
+    if isinstance(grid, SlantGrid):
+        o, a, b, rows, cols, names = (grid.origin, grid.direction, grid.normal_in_plane, grid.along_track,
+                                      grid.slant_range, ("along_track", "slant_range"))
+    elif isinstance(grid, PlaneGrid):
+        o, a, b, rows, cols, names = (grid.origin, grid.row_direction, grid.col_direction, grid.rows, grid.cols,
+                                      (grid.row_name, grid.col_name))
+    else:
+        raise InputDataError("grid", f"must be a GroundGrid, SlantGrid or PlaneGrid (a plane), got {type(grid).__name__}")
+    return PlaneGrid(origin + rot @ np.asarray(o, dtype=np.float64), rot @ a, rot @ b, rows, cols, *names)

@@ -151,6 +151,22 @@ def _root(nr, nc, scp_px, scp, corners, grid_xml, t, pos, geo, plane):
     return tree
 
 
+def _corners(nr, nc, scp_px, ss_r, ss_c, scp, urow, ucol, pos, up) -> np.ndarray:
+    """(4, 2) lat, lon of the corner pixels on the ground: the image plane's axes projected onto the plane
+    tangent at the SCP along the slant-plane normal of mid aperture (SICD Vol. 1 ImageCorners; the identity for a
+    ground-plane image)."""
+    k = pos.shape[0] // 2
+    vel = pos[min(k + 1, pos.shape[0] - 1)] - pos[max(k - 1, 0)]
+    spn = np.cross(pos[k] - scp, vel)
+    spn = spn / np.linalg.norm(spn)
+    spn = spn if np.dot(spn, up) > 0 else -spn
+    gnd_r = urow - np.dot(urow, up) * spn / np.dot(spn, up)
+    gnd_c = ucol - np.dot(ucol, up) * spn / np.dot(spn, up)
+    corner_px = np.array([[0, 0], [0, nc - 1], [nr - 1, nc - 1], [nr - 1, 0]])
+    corner_ecf = scp + ((corner_px[:, :1] - scp_px[0]) * ss_r) * gnd_r + ((corner_px[:, 1:] - scp_px[1]) * ss_c) * gnd_c
+    return wgs84.cartesian_to_geodetic(corner_ecf)[:, :2]
+
+
 def write_image(path, image: SarImage, geometry: SicdGeometry) -> et._ElementTree:
     """Write ``image`` (formed on ``geometry.grid``) as a SICD NITF (e.g. ``out / "image.nitf"``).
 
@@ -172,11 +188,9 @@ def write_image(path, image: SarImage, geometry: SicdGeometry) -> et._ElementTre
     xrow = (np.arange(nr) - scp_px[0]) * ss_r
     ycol = (np.arange(nc) - scp_px[1]) * ss_c
     deramp = np.exp(-2j * np.pi * (row["KCtr"] * xrow[:, None] + col["KCtr"] * ycol[None, :]))
-    corner_px = np.array([[0, 0], [0, nc - 1], [nr - 1, nc - 1], [nr - 1, 0]])
-    corner_ecf = scp + ((corner_px[:, :1] - scp_px[0]) * ss_r) * urow + ((corner_px[:, 1:] - scp_px[1]) * ss_c) * ucol
-    corners = wgs84.cartesian_to_geodetic(corner_ecf)[:, :2]
     up = wgs84.up(wgs84.cartesian_to_geodetic(scp))
     plane = "GROUND" if abs(np.dot(np.cross(urow, ucol), up)) > 1 - 1e-6 else "OTHER"
+    corners = _corners(nr, nc, scp_px, ss_r, ss_c, scp, urow, ucol, pos, up)
     tree = _root(nr, nc, scp_px, scp, corners, {"Row": row, "Col": col}, t, pos, geometry, plane)
     sec = {"security": {"clas": "U"}}
     meta = sksicd.NitfMetadata(xmltree=tree, file_header_part={"ostaid": "sarnav", "ftitle": "sarnav BPA image"} | sec,

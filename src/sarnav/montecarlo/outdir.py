@@ -31,7 +31,7 @@ LOCK = ".sarnav.lock"
 #: files sarnav writes at the top of an output folder (removed by ``overwrite``)
 OUTPUT_FILES = ("results.nc", "summary.json", "campaign.json", "INCOMPLETE", "study.json", "sensitivity.csv",
                 "sensitivity.png", "image.npz", "image.png", "metrics.json", "report.html", "compare.html",
-                "compare.csv", IDENTITY)
+                "compare.csv", "collect.cphd", "image.nitf", IDENTITY)
 OUTPUT_DIRS = ("runs", "figures")
 
 

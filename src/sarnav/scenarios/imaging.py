@@ -17,6 +17,8 @@ Tables (shared vocabulary, docs/scenarios/vocabulary.md)::
                  target_along_track_m, target_slant_range_m          (point)
                  along_track_extent_m, slant_range_min_m, slant_range_max_m,
                  density_per_m2 (per m^2 of flat ground), amplitude_law  (random)
+                 origin_llh = [lat deg, lon deg, height m]: where the NED origin is on the WGS-84
+                 ellipsoid (used only by the CPHD / SICD files, ``sarnav image --cphd / --sicd``)
     [image]      algorithm ("rda" | "bpa"), window, rcmc_kernel, azimuth_model, speed_error_mps,
                  autofocus ("none" | "mapdrift" | "contrast"), bpa_interpolation
 
@@ -24,7 +26,9 @@ The antenna flies north through ``start_ned`` at t = 0, looking right (east) by 
 0, so the aperture centre is at north = start_ned[0] and the image's along-track axis is measured from it.
 ``image.speed_error_mps`` is added to the true speed for focusing (a navigation speed error, to exercise autofocus).
 The receive window spans the imaged slant ranges plus the pulse half-extent cT/4 and ``radar.range_margin_m``.
-Configuration and wiring only: the focusing is ``imaging.straight_block``, the files ``report.image_files``.
+Configuration and wiring only: the focusing is ``imaging.straight_block``, the files ``report.image_files``, the
+collect as CPHD (``collect.cphd``, scene reference point at the scene centre) and the back-projected image as SICD
+(``image.nitf``) ``sarnav.io``.
 """
 
 from __future__ import annotations
@@ -42,7 +46,7 @@ from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
-           "ALGORITHMS", "AUTOFOCUS"]
+           "write_cphd", "write_sicd", "scene_centre", "origin_llh", "ALGORITHMS", "AUTOFOCUS"]
 
 SCENE_TYPES = ("point", "random")
 #: snr_db at or above this value means "no receiver noise" (TOML has no None; inf is rejected)
@@ -60,7 +64,7 @@ _BASE = {
         "type": "point", "seed": 0,
         "target_along_track_m": 0.0, "target_slant_range_m": 2000.0,
         "along_track_extent_m": 40.0, "slant_range_min_m": 1985.0, "slant_range_max_m": 2020.0,
-        "density_per_m2": 0.01, "amplitude_law": "rayleigh",
+        "density_per_m2": 0.01, "amplitude_law": "rayleigh", "origin_llh": [58.4, 15.6, 100.0],
     },
     "image": {
         "algorithm": "rda", "window": "none", "rcmc_kernel": "sinc8", "azimuth_model": "parabolic",
@@ -170,6 +174,7 @@ def validate(cfg: dict) -> None:
         _num(cfg, "scene", "slant_range_max_m", rmin, None, lo_open=True)
         _num(cfg, "scene", "density_per_m2", 0, 10.0, lo_open=True)
         _choice(cfg, "scene", "amplitude_law", ("rayleigh", "constant"))
+    origin_llh(cfg)
     params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
     _check_size(n_pulses, params.n_range_samples)
     _check_doppler_band(cfg)
@@ -182,6 +187,18 @@ def validate(cfg: dict) -> None:
     if cfg["image"]["autofocus"] != "none" and cfg["image"]["algorithm"] != "rda":
         raise ConfigError("image.autofocus", "autofocus works on RDA images; set image.algorithm = \"rda\"")
     _choice(cfg, "image", "bpa_interpolation", ("nearest", "linear", "cubic", "upsample"))
+
+
+def origin_llh(cfg: dict) -> list[float]:
+    """``scene.origin_llh`` validated: latitude in [-90, 90] deg, longitude in [-180, 360] deg, height in
+    [-1e4, 1e5] m above the WGS-84 ellipsoid."""
+    v = cfg["scene"].get("origin_llh")
+    ok = isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                     and math.isfinite(x) for x in v)
+    if not ok or not (-90 <= v[0] <= 90 and -180 <= v[1] <= 360 and -1e4 <= v[2] <= 1e5):
+        raise ConfigError("scene.origin_llh", "must be [latitude deg in [-90, 90], longitude deg in [-180, 360], "
+                          f"height m in [-1e4, 1e5]], got {v!r}")
+    return [float(x) for x in v]
 
 
 #: the largest block of echoes simulated [bytes, complex128]: pulses x range samples x 16
@@ -331,24 +348,78 @@ def image_report(cfg: dict, img, sc, params, af) -> dict:
     return report
 
 
-def run_image(cfg: dict, out, overwrite: bool = False) -> dict:
+def scene_centre(cfg: dict) -> tuple[np.ndarray, tuple[float, float]]:
+    """(NED centre of the imaged scene on the ground, (north, east) half sizes [m]) — the CPHD's scene reference
+    point and image area (a point target: +-10 m about it)."""
+    s = cfg["scene"]
+    h = altitude(cfg)
+    side = cfg["radar"]["look_side"]
+    n0, e0 = (float(v) for v in cfg["trajectory"]["start_ned"][:2])
+    if s["type"] == "point":
+        return np.array([n0 + float(s["target_along_track_m"]), e0 + _ground(s["target_slant_range_m"], h, side),
+                         0.0]), (10.0, 10.0)
+    g = sorted(e0 + _ground(float(s[k]), h, side) for k in ("slant_range_min_m", "slant_range_max_m"))
+    return (np.array([n0, 0.5 * (g[0] + g[1]), 0.0]),
+            (0.5 * float(s["along_track_extent_m"]) + 5.0, 0.5 * (g[1] - g[0]) + 5.0))
+
+
+def write_cphd(cfg: dict, rc, path) -> None:
+    """The simulated collect (range-compressed pulses, NED at ``scene.origin_llh``) as CPHD: the scene reference point
+    at the scene centre, the image area its half sizes (uIAX east, uIAY north), the image grid at the range sample
+    spacing."""
+    from sarnav.io.cphd import write_collect
+
+    centre, (half_n, half_e) = scene_centre(cfg)
+    write_collect(path, rc, origin_llh(cfg), scene_point=centre, image_half_extent=(half_e, half_n))
+
+
+def write_sicd(cfg: dict, img, rc, params, path) -> None:
+    """A back-projected scenario image (slant plane of the processor's straight track) as SICD: its grid and the
+    processor's antenna positions mapped from NED to ECEF at ``scene.origin_llh``."""
+    from sarnav.imaging.grid import PlaneGrid
+    from sarnav.io.frames import grid_to_ecef, ned_to_ecef
+    from sarnav.io.sicd import SicdGeometry, write_image
+
+    ref = origin_llh(cfg)
+    m = img.metadata
+    grid = grid_to_ecef(PlaneGrid(m["grid_origin"], m["grid_direction"], m["grid_normal"], img.y, img.x,
+                                  img.y_name, img.x_name), ref)
+    v_hat = float(cfg["trajectory"]["speed"]) + float(cfg["image"]["speed_error_mps"])
+    track = np.asarray(cfg["trajectory"]["start_ned"], dtype=np.float64) + rc.pulse_times[:, None] * [v_hat, 0, 0]
+    write_image(path, img, SicdGeometry(grid, ned_to_ecef(track, ref), rc.pulse_times, params.wavelength,
+                                        params.bandwidth))
+
+
+def run_image(cfg: dict, out, overwrite: bool = False, *, cphd: bool = False, sicd: bool = False) -> dict:
     """Simulate, focus, measure; write ``image.npz``, ``image.png`` and ``metrics.json`` into ``out`` (claimed as
-    ``montecarlo.outdir.OutputFolder``: ``overwrite`` replaces another scenario's results); return the metrics."""
+    ``montecarlo.outdir.OutputFolder``: ``overwrite`` replaces another scenario's results), with ``cphd`` also the
+    collect as ``collect.cphd``, with ``sicd`` the image as ``image.nitf`` (BPA only); return the metrics."""
     from sarnav.montecarlo.outdir import OutputFolder, identity
 
+    validate(cfg)
+    if sicd and cfg["image"]["algorithm"] != "bpa":
+        raise ConfigError("--sicd", f"a SICD holds a back-projected image on a plane; {cfg['image']['algorithm']!r} "
+                          "images have none: use --algorithm bpa (or sarnav image FILE.cphd --sicd)")
     with OutputFolder(out, identity(cfg), overwrite=overwrite):
-        return _image_files(cfg, Path(out))
+        return _image_files(cfg, Path(out), cphd, sicd)
 
 
-def _image_files(cfg: dict, out: Path) -> dict:
+def _image_files(cfg: dict, out: Path, cphd: bool = False, sicd: bool = False) -> dict:
     from sarnav.report.image_files import write_image_npz, write_image_png, write_json
     from sarnav.tomlio import dump_toml
 
     rc, sc, params = build_pulses(cfg)
+    if cphd:
+        write_cphd(cfg, rc, out / "collect.cphd")
     img, af = form_image(cfg, rc)
     write_image_npz(img, params, out / "image.npz", speed=float(cfg["trajectory"]["speed"]),
                     scenario_toml=dump_toml(cfg))
     report = image_report(cfg, img, sc, params, af)
+    if sicd:
+        write_sicd(cfg, img, rc, params, out / "image.nitf")
+    files = [name for name, on in (("collect.cphd", cphd), ("image.nitf", sicd)) if on]
+    if files:
+        report["files"] = files
     write_json(report, out / "metrics.json")
     name = cfg["scenario"]["name"] or "image"
     write_image_png(img, out / "image.png", f"{name}: {cfg['image']['algorithm'].upper()}, "
