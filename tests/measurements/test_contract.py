@@ -30,6 +30,15 @@ def _telemetry_nav(rng, runs):
                     1e-5 * rng.standard_normal((runs, 3)), 0.1 * rng.standard_normal((runs, 3)))
 
 
+def _overflight_nav(rng, runs):
+    """Near the closest approach to a target under the track (cross-track offset and velocity near zero): the
+    geometry where the telemetry Hessians matter (docs/scenarios/telemetry.md, "Target under the track")."""
+    p = np.array([TARGET[0], TARGET[1], -500.0]) + rng.uniform(-20, 20, (runs, 3)) * [1.0, 0.3, 0.1]
+    v = np.array([50.0, 0.0, 0.0]) + rng.uniform(-0.5, 0.5, (runs, 3))
+    return NavState(p, v, quat_normalize(rng.standard_normal((runs, 4))), 0.01 * rng.standard_normal((runs, 3)),
+                    1e-5 * rng.standard_normal((runs, 3)), 0.1 * rng.standard_normal((runs, 3)))
+
+
 def _sar_nav(rng, runs):
     p = np.array([118.0, 3.0, -1000.0]) + rng.uniform(-5, 5, (runs, 3))
     v = np.array([10.0, 0.07, -0.02]) + rng.uniform(-0.5, 0.5, (runs, 3))
@@ -42,6 +51,9 @@ MODELS = {
     "altimeter": (lambda runs: AltimeterMeasurement(0.07, TELEMETRY), TELEMETRY, _telemetry_nav, 1e-2),
     "range": (lambda runs: RangeMeasurement(TARGET, 0.07, TELEMETRY), TELEMETRY, _telemetry_nav, 1e-2),
     "range-rate": (lambda runs: RangeRateMeasurement(TARGET, 0.07, TELEMETRY), TELEMETRY, _telemetry_nav, 1e-2),
+    "range-overflight": (lambda runs: RangeMeasurement(TARGET, 0.07, TELEMETRY), TELEMETRY, _overflight_nav, 1e-2),
+    "range-rate-overflight": (lambda runs: RangeRateMeasurement(TARGET, 0.07, TELEMETRY), TELEMETRY, _overflight_nav,
+                              1e-2),
     "sar-range": (lambda runs: SarRangeMeasurement(SAR_TARGET, 0.25, SAR), SAR, _sar_nav, 1e-2),
     "sar-cross-zero-doppler": (lambda runs: SarCrossRangeMeasurement(SAR_TARGET, 0.25, SAR), SAR, _sar_nav, 1e-3),
     "sar-cross-paper": (lambda runs: SarCrossRangeMeasurement(

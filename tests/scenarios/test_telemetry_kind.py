@@ -40,6 +40,9 @@ def test_records_follow_the_contract(campaign):
 
 def test_monte_carlo_is_consistent(campaign):
     _check_consistency(campaign[2])
+    # the target 200 m off the track: every second-order term is small, the Gaussian sum never splits
+    assert all(np.all(r.extras["components"][1] == 1) for r in campaign[2])
+    assert max(r.extras["nonlinearity"][1].max() for r in campaign[2]) < campaign[0]["update"]["split_threshold"]
 
 
 def test_maneuvering_monte_carlo_is_consistent():
@@ -48,7 +51,7 @@ def test_maneuvering_monte_carlo_is_consistent():
     _check_consistency(KIND.simulate(cfg, list(range(200)), _seeds(cfg)))
 
 
-def _check_consistency(recs):
+def _check_consistency(recs, converges=True, epochs_in_band=0.90):
     R = len(recs)
     err = np.stack([r.error for r in recs])
     sig = np.stack([r.sigma for r in recs])
@@ -57,8 +60,9 @@ def _check_consistency(recs):
     lo, hi = chi2.ppf([0.025, 0.975], R * S) / R  # two-sided 95% band of the mean NEES
     assert lo < nees[-1] < hi, (nees[-1], lo, hi)
     assert lo < nees[0] < hi
+    assert lo < nees.mean() < hi, (nees.mean(), lo, hi)  # the time average of the run-mean NEES
     inside = np.mean((nees > lo) & (nees < hi))
-    assert inside >= 0.90, inside  # 95% expected per epoch; epochs are correlated
+    assert epochs_in_band is None or inside >= epochs_in_band, inside  # 95% expected per epoch; epochs are correlated
     # >= 99% of error samples inside +-3 sigma for every state
     frac = (np.abs(err) <= 3 * sig).mean(axis=(0, 1))
     assert np.all(frac >= 0.99), dict(zip(KIND.state_names({}), frac.round(4)))
@@ -72,6 +76,8 @@ def _check_consistency(recs):
     lo3, hi3 = chi2.ppf([0.025, 0.975], 3 * nis.size) / nis.size
     assert lo3 < nis.mean() < hi3
     # the filter converges: final position 3-sigma below the initial one in N, E and D
+    if not converges:
+        return
     s0, sT = sig[:, 0, :3].mean(axis=0), sig[:, -1, :3].mean(axis=0)
     np.testing.assert_allclose(3 * s0, [1.0, 1.0, 3.0])  # Table A.7
     assert np.all(sT < s0), (3 * sT, 3 * s0)
@@ -103,6 +109,66 @@ def test_maneuver_and_other_grades_run():
     assert "imu.vrw_3sigma" in KIND.optional_keys() and "initial.gyro_bias_3sigma" in KIND.optional_keys()
 
 
+#: Table 3.4's track (start east -200 m, flying north) passes over this target at t = 10 s, 500 m above it
+OVERFLOWN = [500.0, -200.0, 0.0]
+
+
+def _overflown(runs, strategy):
+    cfg = KIND.default_config()
+    cfg["campaign"]["runs"] = runs
+    cfg["target"]["position_ned"] = list(OVERFLOWN)
+    cfg["update"]["strategy"] = strategy
+    return cfg, KIND.simulate(cfg, list(range(runs)), _seeds(cfg))
+
+
+def _mean_nees_and_nis(recs):
+    nees = np.stack([r.nees for r in recs]).mean(axis=0)
+    nis = np.stack([r.nis for r in recs])
+    R = len(recs)
+    band = chi2.ppf([0.025, 0.975], 18 * R) / R
+    nis_band = chi2.ppf([0.025, 0.975], 3 * nis.size) / nis.size / 3
+    return nees, nis.mean() / 3, band, nis_band
+
+
+def test_target_under_the_track_first_order_ekf_is_over_confident_and_the_gaussian_sum_is_not():
+    """40 runs (issue 10 item 5): the cross-track error is seen only at second order; the EKF treats its
+    persistent linearisation remainder as white noise (docs/scenarios/telemetry.md, "Target under the track")."""
+    _, ekf = _overflown(40, "ekf")
+    nees, nis, (lo, hi), (nlo, nhi) = _mean_nees_and_nis(ekf)
+    assert nees.mean() > hi and nees[-1] > 1.5 * hi, (nees.mean(), nees[-1], hi)
+    assert nlo < nis < nhi  # the innovations look fine: only the NEES shows it
+    cfg, mix = _overflown(40, "gaussian-sum")
+    nees, nis, (lo, hi), (nlo, nhi) = _mean_nees_and_nis(mix)
+    assert lo < nees.mean() < hi and nees[-1] < 1.5 * hi, (nees.mean(), nees[-1], lo, hi)
+    assert nlo < nis < nhi
+    # a single Gaussian's second-order term exceeds the threshold and the filter splits where it does
+    comps = np.stack([r.extras["components"][1] for r in mix])
+    nonlin = np.stack([r.extras["nonlinearity"][1] for r in mix])
+    assert nonlin.max() > 10 * cfg["update"]["split_threshold"] and comps.max() > 1
+    assert np.all(comps[nonlin.max(axis=2) > cfg["update"]["split_threshold"]] > 1)
+
+
+def test_runs_with_split_components_do_not_depend_on_the_batch():
+    cfg, recs = _overflown(4, "gaussian-sum")
+    seeds = _seeds(cfg)
+    for i in (1, 3):
+        alone = KIND.simulate(cfg, [i], [seeds[i]])[0]
+        assert alone.extras["components"][1].max() > 1
+        for f in ("error", "sigma", "nees", "residual", "residual_sigma", "nis"):
+            np.testing.assert_array_equal(getattr(alone, f), getattr(recs[i], f))
+        np.testing.assert_array_equal(alone.extras["components"][1], recs[i].extras["components"][1])
+
+
+@pytest.mark.slow
+def test_target_under_the_track_is_consistent_with_the_gaussian_sum():
+    """1000 runs (band +-0.37 on the mean NEES): the consistency check of the default geometry, except convergence of
+    the cross-track position, which the measurements see only at second order (its 3-sigma grows to about 19 m), and
+    the share of epochs in band, which a filter fed the linearised measurements misses too here (0.88: this INS
+    filter's NEES creeps up by ~0.5 % over the flight, inside 200-run bands, outside some 1000-run ones)."""
+    _, recs = _overflown(1000, "gaussian-sum")
+    _check_consistency(recs, converges=False, epochs_in_band=None)
+
+
 @pytest.mark.parametrize(
     "table,key,value,field",
     [
@@ -127,6 +193,14 @@ def test_maneuver_and_other_grades_run():
         ("target", "position_ned", [1.0, float("inf"), 0.0], "target.position_ned[1]"),
         ("initial", "p_3sigma", [1.0, 0.0, 3.0], "initial.p_3sigma[1]"),
         ("initial", "bias_alt_3sigma", -1.0, "initial.bias_alt_3sigma"),
+        ("update", "strategy", "iterated", "update.strategy"),
+        ("update", "split_threshold", 0.0, "update.split_threshold"),
+        ("update", "split_threshold", float("nan"), "update.split_threshold"),
+        ("update", "split_threshold", 1e6, "update.split_threshold"),
+        ("update", "max_components", 0, "update.max_components"),
+        ("update", "max_components", 100, "update.max_components"),
+        ("update", "max_components", 9.0, "update.max_components"),
+        ("update", "max_components", True, "update.max_components"),
     ],
 )
 def test_bad_values_name_the_field(table, key, value, field):

@@ -13,7 +13,7 @@ import numpy as np
 from sarnav.errors import InputDataError
 from sarnav.filters.prediction import Prediction
 
-__all__ = ["second_order_terms", "with_second_order"]
+__all__ = ["second_order_terms", "with_second_order", "batched_terms", "with_second_order_batched"]
 
 
 def second_order_terms(hessians, P):
@@ -49,3 +49,27 @@ def with_second_order(pred: Prediction, P) -> Prediction:
         z_hat[r] += dz
         R[r] += C
     return pred.replace(z_hat=z_hat, R=R)
+
+
+def batched_terms(hessians, P):
+    """(dz (R, m), C (R, m, m)) for a batch: hessians (R, m, n, n), P (R, n, n); the same terms as
+    :func:`second_order_terms`, vectorised (rounding differs from the loop). Only the states where some Hessian of
+    the batch is non-zero enter: tr(A P) and tr(A P A P) need no other block of P (for the measurement models, whose
+    Hessians have a fixed pattern, a row's result does not depend on the other rows)."""
+    A = np.asarray(hessians, dtype=np.float64)
+    P = np.asarray(P, dtype=np.float64)
+    if A.ndim != 4 or P.shape != (A.shape[0],) + A.shape[2:] or A.shape[2] != A.shape[3]:
+        raise InputDataError("hessians", f"need hessians (R, m, n, n) and P (R, n, n), got {A.shape}, {P.shape}")
+    nz = np.any(A, axis=(0, 1))
+    on = np.flatnonzero(nz.any(axis=0) | nz.any(axis=1))
+    A, P = A[:, :, on][:, :, :, on], P[:, on][:, :, on]
+    AP = A @ P[:, None]
+    return 0.5 * np.einsum("rmii->rm", AP), 0.5 * np.einsum("rmij,rlji->rml", AP, AP)
+
+
+def with_second_order_batched(pred: Prediction, P) -> Prediction:
+    """:func:`with_second_order` through :func:`batched_terms` (for large batches, e.g. mixture components)."""
+    if pred.hessians is None:
+        raise InputDataError("prediction.hessians", "the second-order terms need the measurement's Hessians")
+    dz, C = batched_terms(pred.hessians, P)
+    return pred.replace(z_hat=pred.z_hat + dz, R=pred.R + C)

@@ -14,7 +14,9 @@ recorded at every output epoch. A kind makes its measurements at the end of each
 (``nav``, ``P``) and calls :meth:`ErrorStateFlight.after_update`.
 
 The covariance of a step uses T_b^n at the step's start (``covariance_attitude="start"``) or the normalised
-mean of the start and end quaternions (``"mid"``); f^n is the step mean of the INS either way.
+mean of the start and end quaternions (``"mid"``); f^n is the step mean of the INS either way. With
+``interval_transition=True`` :meth:`ErrorStateFlight.fly_interval` also returns the transition and process noise of
+the whole interval (the product of the steps'), for filters that carry more than one covariance (Gaussian sums).
 """
 
 from __future__ import annotations
@@ -82,13 +84,14 @@ class ErrorStateFlight:
     """
 
     def __init__(self, spec: FlightSpec, layout: ErrorStateLayout, seeds,
-                 extra_draws: Callable | None = None, covariance_attitude: str = "mid"):
+                 extra_draws: Callable | None = None, covariance_attitude: str = "mid", interval_transition: bool = False):
         if covariance_attitude not in COVARIANCE_ATTITUDES:
             raise ConfigError("covariance_attitude", f"must be one of {COVARIANCE_ATTITUDES}, got {covariance_attitude!r}")
         m, c = int(spec.samples_per_update), int(spec.samples_per_step)
         if c < 1 or m % c:
             raise ConfigError("samples_per_step", f"must divide samples_per_update = {m}, got {c}")
         self.spec, self.layout, self.attitude = spec, layout, covariance_attitude
+        self.interval_transition = bool(interval_transition)
         self.rngs = [np.random.default_rng(s) for s in seeds]
         R, L = len(self.rngs), layout
         self.R, self.m, self.c, self.steps = R, m, c, m // c
@@ -143,7 +146,8 @@ class ErrorStateFlight:
         """INS + covariance over update interval u; records every epoch but the last (recorded by
         :meth:`after_update`). Returns {"j": index of the last epoch, "t": (steps + 1,) epochs, "p", "v":
         (R, steps + 1, 3) the INS position and velocity at them, "q": (R, steps + 1, 4) its attitude, "f_mean": (R, 3)
-        f^n of the last step}."""
+        f^n of the last step}; with ``interval_transition`` also "Phi", "Qd": (R, n, n) transition and process noise
+        over the interval."""
         m, c, steps = self.m, self.c, self.steps
         k0 = u * m
         nu_blk, om_blk, ba_blk, bg_blk = self._imu.next(m)
@@ -152,6 +156,9 @@ class ErrorStateFlight:
         q_hist = np.empty((self.R, steps + 1, 4))
         p_hist[:, 0], v_hist[:, 0], q_hist[:, 0] = self.nav.p, self.nav.v, self.nav.q
         f_mean = None
+        if self.interval_transition:
+            n = self.layout.n
+            Phi_i, Qd_i = np.broadcast_to(np.eye(n), (self.R, n, n)).copy(), np.zeros((self.R, n, n))
         for s in range(steps):
             a, b = s * c, (s + 1) * c
             q_start = self.nav.q
@@ -161,13 +168,18 @@ class ErrorStateFlight:
             q_cov = q_start if self.attitude == "start" else quat_normalize(q_start + self.nav.q)
             Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, c * self.dt)
             self.P = propagate_covariance(self.P, Phi, Qd)
+            if self.interval_transition:
+                Phi_i, Qd_i = Phi @ Phi_i, propagate_covariance(Qd_i, Phi, Qd)
             j = u * steps + s + 1
             p_hist[:, s + 1], v_hist[:, s + 1], q_hist[:, s + 1] = self.nav.p, self.nav.v, self.nav.q
             if s < steps - 1:
                 self.record(j, self.truth_at(j, ba_blk[:, b], bg_blk[:, b]))
         j = (u + 1) * steps
         self.truth = self.truth_at(j, ba_blk[:, m], bg_blk[:, m])
-        return {"j": j, "t": self.t_out[u * steps:j + 1], "p": p_hist, "v": v_hist, "q": q_hist, "f_mean": f_mean}
+        out = {"j": j, "t": self.t_out[u * steps:j + 1], "p": p_hist, "v": v_hist, "q": q_hist, "f_mean": f_mean}
+        if self.interval_transition:
+            out.update(Phi=Phi_i, Qd=Qd_i)
+        return out
 
     def after_update(self, j: int, dx, P_post) -> None:
         """Feed the error-state estimate back into the INS (eq. 3.23), take the posterior covariance, restart
