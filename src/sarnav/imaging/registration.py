@@ -22,6 +22,7 @@ their mean removed before correlation, so the pedestal does not bias the peak to
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -331,17 +332,17 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     magnitude as ``Re(n exp(-j phi))`` (phi the image phase), so with ``g_k = a d|template|/dk`` the gradient of the
     fitted template and ``h = g_k exp(j phi)``: ``var(g_k^T m) = E|sum conj(h) n|^2 / 2`` for each image (the
     reference's noise shifted with it and scaled by the fitted gain a), and ``var(s_k) = (sum) / (g_k^T g_k)^2``.
+    The receiver noise comes from the radar's noise floor and the image-formation chain (known; the fit's residual
+    would under-state it: a chip a few azimuth correlation lengths long lets the fitted gain and offset absorb much
+    of it).
 
-    Receiver noise comes from the radar's noise floor and the image-formation chain (it is known, and a chip a few
-    azimuth correlation lengths long lets the fitted gain and offset absorb much of it, so its residual under-states
-    it). Scene changes between the passes (speckle decorrelated by time or baseline, geometry, focus) are not in that
-    model: they are in the fit's residual ``r = |image| - a |reference(shifted)| - b``. With ``mismatch`` the same
-    first-order form is evaluated with a locally stationary perturbation of power ``w_i`` = the residual power around
-    pixel i (averaged over a resolution-sized window, ``_local_power``, and divided by the fit's dof share
-    (P - 4) / P) and the noise model's correlation, and the larger of the two predictions is returned per axis: the
-    registration error is at least what the receiver noise makes, and the residual shows anything more
-    (docs/scenarios/rda-nav.md §3).
-    """
+    Scene changes between the passes (speckle decorrelated by time or baseline, geometry) are not in that model; they
+    are in the fit's residual ``r = |image| - a |reference(shifted)| - b``. With ``mismatch`` the residual power over
+    the pixels where the template stands 10 dB above the noise (where ``Re(n exp(-j phi))`` is the magnitude noise and
+    its variance is ``(N_image + a^2 N_reference) / 2``) is compared with that expectation: a ratio kappa significantly
+    above 1 (beyond three standard errors of a noise-only ratio, ``sqrt(2 / n)`` over n pixels) scales the
+    prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum (docs/scenarios/rda-nav.md
+    §3)."""
     from scipy import ndimage
 
     ref = np.asarray(reference, dtype=np.complex128)
@@ -353,35 +354,33 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     cs = ndimage.shift(np.abs(ref), shift, order=3, mode="nearest")
     A = np.column_stack([cs.ravel(), np.ones(cs.size)])
     (a, b), *_ = np.linalg.lstsq(A, np.abs(img).ravel(), rcond=None)
-    w = None
-    if mismatch:
-        r = np.abs(img) - a * cs - b
-        w = _local_power(r, noise_image[0]) * r.size / max(r.size - 4, 1)
+    scale = mismatch_ratio(np.abs(img) - a * cs - b, cs, a, noise_reference[0].power, noise_image[0].power) if mismatch \
+        else 1.0
     out = []
     for axis in (0, 1):
         g = a * _spline_gradient(np.abs(ref), shift, axis)
         num = 0.5 * noise_image[0].quadratic(g * np.exp(1j * np.angle(img)), noise_image[1])
         num += 0.5 * a * a * noise_reference[0].quadratic(g * np.exp(1j * np.angle(shifted)), noise_reference[1])
-        if w is not None:  # unit-power model, local power w: E|sum conj(h) n|^2 / 2 with h = g sqrt(2 w) e^{j phi}
-            unit = replace(noise_image[0], power=1.0)
-            num = max(num, 0.5 * unit.quadratic(g * np.sqrt(2.0 * w) * np.exp(1j * np.angle(img)), noise_image[1]))
         energy = float(np.sum(g * g))
-        out.append(np.sqrt(max(num, 0.0)) / energy if energy > 0 else np.inf)
+        out.append(np.sqrt(max(num * scale, 0.0)) / energy if energy > 0 else np.inf)
     return float(out[0]), float(out[1])
 
 
-def _local_power(r: np.ndarray, noise: SeparableNoise) -> np.ndarray:
-    """Local mean of r^2 over a window of the noise's correlation lengths (rows: where the row correlation of the
-    model's central row falls below 1/2, columns: likewise for rho), at least 3 x 3 pixels: the power of a locally
-    stationary perturbation around each pixel."""
-    from scipy import ndimage
+#: a pixel counts as bright (first-order magnitude noise) where the template's power is this many times the noise
+BRIGHT_FACTOR = 10.0
 
-    c = np.abs(noise.rows[noise.rows.shape[0] // 2])
-    c = c / max(c.max(), 1e-300)
-    ly = int(np.count_nonzero(c >= 0.5))
-    lx = int(np.count_nonzero(np.abs(noise.rho) >= 0.5 * np.abs(noise.rho[0]))) * 2 - 1
-    size = (min(max(3, 2 * ly + 1), r.shape[0]), min(max(3, 2 * lx + 1), r.shape[1]))
-    return ndimage.uniform_filter(r * r, size=size, mode="nearest")
+
+def mismatch_ratio(residual, template, a: float, n_reference: float, n_image: float) -> float:
+    """kappa (>= 1) of :func:`magnitude_shift_precision`: the residual power over the bright pixels (template power >
+    ``BRIGHT_FACTOR`` x the noise) against the receiver noise's expectation ``(N_image + a^2 N_reference) / 2``
+    there; 1 unless it exceeds 1 by three standard errors ``3 sqrt(2 / n)`` (n bright pixels, at least 8)."""
+    bright = template**2 > BRIGHT_FACTOR * n_reference
+    n = int(np.count_nonzero(bright))
+    expected = 0.5 * (n_image + a * a * n_reference)
+    if n < 8 or not expected > 0:
+        return 1.0
+    kappa = float(np.mean(residual[bright] ** 2)) / expected
+    return kappa if kappa > 1.0 + 3.0 * math.sqrt(2.0 / n) else 1.0
 
 
 def distinctness(surface: np.ndarray, exclude: tuple[int, int]) -> float:

@@ -449,7 +449,13 @@ class SubApertureImager:
         t1 = time.perf_counter()
         af = None
         if st.autofocus and k == 0:
-            af = mapdrift(sub, speed_hat, max_iterations=st.mapdrift_iterations)
+            try:
+                af = mapdrift(sub, speed_hat, max_iterations=st.mapdrift_iterations)
+            except InputDataError:  # a failed autofocus: the image focused with the estimate is still measured
+                if st.focus == "mapdrift":
+                    raise
+                af = None
+        if af is not None:
             out.autofocus_dk[r] = af.fm_rate_error
             gate = max(st.mapdrift_gate_floor, st.mapdrift_gate_sigma * (0.0 if speed_sigma is None else speed_sigma))
             if st.focus == "mapdrift" and abs(af.speed - speed_hat) <= gate:

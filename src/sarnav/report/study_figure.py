@@ -74,3 +74,59 @@ def write_study_json(path, result: dict) -> None:
     from sarnav.montecarlo.store import atomic_write_text
 
     atomic_write_text(path, json.dumps(result, indent=2) + "\n")
+
+
+def sweep_points(summaries: Sequence[dict], x: Sequence[float]) -> dict:
+    """What a sweep figure plots, from each case's ``summary.json`` (in sweep order): registration std and predicted
+    sigma per axis, mean NEES and its band, NIS/dof and its band, final position 3-sigma per axis (None where a case
+    has no such statistic)."""
+    def reg(s, axis, key):
+        return (s.get("registration", {}).get(axis) or {}).get(key)
+
+    out = {"x": [float(v) for v in x]}
+    for axis in ("range", "cross"):
+        out[f"{axis}_std"] = [reg(s, axis, "std") for s in summaries]
+        out[f"{axis}_predicted"] = [reg(s, axis, "predicted_sigma_rms") for s in summaries]
+    out["nees"] = [s["nees"]["time_average"] for s in summaries]
+    out["nees_band"] = [s["nees"]["band"] for s in summaries]
+    out["nis_per_dof"] = [(s.get("nis") or {}).get("per_dof") for s in summaries]
+    out["nis_band"] = [(s.get("nis") or {}).get("per_dof_band") for s in summaries]
+    for st in ("pN", "pE", "pD"):
+        out[f"{st}_final_3sigma"] = [s["states"][st]["final_3sigma"] for s in summaries]
+    out["rejected"] = [sum((s.get("sar_updates") or {}).get("rejected", {}).values()) for s in summaries]
+    return out
+
+
+def plot_sweep(points: dict, x_label: str, title: str, path) -> str:
+    """Four panels against the swept quantity: registration sigma predicted (lines) and measured (markers) per axis
+    [m, log]; mean NEES with its 95 % band; NIS per dof with its band; final position 3-sigma N, E, D [m, log]."""
+    fig = Figure(figsize=(11, 8), layout="constrained")
+    ax = fig.subplots(2, 2)
+    x = np.asarray(points["x"], dtype=float)
+
+    def arr(key):
+        return np.array([np.nan if v is None else v for v in points[key]], dtype=float)
+
+    for axis, colour, name in (("range", "C0", "range"), ("cross", "C1", "along track")):
+        ax[0, 0].plot(x, arr(f"{axis}_predicted"), "-", color=colour, label=f"{name}: predicted (rms)")
+        ax[0, 0].plot(x, arr(f"{axis}_std"), "o", color=colour, label=f"{name}: measured std")
+    ax[0, 0].set_yscale("log")
+    ax[0, 0].set_ylabel("registration 1-sigma [m]")
+    ax[0, 0].legend(fontsize=7)
+    for panel, key, band, label in ((ax[0, 1], "nees", "nees_band", "mean NEES [-]"),
+                                    (ax[1, 0], "nis_per_dof", "nis_band", "NIS / dof [-]")):
+        b = np.array([[np.nan, np.nan] if v is None else v for v in points[band]], dtype=float)
+        panel.fill_between(x, b[:, 0], b[:, 1], color="0.85", label="95 % band")
+        panel.plot(x, arr(key), "o-", color="k", label="campaign")
+        panel.set_ylabel(label)
+        panel.legend(fontsize=7)
+    for st, colour in (("pN", "C0"), ("pE", "C1"), ("pD", "C2")):
+        ax[1, 1].plot(x, arr(f"{st}_final_3sigma"), "o-", color=colour, label=f"{st}")
+    ax[1, 1].set_yscale("log")
+    ax[1, 1].set_ylabel("final position 3-sigma [m]")
+    ax[1, 1].legend(fontsize=7)
+    for a in ax.flat:
+        a.set_xlabel(x_label)
+        a.grid(True, alpha=0.3)
+    fig.suptitle(title)
+    return save_png(fig, path)

@@ -61,6 +61,8 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("telemetry-geometry", "study", "Thesis Table 3.4 / Figs 3.10-3.11: eight target locations", "sarnav.scenarios.study:geometry_study"),
     ScenarioEntry("rda-nav", "rda-nav", "NAVIGATION paper / thesis ch. 5: INS aided by range and cross-range from RDA images", "kind:"),
     ScenarioEntry("rda-nav-flexsar", "rda-nav", "Paper Tables 4-6: simulated FlexSAR-like flight at 60 m/s", "sarnav.scenarios.rda_nav:flexsar_config"),
+    ScenarioEntry("rda-nav-terrain", "rda-nav", "rda-nav over terrain with speckle clutter and a reference from another pass", "sarnav.scenarios.rda_nav:terrain_config"),
+    ScenarioEntry("rda-nav-robustness", "study", "rda-nav outside its calibration: SNR, clutter density, reference pass offset (sweep figures)", "sarnav.scenarios.study:robustness_study"),
     ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
     ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "sarnav.scenarios.imaging:point_target_config"),
     ScenarioEntry("spacecraft-tc1", "spacecraft", "Pogorelsky et al. 2022 TC-1 open loop: LEO MEKF, misalignment 0.1 deg, Lear underweighting, 100 runs x 600 s", "sarnav.scenarios.spacecraft:tc1_config"),

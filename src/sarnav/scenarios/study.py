@@ -8,11 +8,14 @@ A study scenario (kind ``"study"``)::
     [base]      a complete scenario of another kind (its own [base.scenario], [base.imu], ...)
     [[cases]]   label = "consumer", style = "--", set = { "imu.grade" = "consumer" }
     [[figures]] name, title, cases = [labels], states = [...]   # optional; default one with all
+    [[sweeps]]  name, title, x_label, x = [values], cases = [labels]   # optional: statistics against a swept value
 
 Running it (:func:`run_study`) runs each case as a campaign into ``OUT/<label>/`` (resumable like
 any campaign), draws the 3σ comparison figure(s) ``OUT/study_<name>.png`` (thesis Figs 3.8-3.11:
 filter 3σ of each case, mean over runs) and writes ``OUT/study.json`` with each case's final 1σ/3σ
-and time-averaged 3σ per state. The three chapter 3 studies of Lindstrom (2020) are defined here.
+and time-averaged 3σ per state. A ``[[sweeps]]`` entry draws ``OUT/sweep_<name>.png``: the registration sigma
+(predicted and measured), mean NEES, NIS/dof and final position 3σ of its cases against ``x``, and adds them to
+``study.json``. The three chapter 3 studies of Lindstrom (2020) and the rda-nav robustness study are defined here.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ __all__ = [
     "imu_grade_study",
     "noise_study",
     "geometry_study",
+    "robustness_study",
     "STYLES",
 ]
 
@@ -122,6 +126,8 @@ class StudyKind(ScenarioKind):
                 if name not in state_names:
                     raise ConfigError(f"figures[{j}].states", f"unknown state {name!r}")
 
+        _validate_sweeps(cfg, labels)
+
     def state_names(self, cfg: dict) -> list[str]:
         return _base_kind(cfg).state_names(case_config_shallow(cfg))
 
@@ -140,6 +146,24 @@ class StudyKind(ScenarioKind):
     def run_scenario(self, cfg: dict, out, **options) -> dict:
         """What ``sarnav run`` calls for kinds that are not a single campaign: :func:`run_study`."""
         return run_study(cfg, out, **options)
+
+
+def _validate_sweeps(cfg: dict, labels: list[str]) -> None:
+    sweeps = cfg.get("sweeps", [])
+    if not isinstance(sweeps, list):
+        raise ConfigError("sweeps", "must be an array of tables [[sweeps]] (name, title, x_label, x, cases)")
+    for j, sw in enumerate(sweeps):
+        if not isinstance(sw, dict) or not isinstance(sw.get("name"), str) or not _LABEL_RE.match(sw["name"]):
+            raise ConfigError(f"sweeps[{j}].name", "must be a name of letters, digits, '_.-'")
+        cases, x = sw.get("cases"), sw.get("x")
+        if not isinstance(cases, list) or not cases or any(c not in labels for c in cases):
+            raise ConfigError(f"sweeps[{j}].cases", f"must list cases of this study ({', '.join(labels)}), got {cases!r}")
+        if (not isinstance(x, list) or len(x) != len(cases)
+                or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in x)):
+            raise ConfigError(f"sweeps[{j}].x", f"must be {len(cases)} numbers, one per case, got {x!r}")
+        for key in ("title", "x_label"):
+            if not isinstance(sw.get(key, ""), str):
+                raise ConfigError(f"sweeps[{j}].{key}", "must be a string")
 
 
 def case_config_shallow(cfg: dict) -> dict:
@@ -177,7 +201,7 @@ def _run_cases(cfg: dict, out: Path, figures: bool, campaign_options: dict) -> d
     from sarnav.montecarlo.campaign import run_campaign
     from sarnav.montecarlo.executors import ChunkRunner
     from sarnav.report.figures import write_campaign_figures
-    from sarnav.report.study_figure import plot_study_comparison, write_study_json
+    from sarnav.report.study_figure import plot_study_comparison, plot_sweep, sweep_points, write_study_json
     from sarnav.tomlio import dump_toml
 
     kind = _base_kind(cfg)
@@ -207,6 +231,13 @@ def _run_cases(cfg: dict, out: Path, figures: bool, campaign_options: dict) -> d
             sel = [(lab, *curves[lab][:2], style[lab]) for lab in spec["cases"]]
             path = out / f"study_{spec['name']}.png"
             fig_paths.append(plot_study_comparison(sel, curves[spec["cases"][0]][2], spec["states"], spec["title"], path))
+    sweeps = {}
+    for sw in cfg.get("sweeps", []):
+        summaries = [results[[c["label"] for c in cfg["cases"]].index(lab)].summary for lab in sw["cases"]]
+        sweeps[sw["name"]] = sweep_points(summaries, sw["x"])
+        if figures:
+            fig_paths.append(plot_sweep(sweeps[sw["name"]], sw.get("x_label", ""), sw.get("title", ""),
+                                        out / f"sweep_{sw['name']}.png"))
     result = {
         "study": cfg["scenario"]["name"],
         "runs": cfg["campaign"]["runs"],
@@ -214,6 +245,7 @@ def _run_cases(cfg: dict, out: Path, figures: bool, campaign_options: dict) -> d
         "complete": True,
         "cases": cases_out,
         "figures": [Path(p).name for p in fig_paths],
+        **({"sweeps": sweeps} if sweeps else {}),
         "scenario_toml": dump_toml(cfg),
     }
     write_study_json(out / "study.json", result)
@@ -283,3 +315,44 @@ def geometry_study() -> dict:
         {"name": "north1000", "title": "Targets at north 1000 m, east 0/500/1000/1500 m (Fig 3.11)", "cases": ["test5", "test6", "test7", "test8"], "states": ["pN", "pE"]},
     ]
     return _study("telemetry-geometry", "Position 3-sigma for eight target locations (thesis Table 3.4, Figs 3.10-3.11)", STUDY_RUNS, cases, figures=figures)
+
+
+# ----------------------------------------------------------------------------- rda-nav robustness (issue 10)
+#: receiver SNR below the default (dB), clutter scatterers per image, reference pass offset across the track (m)
+ROBUSTNESS_SNR_DROP = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0)
+ROBUSTNESS_CLUTTER = (4, 20, 50, 100)
+ROBUSTNESS_OFFSET = (0.0, 30.0, 100.0)
+ROBUSTNESS_RUNS = 10
+
+
+def robustness_study() -> dict:
+    """rda-nav outside its calibration (issue 10): sweeps of receiver SNR (0 to 25 dB below the default), point clutter
+    density (4 to 100 scatterers per image) and the reference pass's offset across the track over terrain (0 to
+    100 m, clutter coherence 0.8); one campaign per case, a sweep figure each (registration sigma predicted and
+    measured, NEES, NIS, final position 3-sigma). No noise setting is changed by hand: R comes from the images."""
+    from sarnav.scenarios.registry import get_scenario
+
+    base = get_scenario("rda-nav")
+    seed = base.pop("campaign")["seed"]
+    snr0 = base["radar"]["snr_db"]
+    cases, sweeps = [], []
+    snr = [f"snr-{d:g}" for d in ROBUSTNESS_SNR_DROP]
+    cases += [{"label": lab, "set": {"radar.snr_db": snr0 - d}} for lab, d in zip(snr, ROBUSTNESS_SNR_DROP)]
+    clut = [f"clutter-{n}" for n in ROBUSTNESS_CLUTTER]
+    cases += [{"label": lab, "set": {"scene.clutter_per_image": n}} for lab, n in zip(clut, ROBUSTNESS_CLUTTER)]
+    off = [f"terrain-offset-{d:g}" for d in ROBUSTNESS_OFFSET]
+    cases += [{"label": lab, "set": {"scene.type": "terrain", "scene.reference_offset_m": [d, 0.0],
+                                     "scene.reference_coherence": 0.8, "scene.geolocation_sigma_m": [0.3, 0.3, 0.5]}}
+              for lab, d in zip(off, ROBUSTNESS_OFFSET)]
+    sweeps = [
+        {"name": "snr", "title": "rda-nav: receiver SNR below the default", "x_label": "SNR drop [dB]",
+         "x": list(ROBUSTNESS_SNR_DROP), "cases": snr},
+        {"name": "clutter", "title": "rda-nav: point clutter per image", "x_label": "clutter scatterers per image",
+         "x": [float(n) for n in ROBUSTNESS_CLUTTER], "cases": clut},
+        {"name": "reference-offset", "title": "rda-nav over terrain: reference pass offset across the track",
+         "x_label": "reference pass offset [m]", "x": list(ROBUSTNESS_OFFSET), "cases": off},
+    ]
+    return {"scenario": {"name": "rda-nav-robustness", "kind": "study",
+                         "description": "rda-nav outside its calibration: SNR, clutter density, reference pass offset"},
+            "campaign": {"runs": ROBUSTNESS_RUNS, "seed": seed}, "study": {"states": ["pN", "pE", "pD"]},
+            "base": base, "cases": cases, "sweeps": sweeps}
