@@ -10,6 +10,7 @@ from typing import Sequence
 
 import numpy as np
 
+from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.record import RunRecord
 
@@ -48,11 +49,39 @@ class ErrorStateKind(ScenarioKind):
         return list(self.measurement_units)
 
     def simulate(self, cfg: dict, run_ids: Sequence[int], seeds: Sequence[np.random.SeedSequence]) -> list[RunRecord]:
-        """Simulate the runs as one batch; run i depends only on cfg and seeds[i]."""
-        from sarnav.errors import ConfigError
-
+        """Simulate the runs as one batch; run i depends only on cfg and seeds[i]. A covariance that lost positive
+        definiteness (NaN sigma, a singular innovation covariance) is a ConfigError naming ``initial``, never NaN in
+        the results."""
         if len(run_ids) != len(seeds):
             raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
         if len(run_ids) == 0:
             return []
-        return self.simulate_runs(self.parse(cfg), run_ids, seeds)
+        prm = self.parse(cfg)
+        try:
+            with np.errstate(invalid="ignore"):  # a NaN sigma is reported below, in one line
+                records = self.simulate_runs(prm, run_ids, seeds)
+        except np.linalg.LinAlgError as err:
+            raise _not_positive_definite(f"({err})") from None
+        for rec in records:
+            _check_finite_covariance(rec)
+        return records
+
+
+#: the keys a covariance that is not positive definite comes from (the error names the first, the message the rest)
+_COVARIANCE_KEYS = "the [initial] 3-sigma values and the noise figures ([imu], [measurements], [altimeter], [sar])"
+
+
+def _not_positive_definite(where: str) -> ConfigError:
+    return ConfigError("initial", f"the filter's covariance is not positive definite {where}: {_COVARIANCE_KEYS} span "
+                       "more orders of magnitude than float64 resolves; bring them closer (docs/scenarios/vocabulary.md)")
+
+
+def _check_finite_covariance(rec: RunRecord) -> None:
+    """A safety net behind the documented ranges: a record with NaN sigma or NEES, or a residual without its sigma,
+    is never stored (results are finite or the campaign ends with one line)."""
+    bad_state = ~np.all(np.isfinite(rec.sigma), axis=1) | ~np.isfinite(rec.nees)
+    bad_update = np.any(np.isfinite(rec.residual) & ~np.isfinite(rec.residual_sigma), axis=1)
+    if bad_state.any():
+        raise _not_positive_definite(f"at t = {rec.time[np.argmax(bad_state)]:g} s of run {rec.run}")
+    if bad_update.any():
+        raise _not_positive_definite(f"at the update at t = {rec.update_time[np.argmax(bad_update)]:g} s of run {rec.run}")

@@ -39,7 +39,7 @@ from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.montecarlo.kind import ScenarioKind
-from sarnav.scenarios.vocabulary import make_radar, radar_fields
+from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
            "ALGORITHMS", "AUTOFOCUS"]
@@ -171,7 +171,7 @@ def validate(cfg: dict) -> None:
         _num(cfg, "scene", "density_per_m2", 0, 10.0, lo_open=True)
         _choice(cfg, "scene", "amplitude_law", ("rayleigh", "constant"))
     params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
-    _check_size(n_pulses, params.n_range_samples)
+    echo_block_check(n_pulses, params.n_range_samples)
     _check_doppler_band(cfg)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
     as_window(cfg["image"]["window"], "image.window")
@@ -182,19 +182,6 @@ def validate(cfg: dict) -> None:
     if cfg["image"]["autofocus"] != "none" and cfg["image"]["algorithm"] != "rda":
         raise ConfigError("image.autofocus", "autofocus works on RDA images; set image.algorithm = \"rda\"")
     _choice(cfg, "image", "bpa_interpolation", ("nearest", "linear", "cubic", "upsample"))
-
-
-#: the largest block of echoes simulated [bytes, complex128]: pulses x range samples x 16
-MAX_BLOCK_BYTES = 2**30
-
-
-def _check_size(n_pulses: float, n_range: int) -> None:
-    need = n_pulses * n_range * 16
-    if need > MAX_BLOCK_BYTES:
-        field = "radar.sample_rate_mhz" if n_range > 65536 else "trajectory.duration"
-        raise ConfigError(field, f"{n_pulses:g} pulses x {n_range} range samples need {need / 2**30:.3g} GiB of echoes "
-                          f"(at most {MAX_BLOCK_BYTES / 2**30:g} GiB): lower radar.sample_rate_mhz, the imaged slant-range "
-                          "extent or the block (trajectory.duration x radar.prf_hz)")
 
 
 def _check_doppler_band(cfg: dict) -> None:
