@@ -97,6 +97,9 @@ def test_radar_preset_with_overrides():
     # a variance too small beside the others': numpy's singular-matrix traceback
     ("rda-nav", ["altimeter.sigma_3sigma=1e-12"], "altimeter.sigma_3sigma"),
     ("telemetry", ["measurements.rate_3sigma=1e-9"], "measurements.rate_3sigma"),
+    # a correlation time far below the aperture: the delayed-state mapping's inverse exp(span / tau) is singular
+    ("rda-nav", ["sar.tau_cross=0.01"], "sar.tau_cross"),
+    ("rda-nav", ["imu.tau_gyro=0.001"], "imu.tau_gyro"),
 ])
 def test_non_physical_initial_covariances_name_the_key(tmp_path, capsys, scenario, sets, field):
     argv = ["run", scenario, "--runs", "2", "--executor", "serial", "--quiet", "--no-figures", "--out", str(tmp_path)]

@@ -219,6 +219,10 @@ def plan_case(name: str, value: float, geo: Geometry, image: ImageSettings, pred
     """
     dx0 = injected_error(name, value)
     p_hat, v_hat = estimated_trajectory(geo, dx0)
+    slowest = float(np.min(np.linalg.norm(v_hat, axis=1)))
+    if not slowest > 0.5 * geo.speed:  # the zero-Doppler plane of a track at rest is undefined
+        raise ConfigError(f"errors.{name}", f"{value:g} {THESIS_SIM_ERRORS[name][3]} slows the estimated track to "
+                          f"{slowest:.3g} m/s: it must stay above half the true speed {geo.speed:g} m/s")
     if pred is None:
         eta0 = float(np.dot(geo.target - geo.p0, geo.v0) / np.dot(geo.v0, geo.v0))
         r0 = float(np.linalg.norm(geo.target - geo.p0 - geo.v0 * eta0))

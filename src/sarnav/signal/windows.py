@@ -100,8 +100,9 @@ def as_window(spec, field: str = "window") -> Window:
                 return Window(name, beta=float(spec[1])) if len(spec) > 1 else Window(name)
             if len(spec) == 1:
                 return Window(name)
-    except ConfigError as err:
-        raise ConfigError(f"{field}.{err.field.split('.', 1)[-1]}", err.message) from None
+    except ConfigError as err:  # a field of a table names itself; a name or a tuple is the key's own value
+        sub = err.field.split(".", 1)[-1]
+        raise ConfigError(f"{field}.{sub}" if isinstance(spec, dict) else field, err.message) from None
     except TypeError as err:
         raise ConfigError(field, f"bad window specification {spec!r}: {err}") from None
     raise ConfigError(field, f"must be one of {WINDOW_NAMES}, a Window, a dict or a tuple, got {spec!r}")
