@@ -67,7 +67,7 @@ def require_finite(field: str, value, lo=None, hi=None, unit: str = "") -> float
         v = float(value)
     except (TypeError, ValueError):
         raise ConfigError(field, f"must be a number, got {value!r}") from None
-    rng = f"[{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]{(' ' + unit) if unit else ''}"
+    rng = f"[{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]{(' ' + unit) if unit else ''}"
     if not math.isfinite(v):
         raise ConfigError(field, f"must be finite in {rng}, got {v!r}")
     if (lo is not None and v < lo) or (hi is not None and v > hi):

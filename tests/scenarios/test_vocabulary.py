@@ -144,3 +144,15 @@ def test_a_covariance_that_loses_positive_definiteness_is_one_line_not_nan():
     with pytest.raises(ConfigError) as err:
         Unchecked().simulate(cfg, [0, 1], np.random.SeedSequence(0).spawn(2))
     assert err.value.field == "initial" and "not positive definite" in err.value.message
+
+
+@pytest.mark.parametrize("key, value, message", [
+    # 0.1 printed "must be in [-inf, 10000.0] Hz" for a rate of -1
+    ("imu.rate_hz", "-1", "imu.rate_hz: must be in (0, 10000] Hz, got -1.0"),
+    ("imu.rate_hz", "1e5", "imu.rate_hz: must be in (0, 10000] Hz, got 100000.0"),
+    ("trajectory.speed", "0", "trajectory.speed: must be in (0, 10000] m/s, got 0.0"),
+    ("trajectory.heading_deg", "400", "trajectory.heading_deg: must be in [-360, 360] deg, got 400.0"),
+])
+def test_range_messages_print_the_real_range(capsys, key, value, message):
+    assert main(["show", "telemetry", "--set", f"{key}={value}"]) == 2
+    assert capsys.readouterr().err == f"sarnav: error: {message}\n"

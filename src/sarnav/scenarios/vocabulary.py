@@ -57,6 +57,18 @@ INITIAL_RANGES = {"p_3sigma": (1e-6, 1e5, "m"), "v_3sigma": (1e-6, 1e3, "m/s"),
                   "theta_3sigma": (1e-9, MAX_THETA_3SIGMA, "rad")}
 
 
+def positive_up_to(field: str, value, hi: float, unit: str) -> float:
+    """``value`` as a float in (0, hi], else ConfigError naming ``field`` and that range (``must be in (0, 10000] Hz``)."""
+    rng = f"(0, {hi:g}] {unit}"
+    try:
+        v = require_finite(field, value)
+    except ConfigError:
+        raise ConfigError(field, f"must be a finite number in {rng}, got {value!r}") from None
+    if not 0 < v <= hi:
+        raise ConfigError(field, f"must be in {rng}, got {v!r}")
+    return v
+
+
 # ----------------------------------------------------------------------------- trajectory
 def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None = None):
     """The truth trajectory of ``[trajectory]``: ``StraightLevel`` or ``Maneuvering`` (``type``, when offered).
@@ -68,9 +80,7 @@ def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None =
     if ttype not in types:
         raise ConfigError("trajectory.type", f"must be one of {list(types)}, got {ttype!r}")
     start = vector(cfg, "trajectory", "start_ned", unit="m")
-    speed = require_finite("trajectory.speed", get(cfg, "trajectory", "speed"), hi=MAX_SPEED, unit="m/s")
-    if speed <= 0:
-        raise ConfigError("trajectory.speed", f"must be in (0, {MAX_SPEED}] m/s, got {speed!r}")
+    speed = positive_up_to("trajectory.speed", get(cfg, "trajectory", "speed"), MAX_SPEED, "m/s")
     heading = float(units.deg_to_rad(require_finite("trajectory.heading_deg", get(cfg, "trajectory", "heading_deg"),
                                                     lo=-360.0, hi=360.0, unit="deg")))
     if max_duration is None:
@@ -104,9 +114,7 @@ def read_imu(cfg: dict) -> tuple[ImuSpec, float]:
     """(the truth IMU, its sample rate [Hz]) of ``[imu]``."""
     t = table(cfg, "imu")
     grade = _grade(t, "imu")
-    rate = require_finite("imu.rate_hz", get(cfg, "imu", "rate_hz"), hi=MAX_IMU_RATE, unit="Hz")
-    if rate <= 0:
-        raise ConfigError("imu.rate_hz", f"must be in (0, {MAX_IMU_RATE}] Hz, got {rate!r}")
+    rate = positive_up_to("imu.rate_hz", get(cfg, "imu", "rate_hz"), MAX_IMU_RATE, "Hz")
     return ImuSpec(grade, positive(cfg, "imu", "tau_accel", "s"), positive(cfg, "imu", "tau_gyro", "s")), rate
 
 
