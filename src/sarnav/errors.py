@@ -37,9 +37,11 @@ class InputDataError(SarnavError, ValueError):
 
 
 def _is_bool(value) -> bool:
+    """A TOML ``true`` or a string: float() would take them (``float(True) == 1.0``, ``float("3") == 3.0``), a scenario
+    value must be a number."""
     import numpy as np
 
-    return isinstance(value, (bool, np.bool_))
+    return isinstance(value, (bool, np.bool_, str, bytes))
 
 
 def require_positive(field: str, value, unit: str = "") -> float:
