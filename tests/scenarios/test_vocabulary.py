@@ -135,15 +135,21 @@ def test_a_covariance_that_loses_positive_definiteness_is_one_line_not_nan():
     from sarnav.scenarios.telemetry import TelemetryKind, parse
 
     class Unchecked(TelemetryKind):
+        def __init__(self, **change):
+            self.change = change
+
         def parse(self, cfg):
             prm = parse(cfg)
-            return replace(prm, p0_sigma=np.concatenate([np.full(3, 1e-12 / 3), np.full(3, 1e9 / 3), prm.p0_sigma[6:]]))
+            return replace(prm, **{k: f(prm) for k, f in self.change.items()})
 
     cfg = get_scenario("telemetry")
     cfg["trajectory"]["duration"] = 2.0
-    with pytest.raises(ConfigError) as err:
-        Unchecked().simulate(cfg, [0, 1], np.random.SeedSequence(0).spawn(2))
-    assert err.value.field == "initial" and "not positive definite" in err.value.message
+    for change in (  # NaN sigma; numpy's "Singular matrix" in the update
+            {"p0_sigma": lambda p: np.concatenate([np.full(3, 1e-12 / 3), np.full(3, 1e9 / 3), p.p0_sigma[6:]])},
+            {"meas_sigma": lambda p: np.array([0.1, 0.1, 1e-10])}):
+        with pytest.raises(ConfigError) as err:
+            Unchecked(**change).simulate(cfg, [0, 1], np.random.SeedSequence(0).spawn(2))
+        assert err.value.field == "initial" and "not positive definite" in err.value.message
 
 
 @pytest.mark.parametrize("key, value, message", [

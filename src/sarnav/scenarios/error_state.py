@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+from numpy.linalg import LinAlgError  # the exception only (a filter's singular matrix); the algebra is in filters/
 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
@@ -60,7 +61,7 @@ class ErrorStateKind(ScenarioKind):
         try:
             with np.errstate(invalid="ignore"):  # a NaN sigma is reported below, in one line
                 records = self.simulate_runs(prm, run_ids, seeds)
-        except np.linalg.LinAlgError as err:
+        except LinAlgError as err:
             raise _not_positive_definite(f"({err})") from None
         for rec in records:
             _check_finite_covariance(rec)
