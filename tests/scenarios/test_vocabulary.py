@@ -162,3 +162,12 @@ def test_a_covariance_that_loses_positive_definiteness_is_one_line_not_nan():
 def test_range_messages_print_the_real_range(capsys, key, value, message):
     assert main(["show", "telemetry", "--set", f"{key}={value}"]) == 2
     assert capsys.readouterr().err == f"sarnav: error: {message}\n"
+
+
+def test_rda_nav_validation_checks_the_doppler_band_as_the_imaging_does(capsys):
+    # show accepted trajectory.speed = 12.5 and run stopped at the first image naming `radar.prf` (not a key)
+    assert main(["show", "rda-nav", "--set", "trajectory.speed=12.5"]) == 2
+    assert capsys.readouterr().err.startswith("sarnav: error: radar.prf_hz: must be >= the Doppler bandwidth")
+    for mode in ("sar.enabled=false", "sar.measurement=oracle"):  # no image formed: no Doppler band to cover
+        assert main(["show", "rda-nav", "--set", "trajectory.speed=12.5", "--set", mode]) == 0
+    capsys.readouterr()

@@ -14,6 +14,7 @@ from numpy.linalg import LinAlgError  # the exception only (a filter's singular 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.record import RunRecord
+from sarnav.scenarios.vocabulary import doppler_prf_check
 
 
 class ErrorStateKind(ScenarioKind):
@@ -35,7 +36,7 @@ class ErrorStateKind(ScenarioKind):
         raise NotImplementedError
 
     def validate(self, cfg: dict) -> None:
-        self.parse(cfg)
+        _check_radar(self.parse(cfg))
 
     def state_names(self, cfg: dict) -> list[str]:
         return self.layout.state_names()
@@ -58,6 +59,7 @@ class ErrorStateKind(ScenarioKind):
         if len(run_ids) == 0:
             return []
         prm = self.parse(cfg)
+        _check_radar(prm)
         try:
             with np.errstate(invalid="ignore"):  # a NaN sigma is reported below, in one line
                 records = self.simulate_runs(prm, run_ids, seeds)
@@ -66,6 +68,16 @@ class ErrorStateKind(ScenarioKind):
         for rec in records:
             _check_finite_covariance(rec)
         return records
+
+
+def _check_radar(prm) -> None:
+    """Parameters that carry a radar and a trajectory and form images (rda-nav: ``sar_enabled`` and ``measurement ==
+    "image"``): the PRF covers the Doppler band at the flight's speed, named ``radar.prf_hz`` — checked by validation,
+    so ``show`` refuses what the imaging would (it was found only while simulating, naming ``radar.prf``)."""
+    radar, traj = getattr(prm, "radar", None), getattr(prm, "trajectory", None)
+    images = getattr(prm, "sar_enabled", True) and getattr(prm, "measurement", "image") == "image"
+    if radar is not None and traj is not None and images:
+        doppler_prf_check(radar, traj.speed)
 
 
 #: the keys a covariance that is not positive definite comes from (the error names the first, the message the rest)
