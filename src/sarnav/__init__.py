@@ -2,6 +2,52 @@
 
 See docs/architecture.md for the package layout and docs/conventions.md for frames,
 units, attitude and error-state conventions.
+
+When this interpreter runs the ``sarnav`` command (the console script or ``python -m sarnav.cli.main``; never a
+worker process, a test runner or a program importing sarnav), SIGINT and SIGTERM are deferred from the first line
+of this package on: a signal that arrives while the command is still importing is recorded in
+:data:`PENDING_SIGNALS` and answered by :func:`sarnav.cli.main.main` with the one "interrupted" line and exit
+status 128 + N. The handlers are installed through the built-in ``_signal`` module (the ``signal`` module alone
+imports ``enum`` and costs ~10 ms), so the only moment left to the operating system's defaults is the interpreter's
+own start-up, before it runs any sarnav code.
 """
 
+import sys as _sys
+
 __version__ = "0.2.0"
+
+#: SIGINT / SIGTERM received before :func:`sarnav.cli.main.main` took over (set only when running the command)
+PENDING_SIGNALS: list[int] = []
+
+_COMMAND_MODULES = ("sarnav.cli.main", "sarnav.cli")
+
+
+def _runs_the_command(argv) -> bool:
+    """Whether the interpreter's command line (``sys.orig_argv``) runs the ``sarnav`` command."""
+    args = list(argv[1:])
+    i = 0
+    while i < len(args):
+        a = args[i]
+        if a == "-m":
+            return i + 1 < len(args) and args[i + 1] in _COMMAND_MODULES
+        if a == "-c" or a == "-":
+            return False
+        if a in ("-X", "-W", "--check-hash-based-pycs"):  # options with a separate argument
+            i += 2
+            continue
+        if a.startswith("-"):
+            i += 1
+            continue
+        return a.replace("\\", "/").rsplit("/", 1)[-1].removesuffix(".exe") == "sarnav"
+    return False
+
+
+def _defer(signum, frame):
+    PENDING_SIGNALS.append(signum)
+
+
+if _runs_the_command(getattr(_sys, "orig_argv", ())):
+    import _signal
+
+    for _sig in (_signal.SIGINT, _signal.SIGTERM):
+        _signal.signal(_sig, _defer)

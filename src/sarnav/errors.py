@@ -37,9 +37,11 @@ class InputDataError(SarnavError, ValueError):
 
 
 def _is_bool(value) -> bool:
+    """A TOML ``true`` or a string: float() would take them (``float(True) == 1.0``, ``float("3") == 3.0``), a scenario
+    value must be a number."""
     import numpy as np
 
-    return isinstance(value, (bool, np.bool_))
+    return isinstance(value, (bool, np.bool_, str, bytes))
 
 
 def require_positive(field: str, value, unit: str = "") -> float:
@@ -67,7 +69,7 @@ def require_finite(field: str, value, lo=None, hi=None, unit: str = "") -> float
         v = float(value)
     except (TypeError, ValueError):
         raise ConfigError(field, f"must be a number, got {value!r}") from None
-    rng = f"[{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]{(' ' + unit) if unit else ''}"
+    rng = f"[{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]{(' ' + unit) if unit else ''}"
     if not math.isfinite(v):
         raise ConfigError(field, f"must be finite in {rng}, got {v!r}")
     if (lo is not None and v < lo) or (hi is not None and v > hi):

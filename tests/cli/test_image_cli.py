@@ -119,3 +119,31 @@ def test_unusable_out_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError) as err:  # was a FileExistsError traceback
         _run(["point-target", "--out", str(f)])
     assert err.value.field == "--out"
+
+
+def test_a_block_too_large_is_refused_before_anything_is_allocated(tmp_path, capsys):
+    # was 63 s, a 433 MB image.npz and "IRW nan": 250 pulses x 113344 range samples
+    from sarnav.cli.main import main
+    from sarnav.scenarios.vocabulary import MAX_BLOCK_SAMPLES
+
+    out = tmp_path / "o"
+    assert main(["image", "point-target", "--out", str(out), "--set", "radar.sample_rate_mhz=1e5"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("sarnav: error: radar.sample_rate_mhz: 250 pulses x 113344 range samples") and err.count("\n") == 1
+    assert f"at most {MAX_BLOCK_SAMPLES:.3g} samples" in err and not out.exists()
+    # a long block: pulses are what makes it large
+    assert main(["image", "point-target", "--out", str(out), "--set", "trajectory.duration=60",
+                 "--set", "radar.prf_hz=1000"]) == 2
+    assert capsys.readouterr().err.startswith("sarnav: error: trajectory.duration: 60000 pulses x ")
+
+
+def test_unmeasurable_figures_print_as_n_a_with_the_reason(tmp_path, capsys):
+    # 8x oversampled range: the 10 sidelobes ISLR needs do not fit the cut; metrics.json holds null, the CLI said nan
+    from sarnav.cli.main import main
+
+    assert main(["image", "point-target", "--out", str(tmp_path), "--set", "radar.sample_rate_mhz=4000",
+                 "--set", "trajectory.duration=0.2"]) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out.lower() and "IRW n/a" in out and "not measured (" in out
+    pt = json.loads((tmp_path / "metrics.json").read_text())["point_target"]
+    assert pt["slant_range"]["irw_m"]["measured"] is None and pt["measured_undefined"]

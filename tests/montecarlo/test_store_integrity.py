@@ -5,6 +5,7 @@ extended bit for bit. Each test reproduces a finding of the issue that the 0.1 s
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -42,6 +43,43 @@ def test_a_second_writer_is_refused_naming_the_holder(tmp_path):
         with pytest.raises(ConfigError, match=r"^--out: .* is in use by another sarnav run \(pid \d+ on .*scenario 'toy'"):
             _run(toy_cfg(runs=2, seed=99), tmp_path)
     _run(cfg, tmp_path)  # the lock went with its holder
+
+
+def test_the_lock_file_exists_only_while_a_run_writes(tmp_path):
+    # docs/results.md: "while a run writes"; 0.1 left .sarnav.lock in every folder
+    cfg = toy_cfg(runs=2)
+    lock = tmp_path / ".sarnav.lock"
+    with OutputFolder(tmp_path, identity(cfg)):
+        assert lock.read_text().startswith("pid ")
+    assert not lock.exists()
+    _run(cfg, tmp_path)
+    assert not lock.exists() and (tmp_path / "results.nc").exists()
+    lock.write_text("pid 1 on elsewhere, scenario 'toy', started long ago")  # left by a killed run: not held
+    _run(cfg, tmp_path)
+    assert not lock.exists()
+
+
+def test_a_writer_whose_lock_file_was_removed_retries_with_the_current_one(tmp_path, monkeypatch):
+    # the writer that ends removes the file while it still holds the lock; one that opened that file just before
+    # locks the removed file: it must notice and lock the file now at the path, or two writers would hold "the" lock
+    import fcntl
+
+    cfg = toy_cfg(runs=2)
+    lock = tmp_path / ".sarnav.lock"
+    lock.write_text("")
+    real, calls = fcntl.flock, []
+
+    def flock(fh, op):
+        if op & fcntl.LOCK_EX and not calls:  # between our open and our flock, the previous writer ends
+            lock.unlink()
+        calls.append(op)
+        return real(fh, op)
+
+    monkeypatch.setattr(fcntl, "flock", flock)
+    with OutputFolder(tmp_path, identity(cfg)) as folder:
+        assert sum(1 for op in calls if op & fcntl.LOCK_EX) == 2  # locked twice: the removed file, then the current
+        assert os.fstat(folder._fh.fileno()).st_ino == os.stat(lock).st_ino
+    assert not lock.exists()
 
 
 def test_two_concurrent_campaigns_into_one_folder_one_is_refused(tmp_path):

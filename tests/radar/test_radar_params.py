@@ -83,8 +83,12 @@ def test_other_bad_values():
         _base(look_side="up")
     with pytest.raises(ConfigError, match="^radar.range_window"):
         _base(range_window="blackman")
-    with pytest.raises(ConfigError, match="^radar.azimuth_window.sll_db"):
+    with pytest.raises(ConfigError, match=r"^radar.azimuth_window\[2\]: "):  # the list entry the user wrote
         _base(azimuth_window=("taylor", 4, 35))
+    with pytest.raises(ConfigError, match=r"^radar.azimuth_window.sll_db: "):  # a table's key
+        _base(azimuth_window={"name": "taylor", "sll_db": 35.0})
+    with pytest.raises(ConfigError, match=r"^radar.azimuth_window: "):  # a name (was radar.azimuth_window.name)
+        _base(azimuth_window="")
     with pytest.raises(ConfigError, match="^radar.azimuth_beamwidth"):
         _base(antenna_length=None, azimuth_beamwidth=4.0)
     # non-physical combinations (were accepted): band reaching 0 Hz, duty cycle >= 1, beam >= pi

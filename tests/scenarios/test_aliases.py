@@ -70,3 +70,40 @@ def test_old_altitude_in_set_becomes_start_ned_and_both_names_at_once_is_an_erro
 def test_without_a_sink_the_notices_are_future_warnings():
     with pytest.warns(FutureWarning, match="scene.snr_db is now radar.snr_db"):
         load_scenario(str(OLD / "rda-nav.toml"))
+
+
+#: the other six 0.1 files, shortened with new keys on the command line: (command, extra arguments)
+SHORT = {
+    "bpa-sensitivity": ("run", ["--set", "trajectory.duration=3.0", "--set", "image.spacing=0.2",
+                                "--set", "image.margin=2.0"]),
+    "rda-nav-flexsar": ("run", ["--runs", "1", "--set", "trajectory.duration=1.0"]),
+    "scatterers": ("image", ["--set", "trajectory.duration=0.25"]),
+    "telemetry-geometry": ("run", ["--runs", "1", "--set", "base.trajectory.duration=1.0"]),
+    "telemetry-imu-grade": ("run", ["--runs", "1", "--set", "base.trajectory.duration=1.0"]),
+    "telemetry-noise": ("run", ["--runs", "1", "--set", "base.trajectory.duration=1.0"]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SHORT))
+def test_the_other_old_files_run_with_one_notice_per_renamed_key(tmp_path, capsys, name):
+    # 0.1's tests loaded these six files but never ran them
+    command, extra = SHORT[name]
+    kind = get_scenario(name)["scenario"]["kind"]
+    out = tmp_path / "out"
+    argv = [command, str(OLD / f"{name}.toml"), "--out", str(out), *extra]
+    if command == "run":
+        argv += ["--executor", "serial", "--no-figures", "--quiet"]
+    assert main(argv) == 0
+    notices = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("sarnav: notice: ")]
+    renamed = [r for r in RENAMED if r.kind == kind]
+    assert notices == [f"sarnav: notice: {r.old} is now {r.new} (the old name is accepted until sarnav {UNTIL})"
+                       for r in renamed]
+    if kind == "study":
+        cases = json.loads((out / "study.json").read_text())["cases"]
+        assert cases and all((out / c["label"] / "summary.json").exists() for c in cases)
+    elif kind == "image":
+        assert json.loads((out / "metrics.json").read_text())["n_targets"] >= 1
+    elif kind == "bpa-sensitivity":
+        assert len((out / "sensitivity.csv").read_text().splitlines()) == 1 + 9
+    else:
+        assert json.loads((out / "summary.json").read_text())["complete"] is True

@@ -113,3 +113,40 @@ def test_bad_config_names_the_field():
     cfg["image"]["interpolation"] = "sinc"
     with pytest.raises(ConfigError, match="image.interpolation"):
         bpa.validate(cfg)
+
+
+@pytest.mark.parametrize("key, value, field", [
+    # show accepted them and run refused (or crashed) while simulating: validation now does what run needs
+    ("radar.prf_hz", 1.0, "radar.prf_hz"),     # 6 pulses: was a run-time error naming radar.prf
+    ("radar.prf_hz", 20.0, "radar.prf_hz"),    # below the Doppler band 88.5 Hz: was "radar.prf" at run time
+    ("radar.prf_hz", 1e9, "radar.prf_hz"),     # 6e9 pulses
+    ("trajectory.speed", 1e300, "trajectory.speed"),
+    ("scene.target_ground_range", 1e12, "scene.target_ground_range"),
+    ("image.spacing", 0.01, "image.spacing"),  # with a 50-m margin: 6e10 pixel-pulses
+    ("errors.velocity_cross", 10.0, "errors.velocity_cross"),  # the target's closest approach leaves the aperture
+])
+def test_show_refuses_what_run_would_refuse(key, value, field, capsys):
+    from sarnav.cli.main import main
+
+    argv = ["show", "bpa-sensitivity", "--set", f"{key}={value}"]
+    if key == "image.spacing":
+        argv += ["--set", "image.margin=50.0"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"sarnav: error: {field}: ") and err.count("\n") == 1, err
+
+
+def test_validation_plans_every_case_like_the_run():
+    # the plan validation makes (closed-form closest approach of the true track) and the run's (eq. 4.41 root) agree
+    from sarnav.analysis import bpa_sensitivity as ab
+    from sarnav.analysis import sensitivity as sens
+
+    cfg = bpa.default_config()
+    geo = bpa.geometry(cfg)
+    settings = ab.ImageSettings(0.1, 4.0, "cubic")
+    for name, value in cfg["errors"].items():
+        quick = ab.plan_case(name, value, geo, settings)
+        dx0 = ab.injected_error(name, value)
+        pred = sens.predict_shift(geo.target, geo.p0, geo.v0, dx0, (-geo.aperture, 2 * geo.aperture))
+        exact = ab.plan_case(name, value, geo, settings, pred)
+        np.testing.assert_allclose(quick.q_pred, exact.q_pred, atol=1e-6)

@@ -78,7 +78,9 @@ def test_unusable_out_is_a_config_error(tmp_path):
     [
         (lambda c: c["cases"][1].update(label="quiet"), r"^cases\[1\]\.label: duplicate"),
         (lambda c: c["cases"][1]["set"].update({"toy.nope": 1}), r"^cases\[1\]\.set\.toy\.nope: unknown key"),
-        (lambda c: c["cases"][0]["set"].update({"toy.q": -1.0}), r"^cases\[0\] \(quiet\): toy\.q: must be > 0"),
+        # the key the case sets (was "cases[0] (quiet): toy.q", not a key of the file)
+        (lambda c: c["cases"][0]["set"].update({"toy.q": -1.0}), r"^cases\[0\]\.set\.toy\.q: must be > 0.*\(case 'quiet'\)$"),
+        (lambda c: c["base"]["toy"].update(steps=1), r"^base\.toy\.steps: must be an integer >= 2.*\(case 'quiet'\)$"),
         (lambda c: c["cases"][0].update(style="wavy"), r"^cases\[0\]\.style: must be one of"),
         (lambda c: c["cases"][0].update(label="a/b"), r"^cases\[0\]\.label: must be a name"),
         (lambda c: c.update(cases=[]), r"^cases: must be a non-empty"),

@@ -37,7 +37,8 @@ from sarnav.trajectory.sampled import closest_approach
 from sarnav.units import G0
 
 __all__ = ["THESIS_SIM_ERRORS", "ImageSettings", "Geometry", "make_geometry", "injected_error",
-           "estimated_trajectory", "CaseResult", "run_case", "run_study", "CSV_FIELDS"]
+           "estimated_trajectory", "CaseResult", "CasePlan", "plan_case", "image_pixels", "run_case", "run_study",
+           "CSV_FIELDS", "MAX_PIXEL_PULSES"]
 
 
 @dataclass(frozen=True)
@@ -178,27 +179,89 @@ def _irw_along(img, pk) -> float:
         return float("nan")
 
 
+#: the largest BPA image of one case, in pixel-pulses (pixels x pulses back-projected; the default study's images are
+#: 1e7): about 10 s of back-projection on one core
+MAX_PIXEL_PULSES = 2e9
+
+
+@dataclass(frozen=True)
+class CasePlan:
+    """What one injected error needs before any echo is simulated: the estimated track, the predicted shift and
+    image point, the patch to image (``centre`` (3,), ``half`` (2,) [m] north/east)."""
+
+    dx0: np.ndarray
+    p_hat: np.ndarray
+    v_hat: np.ndarray
+    pred: object
+    q_pred: np.ndarray
+    centre: np.ndarray
+    half: np.ndarray
+
+
+def _too_far(name: str, value: float, geo: Geometry) -> ConfigError:
+    return ConfigError(f"errors.{name}", f"{value:g} {THESIS_SIM_ERRORS[name][3]} moves the target's closest approach "
+                       f"to the estimated track outside the {geo.aperture:g}-s aperture: the shift is not measurable "
+                       "(smaller error or longer trajectory.duration)")
+
+
+def image_pixels(half_n: float, half_e: float, spacing: float) -> int:
+    """Pixels of the ground image of half-extents ``half_n``, ``half_e`` [m] at ``spacing`` [m] (``_image_around``)."""
+    return (2 * int(math.ceil(half_n / spacing)) + 1) * (2 * int(math.ceil(half_e / spacing)) + 1)
+
+
+def plan_case(name: str, value: float, geo: Geometry, image: ImageSettings, pred=None) -> CasePlan:
+    """The :class:`CasePlan` of one injected error; ConfigError naming ``errors.<name>`` when the target or its
+    predicted image falls outside the aperture (no shift to measure) or the image would exceed
+    :data:`MAX_PIXEL_PULSES` (checked by the scenario's validation, before anything is simulated).
+
+    ``pred``: the eq. 4.41 prediction (``analysis.sensitivity.predict_shift``) when known; without it (validation) the
+    true track's closest approach is the closed form of the straight line, and ``CasePlan.pred`` is None.
+    """
+    dx0 = injected_error(name, value)
+    p_hat, v_hat = estimated_trajectory(geo, dx0)
+    slowest = float(np.min(np.linalg.norm(v_hat, axis=1)))
+    if not slowest > 0.5 * geo.speed:  # the zero-Doppler plane of a track at rest is undefined
+        raise ConfigError(f"errors.{name}", f"{value:g} {THESIS_SIM_ERRORS[name][3]} slows the estimated track to "
+                          f"{slowest:.3g} m/s: it must stay above half the true speed {geo.speed:g} m/s")
+    if pred is None:
+        eta0 = float(np.dot(geo.target - geo.p0, geo.v0) / np.dot(geo.v0, geo.v0))
+        r0 = float(np.linalg.norm(geo.target - geo.p0 - geo.v0 * eta0))
+    else:
+        eta0, r0 = pred.eta0, pred.r0
+    try:
+        # predicted image location: the ground point whose closest approach to the estimate is (R0, eta0)
+        q_pred = _ground_point_at(r0, eta0, geo.times, p_hat, v_hat)
+        for point in (geo.target, q_pred):
+            closest_approach(point, geo.times, p_hat)
+    except InputDataError:
+        raise _too_far(name, value, geo) from None
+    centre = 0.5 * (geo.target + q_pred)
+    half = np.abs(geo.target - q_pred)[:2] / 2 + image.margin
+    n = image_pixels(half[0], half[1], image.spacing) * len(geo.times)
+    if n > MAX_PIXEL_PULSES:
+        raise ConfigError(f"errors.{name}", f"{value:g} {THESIS_SIM_ERRORS[name][3]} needs a {2 * half[0]:.3g} m x "
+                          f"{2 * half[1]:.3g} m image: {n:.3g} pixel-pulses at image.spacing = {image.spacing:g} m "
+                          f"(at most {MAX_PIXEL_PULSES:.3g}): a smaller error, a larger image.spacing or a smaller "
+                          "image.margin")
+    return CasePlan(dx0, p_hat, v_hat, pred, q_pred, centre, half)
+
+
 def run_case(name: str, value: float, geo: Geometry, rc, ref_peak_amp: float, irw_ref: float,
              image: ImageSettings) -> CaseResult:
     """One injected error: image, measure, predict."""
     dx0 = injected_error(name, value)
-    p_hat, v_hat = estimated_trajectory(geo, dx0)
     pred = sens.predict_shift(geo.target, geo.p0, geo.v0, dx0, (-geo.aperture, 2 * geo.aperture))
+    plan = plan_case(name, value, geo, image, pred)
+    p_hat, v_hat, q_pred = plan.p_hat, plan.v_hat, plan.q_pred
     dk = sens.fm_rate_error(geo.target, geo.p0, geo.v0, dx0, rc.params.wavelength)
     pred_loss = sens.peak_loss_from_fm_rate_error(dk, geo.aperture)
-    # predicted image location: the ground point whose closest approach to the estimate is (R0, eta0)
-    q_pred = _ground_point_at(pred.r0, pred.eta0, geo.times, p_hat, v_hat)
-    centre = 0.5 * (geo.target + q_pred)
-    half = np.abs(geo.target - q_pred)[:2] / 2 + image.margin
-    img = _image_around(rc, p_hat, centre, half[0], half[1], image.spacing, image.interpolation)
+    img = _image_around(rc, p_hat, plan.centre, plan.half[0], plan.half[1], image.spacing, image.interpolation)
     pk, p_img, amp = _peak(img)
     try:
         eta_img, r_img, _ = closest_approach(p_img, geo.times, p_hat)
         eta_ref, r_ref, _ = closest_approach(geo.target, geo.times, p_hat)
     except InputDataError:
-        raise ConfigError(f"errors.{name}", f"{value:g} {THESIS_SIM_ERRORS[name][3]} moves the target's closest approach "
-                          f"to the estimated track outside the {geo.aperture:g}-s aperture: the shift is not measurable "
-                          "(smaller error or longer trajectory.duration)") from None
+        raise _too_far(name, value, geo) from None
     speed_hat = float(np.linalg.norm(_interp3(eta_ref, geo.times, v_hat)))
     return CaseResult(
         name=name, value=value, unit=THESIS_SIM_ERRORS[name][3],

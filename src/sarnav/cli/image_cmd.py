@@ -90,9 +90,20 @@ def run(args) -> int:
         pt = report["point_target"]
         for axis in ("slant_range", "along_track"):
             d = pt[axis]
-            print(f"  {axis:>11}: IRW {d['irw_m']['measured']:.4g} m (theory {d['irw_m']['theory']:.4g}), "
-                  f"PSLR {d['pslr_db']['measured']:.2f} dB ({d['pslr_db']['theory']:.2f}), "
-                  f"ISLR {d['islr_db']['measured']:.2f} dB ({d['islr_db']['theory']:.2f})")
+            print(f"  {axis:>11}: IRW {_fmt(d['irw_m']['measured'], '.4g', ' m')} (theory {d['irw_m']['theory']:.4g}), "
+                  f"PSLR {_fmt(d['pslr_db']['measured'], '.2f', ' dB')} ({d['pslr_db']['theory']:.2f}), "
+                  f"ISLR {_fmt(d['islr_db']['measured'], '.2f', ' dB')} ({d['islr_db']['theory']:.2f})")
+        if pt.get("measured_undefined"):
+            print(f"  not measured ({pt['measured_undefined']}); metrics.json holds null")
     for f in report.get("files", []):
         print(f"  wrote {out / f}")
     return 0
+
+
+def _fmt(value, spec: str, unit: str) -> str:
+    """A measured figure, or ``n/a`` where it is undefined (None / NaN: metrics.json says why)."""
+    import math
+
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    return f"{value:{spec}}{unit}"

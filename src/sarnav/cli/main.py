@@ -3,11 +3,11 @@
 
 Every :class:`sarnav.errors.SarnavError` (argument errors included) becomes one line on stderr,
 ``sarnav: error: <field>: <message>``, and exit status 2 (no traceback). SIGINT and SIGTERM, at any moment after the
-interpreter has started this module, end the command with one ``sarnav: interrupted by signal N ...`` line and exit
-status 128 + N (130, 143); the console script then leaves at once (``os._exit``), so no worker pool or thread can keep
-it alive. Signals that arrive while the command is importing are deferred (``sarnav.cli.PENDING_SIGNALS``); only one
-arriving before the interpreter has loaded ``sarnav.cli`` (its first tens of milliseconds) gets Python's default
-behaviour.
+interpreter has run the first line of ``sarnav/__init__.py``, end the command with one ``sarnav: interrupted by signal
+N ...`` line and exit status 128 + N (130, 143); the console script then leaves at once (``os._exit``), so no worker
+pool or thread can keep it alive. Signals that arrive while the command is importing are deferred
+(``sarnav.PENDING_SIGNALS``); only one arriving in the interpreter's own start-up, before it runs any sarnav code
+(10-30 ms), gets the operating system's default.
 """
 
 from __future__ import annotations

@@ -160,20 +160,57 @@ class ChunkRunner:
         self.close(abort=exc_type is not None)
         return False
 
-    def close(self, abort: bool = False) -> None:
-        """Release the workers (``abort``: terminate local worker processes at once)."""
+    def close(self, abort: bool = False, futures=()) -> None:
+        """Release the workers (``abort``: terminate local worker processes at once, quietly; ``futures``: dask
+        futures to cancel on a scheduler this runner did not start)."""
         if self._pool is not None:
             if abort:
                 _terminate(self._pool)
             else:
                 self._pool.shutdown(wait=True)
             self._pool = None
+        if abort and (self._client is not None or self._cluster is not None):
+            self._abort_dask(futures)
         if self._client is not None:
             self._client.close()
             self._client = None
         if self._cluster is not None:
             self._cluster.close()
             self._cluster = None
+
+    def _abort_dask(self, futures) -> None:
+        """Stop dask at once without a word: the LocalCluster's worker processes are killed (SIGKILL: a worker told
+        to stop would log the cancelled tasks and the closed connections, pages of tracebacks on the user's
+        terminal), the futures of an outside scheduler cancelled, this process's ``distributed`` logging silenced
+        while client and cluster close."""
+        import logging
+        import signal
+
+        previous = logging.root.manager.disable
+        logging.disable(logging.CRITICAL)
+        try:
+            if self._cluster is not None:
+                for nanny in list(getattr(self._cluster, "workers", {}).values()):
+                    pid = getattr(nanny, "pid", None)
+                    if pid:
+                        try:
+                            os.kill(pid, signal.SIGKILL)
+                        except OSError:
+                            pass
+            elif self._client is not None and futures:
+                try:
+                    self._client.cancel(list(futures))
+                except Exception:  # noqa: BLE001 - leaving anyway: the scheduler drops them with the client
+                    pass
+            for obj in (self._client, self._cluster):
+                if obj is not None:
+                    try:
+                        obj.close(timeout=5)
+                    except Exception:  # noqa: BLE001 - the workers are gone; nothing left to report
+                        pass
+            self._client = self._cluster = None
+        finally:
+            logging.disable(previous)
 
     def _ensure_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
@@ -187,13 +224,17 @@ class ChunkRunner:
             from sarnav.errors import deferred_signals
 
             with deferred_signals():
+                import logging
+
                 from dask.distributed import Client, LocalCluster
 
             try:
                 if self.scheduler:
                     self._client = Client(self.scheduler, timeout="20s")
                 else:
-                    self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+                    # worker processes log errors only (their warnings, e.g. of cancelled tasks, are not the user's)
+                    self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                                 dashboard_address=None, silence_logs=logging.ERROR)
                     self._client = Client(self._cluster)
             except OSError as err:
                 raise ConfigError("--scheduler", f"cannot connect to dask scheduler {self.scheduler!r}: {err}") from None
@@ -242,6 +283,4 @@ class ChunkRunner:
             clean = True
         finally:
             if not clean:
-                for f in futures:
-                    f.cancel()
-                self.close()
+                self.close(abort=True, futures=futures)

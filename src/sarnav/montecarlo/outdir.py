@@ -1,8 +1,10 @@
 """The output folder of a scenario: one writer at a time, and one scenario's results at a time.
 
 * **Lock.** ``OUT/.sarnav.lock`` is held with an exclusive ``flock`` while a campaign (or study, image, sweep) writes
-  into ``OUT``; a second writer is refused with one line naming the holder (pid, host, scenario, start). The lock
-  dies with its process, so a killed campaign never leaves ``OUT`` locked.
+  into ``OUT`` and removed when it ends; a second writer is refused with one line naming the holder (pid, host,
+  scenario, start). The lock dies with its process, so a killed campaign never leaves ``OUT`` locked (the file it
+  may leave behind is taken by the next run). The file is removed while still locked, and a writer that locked a
+  file since removed retries with a new one, so two writers never both hold "the" lock.
 * **Identity.** ``OUT/sarnav.json`` says whose results the folder holds: kind, scenario name, the SHA-256
   fingerprint of the scenario text (without ``campaign.runs``, so a campaign can be extended) and the seed. A run
   into a folder holding *another* scenario's results (or results of unknown origin) is refused unless
@@ -117,10 +119,8 @@ class OutputFolder:
         out = self.out
         try:
             out.mkdir(parents=True, exist_ok=True)
-            self._fh = open(out / LOCK, "a+", encoding="utf-8")
         except OSError as err:
-            raise ConfigError("--out", f"cannot create or write in output directory {str(out)!r}: "
-                              f"{err.strerror}") from None
+            raise self._unwritable(err) from None
         self._lock()
         held = _held_identity(out)
         if held is not None and not _same(held, self.ident):
@@ -137,18 +137,36 @@ class OutputFolder:
         self._write_identity()
         return self
 
+    def _unwritable(self, err: OSError) -> ConfigError:
+        return ConfigError("--out", f"cannot create or write in output directory {str(self.out)!r}: {err.strerror}")
+
     def _lock(self) -> None:
         import fcntl
 
-        try:
-            fcntl.flock(self._fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            self._fh.seek(0)
-            holder = self._fh.read().strip() or "another process"
+        path = self.out / LOCK
+        for _ in range(100):  # another writer may remove the file we opened (it ends): lock the current file
+            try:
+                self._fh = open(path, "a+", encoding="utf-8")
+            except OSError as err:
+                raise self._unwritable(err) from None
+            try:
+                fcntl.flock(self._fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                self._fh.seek(0)
+                holder = self._fh.read().strip() or "another process"
+                self._fh.close()
+                self._fh = None
+                raise ConfigError("--out", f"{str(self.out)!r} is in use by another sarnav run ({holder}); wait for "
+                                  "it to finish or choose another --out") from None
+            try:
+                if os.stat(path).st_ino == os.fstat(self._fh.fileno()).st_ino:
+                    break
+            except FileNotFoundError:
+                pass
             self._fh.close()
             self._fh = None
-            raise ConfigError("--out", f"{str(self.out)!r} is in use by another sarnav run ({holder}); wait for it "
-                              "to finish or choose another --out") from None
+        else:  # pragma: no cover - a hundred writers ending one after the other
+            raise ConfigError("--out", f"{str(self.out)!r}: could not take the lock {LOCK}; try again")
         self._fh.seek(0)
         self._fh.truncate()
         self._fh.write(f"pid {os.getpid()} on {socket.gethostname()}, scenario {self.ident.get('scenario')!r}, "
@@ -164,6 +182,10 @@ class OutputFolder:
         if self._fh is not None:
             import fcntl
 
+            try:  # removed while still locked (see the module docstring)
+                (self.out / LOCK).unlink()
+            except OSError:
+                pass
             fcntl.flock(self._fh, fcntl.LOCK_UN)
             self._fh.close()
             self._fh = None

@@ -13,14 +13,19 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from sarnav.analysis.bpa_sensitivity import THESIS_SIM_ERRORS, ImageSettings, make_geometry, run_study
+from sarnav.analysis.bpa_sensitivity import (MAX_PIXEL_PULSES, THESIS_SIM_ERRORS, ImageSettings, image_pixels,
+                                             make_geometry, plan_case, run_study)
 from sarnav.errors import ConfigError, require_finite, require_positive
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.record import RunRecord
-from sarnav.scenarios.vocabulary import make_radar, radar_fields
+from sarnav.scenarios.vocabulary import MAX_SPEED, doppler_prf_check, echo_block_check, make_radar, radar_fields
 from sarnav.units import C
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample")
+#: validation limits: flight altitude and target ground range [m], pulses in the aperture
+MAX_ALTITUDE = 1.0e5
+MAX_GROUND_RANGE = 1.0e5
+MIN_PULSES, MAX_PULSES = 8, 65536
 
 
 def default_config() -> dict:
@@ -54,12 +59,18 @@ def validate(cfg: dict) -> None:
         require_finite(f"trajectory.start_ned[{i}]", v, unit="m")
     if not start[2] < 0:
         raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {start[2]}")
-    require_positive("trajectory.speed", tr.get("speed"), "m/s")
+    if not start[2] >= -MAX_ALTITUDE:
+        raise ConfigError("trajectory.start_ned[2]", f"must be in [-{MAX_ALTITUDE:g}, 0) m, got {start[2]}")
+    _in_range("trajectory.speed", tr.get("speed"), MAX_SPEED, "m/s")
     require_finite("trajectory.duration", tr.get("duration"), 0.5, 60.0, "s")
-    require_positive("scene.target_ground_range", sc.get("target_ground_range"), "m")
+    _in_range("scene.target_ground_range", sc.get("target_ground_range"), MAX_GROUND_RANGE, "m")
     if r.get("preset") != "nav-paper-sim":
         raise ConfigError("radar.preset", f"must be 'nav-paper-sim' (the study's radar), got {r.get('preset')!r}")
     require_positive("radar.prf_hz", r.get("prf_hz"), "Hz")
+    n_pulses = float(tr["duration"]) * float(r["prf_hz"])
+    if not MIN_PULSES <= n_pulses <= MAX_PULSES:
+        raise ConfigError("radar.prf_hz", f"trajectory.duration x radar.prf_hz must give {MIN_PULSES} to {MAX_PULSES} "
+                          f"pulses, got {n_pulses:g}")
     require_finite("radar.pulse_length_us", r.get("pulse_length_us"), 0.01, 10.0, "us")
     require_finite("radar.range_margin_m", r.get("range_margin_m"), 5.0, 500.0, "m")
     require_finite("image.spacing", im.get("spacing"), 0.01, 1.0, "m")
@@ -72,6 +83,33 @@ def validate(cfg: dict) -> None:
         require_finite(f"errors.{name}", e[name], -10.0, 10.0, THESIS_SIM_ERRORS[name][3])
     if not e:
         raise ConfigError("errors", "needs at least one injected error")
+    _validate_physics(cfg)
+
+
+def _in_range(field: str, value, hi: float, unit: str) -> float:
+    v = require_positive(field, value, unit)
+    if v > hi:
+        raise ConfigError(field, f"must be in (0, {hi:g}] {unit}, got {v!r}")
+    return v
+
+
+def _validate_physics(cfg: dict) -> None:
+    """What ``run`` would otherwise find out while simulating (``show`` refuses the same): the radar (RadarParams,
+    the Doppler band at the study's speed: ``radar.prf_hz``), the echo block's size, and per injected error an
+    estimated track whose closest approach to the target lies in the aperture and an image of bounded size."""
+    geo = geometry(cfg)
+    params = radar(cfg, geo)
+    doppler_prf_check(params, geo.speed)
+    echo_block_check(len(geo.times), params.n_range_samples)
+    im = cfg["image"]
+    settings = ImageSettings(float(im["spacing"]), float(im["margin"]), im["interpolation"])
+    ref = image_pixels(settings.margin, settings.margin, settings.spacing) * len(geo.times)
+    if ref > MAX_PIXEL_PULSES:
+        raise ConfigError("image.spacing", f"{settings.spacing:g} m over image.margin = {settings.margin:g} m is "
+                          f"{ref:.3g} pixel-pulses per image (at most {MAX_PIXEL_PULSES:.3g}): a larger spacing or a "
+                          "smaller margin")
+    for name, value in cfg["errors"].items():
+        plan_case(name, float(value), geo, settings)
 
 
 def geometry(cfg: dict):

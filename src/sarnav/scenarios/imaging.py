@@ -43,7 +43,7 @@ from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.montecarlo.kind import ScenarioKind
-from sarnav.scenarios.vocabulary import make_radar, radar_fields
+from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
            "write_cphd", "write_sicd", "scene_centre", "origin_llh", "ALGORITHMS", "AUTOFOCUS"]
@@ -176,7 +176,7 @@ def validate(cfg: dict) -> None:
         _choice(cfg, "scene", "amplitude_law", ("rayleigh", "constant"))
     origin_llh(cfg)
     params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
-    _check_size(n_pulses, params.n_range_samples)
+    echo_block_check(n_pulses, params.n_range_samples)
     _check_doppler_band(cfg)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
     as_window(cfg["image"]["window"], "image.window")
@@ -199,19 +199,6 @@ def origin_llh(cfg: dict) -> list[float]:
         raise ConfigError("scene.origin_llh", "must be [latitude deg in [-90, 90], longitude deg in [-180, 360], "
                           f"height m in [-1e4, 1e5]], got {v!r}")
     return [float(x) for x in v]
-
-
-#: the largest block of echoes simulated [bytes, complex128]: pulses x range samples x 16
-MAX_BLOCK_BYTES = 2**30
-
-
-def _check_size(n_pulses: float, n_range: int) -> None:
-    need = n_pulses * n_range * 16
-    if need > MAX_BLOCK_BYTES:
-        field = "radar.sample_rate_mhz" if n_range > 65536 else "trajectory.duration"
-        raise ConfigError(field, f"{n_pulses:g} pulses x {n_range} range samples need {need / 2**30:.3g} GiB of echoes "
-                          f"(at most {MAX_BLOCK_BYTES / 2**30:g} GiB): lower radar.sample_rate_mhz, the imaged slant-range "
-                          "extent or the block (trajectory.duration x radar.prf_hz)")
 
 
 def _check_doppler_band(cfg: dict) -> None:

@@ -76,6 +76,20 @@ def case_config(cfg: dict, index: int) -> dict:
     return out
 
 
+def _case_field(case: dict, index: int, field: str) -> str:
+    """The key of the study file that a case's error on ``field`` (a key of the case's scenario) is about: the
+    case's ``set`` entry when it sets it (or a table above it), the study's own ``[campaign]`` and ``scenario.name``,
+    else ``base.<field>``."""
+    if field.startswith("cases["):
+        return field
+    for key in case.get("set", {}):
+        if field == key or field.startswith((f"{key}.", f"{key}[")) or key.startswith(f"{field}."):
+            return f"cases[{index}].set.{key}"
+    if field.split(".")[0].split("[")[0] == "campaign" or field == "scenario.name":
+        return field
+    return f"base.{field}"
+
+
 class StudyKind(ScenarioKind):
     """Kind ``"study"``: validated here, run by :func:`run_study` (not through ``simulate``)."""
 
@@ -111,8 +125,7 @@ class StudyKind(ScenarioKind):
             try:
                 validate_scenario(sub, kind)
             except ConfigError as err:
-                field = err.field if err.field.startswith("cases[") else f"cases[{i}] ({label}): {err.field}"
-                raise ConfigError(field, err.message) from None
+                raise ConfigError(_case_field(case, i, err.field), f"{err.message} (case {label!r})") from None
         for name in study.get("states", []):
             if name not in state_names:
                 raise ConfigError("study.states", f"unknown state {name!r} (states: {', '.join(state_names)})")

@@ -38,7 +38,8 @@ from sarnav.simulation.flight import ImuSpec
 from sarnav.trajectory import Maneuvering, StraightLevel
 
 __all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "read_filter_imu", "read_initial",
-           "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys", "flight_size_check", "MAX_IMU_SAMPLES"]
+           "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys", "flight_size_check", "MAX_IMU_SAMPLES",
+           "INITIAL_RANGES", "echo_block_check", "MAX_BLOCK_SAMPLES"]
 
 #: optional 3-sigma overrides of an IMU grade, in source units (``sensors.imu.ImuGrade.from_three_sigma``)
 IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
@@ -52,6 +53,24 @@ MAX_SPEED = 1.0e4
 MAX_IMU_RATE = 1.0e4
 #: the attitude error is a small angle (thesis eq. 4.9): larger initial 3-sigma values are refused [rad]
 MAX_THETA_3SIGMA = 0.5
+#: physical ranges of the ``[initial]`` 3-sigma values (SI): key -> (lo, hi, unit). Up to 100 km of position and
+#: 1 km/s of velocity error (an aircraft's speed is at most ``MAX_SPEED``); below the lower bounds, or with a velocity
+#: 3-sigma of 1e7 m/s, the initial covariance spans more orders of magnitude than float64 keeps positive definite
+#: (telemetry then wrote NaN sigma). Every corner of these ranges gives finite sigma (tests/scenarios/test_vocabulary.py).
+INITIAL_RANGES = {"p_3sigma": (1e-6, 1e5, "m"), "v_3sigma": (1e-6, 1e3, "m/s"),
+                  "theta_3sigma": (1e-9, MAX_THETA_3SIGMA, "rad")}
+
+
+def positive_up_to(field: str, value, hi: float, unit: str) -> float:
+    """``value`` as a float in (0, hi], else ConfigError naming ``field`` and that range (``must be in (0, 10000] Hz``)."""
+    rng = f"(0, {hi:g}] {unit}"
+    try:
+        v = require_finite(field, value)
+    except ConfigError:
+        raise ConfigError(field, f"must be a finite number in {rng}, got {value!r}") from None
+    if not 0 < v <= hi:
+        raise ConfigError(field, f"must be in {rng}, got {v!r}")
+    return v
 
 
 # ----------------------------------------------------------------------------- trajectory
@@ -65,9 +84,7 @@ def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None =
     if ttype not in types:
         raise ConfigError("trajectory.type", f"must be one of {list(types)}, got {ttype!r}")
     start = vector(cfg, "trajectory", "start_ned", unit="m")
-    speed = require_finite("trajectory.speed", get(cfg, "trajectory", "speed"), hi=MAX_SPEED, unit="m/s")
-    if speed <= 0:
-        raise ConfigError("trajectory.speed", f"must be in (0, {MAX_SPEED}] m/s, got {speed!r}")
+    speed = positive_up_to("trajectory.speed", get(cfg, "trajectory", "speed"), MAX_SPEED, "m/s")
     heading = float(units.deg_to_rad(require_finite("trajectory.heading_deg", get(cfg, "trajectory", "heading_deg"),
                                                     lo=-360.0, hi=360.0, unit="deg")))
     if max_duration is None:
@@ -105,9 +122,7 @@ def read_imu(cfg: dict) -> tuple[ImuSpec, float]:
     """(the truth IMU, its sample rate [Hz]) of ``[imu]``."""
     t = table(cfg, "imu")
     grade = _grade(t, "imu")
-    rate = require_finite("imu.rate_hz", get(cfg, "imu", "rate_hz"), hi=MAX_IMU_RATE, unit="Hz")
-    if rate <= 0:
-        raise ConfigError("imu.rate_hz", f"must be in (0, {MAX_IMU_RATE}] Hz, got {rate!r}")
+    rate = positive_up_to("imu.rate_hz", get(cfg, "imu", "rate_hz"), MAX_IMU_RATE, "Hz")
     return ImuSpec(grade, positive(cfg, "imu", "tau_accel", "s"), positive(cfg, "imu", "tau_gyro", "s")), rate
 
 
@@ -152,12 +167,13 @@ def read_initial(cfg: dict, filter_imu: ImuSpec) -> dict:
     """
     three = units.three_sigma_to_sigma
     ini = table(cfg, "initial")
-    p3 = vector(cfg, "initial", "p_3sigma", positive=True, unit="m")
-    v3 = vector(cfg, "initial", "v_3sigma", positive=True, unit="m/s")
-    th3 = vector(cfg, "initial", "theta_3sigma", positive=True, unit="rad")
-    if np.any(th3 > MAX_THETA_3SIGMA):
+    th = ini.get("theta_3sigma")
+    if isinstance(th, list) and any(isinstance(v, (int, float)) and not isinstance(v, bool) and v > MAX_THETA_3SIGMA
+                                    for v in th):
         raise ConfigError("initial.theta_3sigma", f"must be <= {MAX_THETA_3SIGMA} rad on each axis (the attitude error "
-                          f"state is a small angle, thesis eq. 4.9), got {th3.tolist()}")
+                          f"state is a small angle, thesis eq. 4.9), got {th}")
+    p3, v3, th3 = (vector(cfg, "initial", key, positive=True, unit=unit, lo=lo, hi=hi)
+                   for key, (lo, hi, unit) in INITIAL_RANGES.items())
     g = filter_imu.grade
     if "accel_bias_3sigma" in ini:
         ba = float(three(units.g_to_m_per_s2(bounded_positive("initial.accel_bias_3sigma", ini["accel_bias_3sigma"],
@@ -254,6 +270,27 @@ def flight_size_check(duration: float, imu_rate: float) -> int:
         raise ConfigError("trajectory.duration", f"{duration:g} s at imu.rate_hz = {imu_rate:g} Hz is {n:.3g} IMU "
                           f"samples per run; at most {MAX_IMU_SAMPLES:.0e}: shorten the flight or lower the rate")
     return int(n)
+
+
+#: the largest block of echoes simulated and focused at once, in samples (pulses x range samples): the image chain
+#: holds about :data:`BYTES_PER_BLOCK_SAMPLE` bytes per sample at its peak (echoes and range-compressed block in
+#: complex128, the image, FFT work arrays; measured: point-target at radar.sample_rate_mhz = 16000, 4.5e6 samples,
+#: 570 MB above the interpreter's own and 8 s), so 2^23 samples stay within about 1 GiB and 15 s
+MAX_BLOCK_SAMPLES = 2**23
+BYTES_PER_BLOCK_SAMPLE = 128
+
+
+def echo_block_check(n_pulses: float, n_range: int) -> None:
+    """Refuse a block of ``n_pulses`` x ``n_range`` samples beyond :data:`MAX_BLOCK_SAMPLES` before anything is
+    allocated, naming the key that makes it large: ``radar.sample_rate_mhz`` (range samples) or
+    ``trajectory.duration`` (pulses = duration x radar.prf_hz)."""
+    n = float(n_pulses) * float(n_range)
+    if not n <= MAX_BLOCK_SAMPLES:
+        field = "radar.sample_rate_mhz" if n_range >= n_pulses else "trajectory.duration"
+        raise ConfigError(field, f"{n_pulses:g} pulses x {n_range} range samples = {n:.3g} samples need about "
+                          f"{n * BYTES_PER_BLOCK_SAMPLE / 2**30:.3g} GiB (at most {MAX_BLOCK_SAMPLES:.3g} samples, "
+                          f"{MAX_BLOCK_SAMPLES * BYTES_PER_BLOCK_SAMPLE / 2**30:g} GiB): lower radar.sample_rate_mhz, the "
+                          "imaged slant-range extent or the block (trajectory.duration x radar.prf_hz)")
 
 
 def whole_number(field: str, value: float, step: float, what: str) -> int:

@@ -75,6 +75,10 @@ class Window:
         return _sw.kaiser(m, beta=float(self.beta), sym=True)
 
 
+#: the entry of a ``(name, nbar, sll_db)`` / ``(name, beta)`` list that holds each Window field
+_POSITION = {"name": 0, "nbar": 1, "sll_db": 2, "beta": 1}
+
+
 def as_window(spec, field: str = "window") -> Window:
     """Normalise a window specification.
 
@@ -100,8 +104,15 @@ def as_window(spec, field: str = "window") -> Window:
                 return Window(name, beta=float(spec[1])) if len(spec) > 1 else Window(name)
             if len(spec) == 1:
                 return Window(name)
-    except ConfigError as err:
-        raise ConfigError(f"{field}.{err.field.split('.', 1)[-1]}", err.message) from None
+    except ConfigError as err:  # named as the user wrote it: a table's key, a list's entry, a name itself
+        sub = err.field.split(".", 1)[-1]
+        if isinstance(spec, dict):
+            where = f"{field}.{sub}"
+        elif isinstance(spec, (tuple, list)):
+            where = f"{field}[{_POSITION.get(sub, 0)}]"
+        else:
+            where = field
+        raise ConfigError(where, err.message) from None
     except TypeError as err:
         raise ConfigError(field, f"bad window specification {spec!r}: {err}") from None
     raise ConfigError(field, f"must be one of {WINDOW_NAMES}, a Window, a dict or a tuple, got {spec!r}")
