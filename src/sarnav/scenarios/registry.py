@@ -48,6 +48,9 @@ KINDS: dict[str, str] = {
     "rda-nav": "sarnav.scenarios.rda_nav:RdaNavKind",
     "bpa-sensitivity": "sarnav.scenarios.bpa_sensitivity:BpaSensitivityKind",
     "image": "sarnav.scenarios.imaging:ImageKind",
+    "multi-imu-path1": "sarnav.scenarios.multi_imu:MultiImuPath1Kind",
+    "multi-imu": "sarnav.scenarios.multi_imu:MultiImuKind",
+    "upf-flight": "sarnav.scenarios.multi_imu:UpfFlightKind",
 }
 
 # fmt: off
@@ -62,6 +65,9 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
     ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "sarnav.scenarios.imaging:point_target_config"),
     ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "sarnav.scenarios.imaging:scatterers_config"),
+    ScenarioEntry("multi-imu-path1", "multi-imu-path1", "Sun 2022 path 1 (eq. 5.21): three position sensors (Table 5.1), one PF each, mean vs SIR fusion", "kind:"),
+    ScenarioEntry("multi-imu-adis", "multi-imu", "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 PFs fused (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C", "kind:"),
+    ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "kind:"),
 )
 # fmt: on
 
