@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["source_rmse", "rmse_ratio", "filter_nees_summary"]
+__all__ = ["source_rmse", "rmse_ratio", "filter_nees_summary", "focus_table"]
 
 
 def source_rmse(ds) -> dict:
@@ -44,3 +44,13 @@ def rmse_ratio(rmse: dict, numerator, denominator) -> float:
     num = np.mean([rmse[n] for n in ([numerator] if isinstance(numerator, str) else numerator)])
     den = np.mean([rmse[n] for n in ([denominator] if isinstance(denominator, str) else denominator)])
     return float(num / den) if den > 0 else float("nan")
+
+
+def focus_table(ds) -> list[dict]:
+    """One row per source of ``ds["focus"] (run, source, reflector, metric)``: the mean over reflectors and runs
+    of each metric (the rows of ``focus.csv``: ``source`` and the metric names)."""
+    f = np.asarray(ds["focus"].values, dtype=float)
+    metrics = [str(m) for m in ds["metric"].values]
+    mean = f.mean(axis=(0, 2))  # (source, metric)
+    return [{"source": str(s), **{m: float(mean[j, i]) for i, m in enumerate(metrics)}}
+            for j, s in enumerate(ds["source"].values)]

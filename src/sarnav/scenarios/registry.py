@@ -51,6 +51,7 @@ KINDS: dict[str, str] = {
     "multi-imu-path1": "sarnav.scenarios.multi_imu:MultiImuPath1Kind",
     "multi-imu": "sarnav.scenarios.multi_imu:MultiImuKind",
     "upf-flight": "sarnav.scenarios.multi_imu:UpfFlightKind",
+    "nav-source-focus": "sarnav.scenarios.nav_focus:NavFocusKind",
 }
 
 # fmt: off
@@ -68,6 +69,7 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("multi-imu-path1", "multi-imu-path1", "Sun 2022 path 1 (eq. 5.21): three position sensors (Table 5.1), one PF each, mean vs SIR fusion", "kind:"),
     ScenarioEntry("multi-imu-adis", "multi-imu", "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 PFs fused (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C", "kind:"),
     ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "kind:"),
+    ScenarioEntry("nav-source-focus", "nav-source-focus", "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions (focus.csv)", "kind:"),
 )
 # fmt: on
 
