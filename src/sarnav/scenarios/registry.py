@@ -52,6 +52,7 @@ KINDS: dict[str, str] = {
     "multi-imu": "sarnav.scenarios.multi_imu:MultiImuKind",
     "upf-flight": "sarnav.scenarios.multi_imu:UpfFlightKind",
     "nav-source-focus": "sarnav.scenarios.nav_focus:NavFocusKind",
+    "multi-imu-sar": "sarnav.scenarios.multi_imu_sar:MultiImuSarKind",
 }
 
 # fmt: off
@@ -70,6 +71,7 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("multi-imu-adis", "multi-imu", "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 PFs fused (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C", "kind:"),
     ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "kind:"),
     ScenarioEntry("nav-source-focus", "nav-source-focus", "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions (focus.csv)", "kind:"),
+    ScenarioEntry("multi-imu-sar-fix", "multi-imu-sar", "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes (rda-nav flight)", "kind:"),
 )
 # fmt: on
 
