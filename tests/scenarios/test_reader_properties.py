@@ -24,9 +24,18 @@ from sarnav.scenarios.registry import get_scenario
 
 #: one scenario per kind; the run property shortens the flight (unless the mutation is the duration itself)
 KINDS = {"telemetry": "telemetry", "rda-nav": "rda-nav", "image": "point-target", "bpa-sensitivity": "bpa-sensitivity",
-         "study": "telemetry-imu-grade"}
+         "study": "telemetry-imu-grade", "multi-imu-path1": "multi-imu-path1", "multi-imu": "multi-imu-adis",
+         "upf-flight": "upf-flight", "nav-source-focus": "nav-source-focus", "multi-imu-sar": "multi-imu-sar-fix"}
 SHORTEN = {"telemetry": {("trajectory", "duration"): 2.0}, "rda-nav": {("trajectory", "duration"): 2.0},
-           "study": {("base", "trajectory", "duration"): 1.0}}
+           "study": {("base", "trajectory", "duration"): 1.0},
+           "multi-imu-path1": {("path", "duration"): 2.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 0.5},
+           "multi-imu": {("flight", "duration"): 10.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 1.0},
+           "upf-flight": {("flight", "duration"): 120.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 1.0,
+                          ("output", "rate_hz"): 200.0},
+           "nav-source-focus": {("cart", "run_in_s"): 1.0, ("aperture", "n_pulses"): 150,
+                                ("navigation", "n_particles"): 50, ("navigation", "adis_particles"): 50,
+                                ("image", "chip_half_m"): 0.4},
+           "multi-imu-sar": {("flight", "duration"): 2.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 0.5}}
 
 NUMBERS = st.one_of(
     st.floats(min_value=-1e300, max_value=1e300, allow_nan=False, allow_infinity=False),

@@ -377,7 +377,7 @@ class UpfFlightKind(SourceKind):
 
     def parse(self, cfg: dict) -> UpfParams:
         runs, _ = validate_campaign(cfg)
-        duration = number(cfg, "flight", "duration", 10.0, 7200.0, "s")
+        duration = number(cfg, "flight", "duration", 120.0, 7200.0, "s")  # the climb / pattern / descent phases
         settle = number(cfg, "filter", "settle_s", 0.0, 7200.0, "s")
         fix_rate = number(cfg, "fix", "rate_hz", 1.0, 100.0, "Hz")
         if settle > duration - 1.0 / fix_rate:

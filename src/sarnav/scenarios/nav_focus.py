@@ -60,7 +60,9 @@ def default_config() -> dict:
         "navigation": {"sources": list(NAV_SOURCES),
                        "n_particles": 2000,  # UPF (L766)
                        "adis_particles": 1000,  # per ADIS PF and the NovAtel PF of the multi-IMU comparison (L908)
-                       "fix_sigma_m": [0.3, 0.3, 0.5]},  # extraction §8 default (G8)
+                       "fix_sigma_m": [0.3, 0.3, 0.5],  # white, per fix: extraction §8 default (G8)
+                       "fix_correlated_sigma_m": [0.0, 0.0, 0.0],  # + Gauss-Markov part (0: none; docs/particles.md)
+                       "fix_correlation_time_s": 300.0},
     }
 
 
@@ -72,6 +74,8 @@ class FocusParams:
     n_particles: int
     adis_particles: int
     fix_sigma: tuple
+    fix_correlated: tuple
+    fix_tau: float
 
 
 def _reflectors(cfg):
@@ -131,10 +135,14 @@ def parse(cfg: dict) -> FocusParams:
     sig = _vector(cfg, "navigation", "fix_sigma_m", positive=True, unit="m")
     for i, v in enumerate(sig):
         require_finite(f"navigation.fix_sigma_m[{i}]", v, 1e-3, 100.0, "m")
+    corr = _vector(cfg, "navigation", "fix_correlated_sigma_m", unit="m")
+    for i, v in enumerate(corr):
+        require_finite(f"navigation.fix_correlated_sigma_m[{i}]", v, 0.0, 100.0, "m")
+    tau = number(cfg, "navigation", "fix_correlation_time_s", 1.0, 1e6, "s")
     geo = FocusGeometry(radar=radar, speed=speed, run_in=run_in, n_pulses=n_pulses, reflectors=reflectors,
                         antenna_height=height, chip_half=chip, spacing=spacing)
     return FocusParams(runs, geo, _sources(cfg), integer(cfg, "navigation", "n_particles", 1, MAX_PARTICLES),
-                       integer(cfg, "navigation", "adis_particles", 1, MAX_PARTICLES), tuple(sig))
+                       integer(cfg, "navigation", "adis_particles", 1, MAX_PARTICLES), tuple(sig), tuple(corr), tau)
 
 
 class NavFocusKind(SourceKind):
@@ -161,7 +169,7 @@ class NavFocusKind(SourceKind):
             "focus_censored": {"units": "1", "description": "1 where the along-track response does not reach -3 dB "
                                "or a null inside the chip (IRW = chip length, PSLR = 0 dB)"},
             "los_error_rms": {"units": "m", "description": "RMS over the aperture of the line-of-sight antenna "
-                              "position error after removing its mean (defocus when above lambda/16)"},
+                              "position error after removing its mean and linear trend (defocus above lambda/16)"},
             "nav_error": {"units": "m", "description": "antenna position estimate minus truth at every pulse, NED"},
             "source_ms": {"units": "m2", "description": "mean over the aperture of the squared 3-D antenna error"},
             "filter_nees": {"units": "1", "description": "NEES of the UPF / KF position at their fix epochs (3 dof)"},
@@ -184,7 +192,8 @@ class NavFocusKind(SourceKind):
         if len(run_ids) == 0:
             return []
         prm = self.parse(cfg)
-        res = run_focus(list(seeds), prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma)
+        res = run_focus(list(seeds), prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
+                        prm.fix_correlated, prm.fix_tau)
         filters = self.filters(prm)
         rec = source_records(res.fix_times, res.fix_errors, res.fix_covs, filters, filters, 0.0)
         out = []
@@ -233,7 +242,8 @@ class NavFocusKind(SourceKind):
         cfg = parse_toml(results.attrs["scenario"])
         prm = self.parse(cfg)
         seed0 = run_seeds(int(cfg["campaign"]["seed"]), int(cfg["campaign"]["runs"]))[0]
-        res = run_focus([seed0], prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma)
+        res = run_focus([seed0], prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
+                        prm.fix_correlated, prm.fix_tau)
         images, extent = scene_images(res, prm.geometry)
         return [plot_focus_images(images, extent, res.targets[:, :2], Path(outdir) / "images.png",
                                   title=f"{cfg['scenario']['name']}: run 0, BPA per navigation source")]

@@ -34,6 +34,7 @@ from sarnav.filters.pulse_grid import FixStream, GridOutput, ImuStream, NavFrame
 from sarnav.frames.wgs84 import geodetic_difference_ned, ned_offset_to_geodetic
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors import ImuModel, imu_grade
+from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
 from sarnav.trajectory import Maneuvering, RateProfile
 from sarnav.trajectory.geodetic import GeodeticFlight
@@ -516,9 +517,22 @@ def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Mane
                               n_draws, sources).positions
 
 
+def correlated_fix_errors(times, sigma, tau, rngs) -> np.ndarray:
+    """(R, K, 3) first-order Gauss-Markov fix errors (stationary 1-sigma ``sigma`` (3,) [m], correlation time
+    ``tau`` [s]; ``sensors.gauss_markov``, exact discretisation) at uniformly spaced ``times`` (K,): the slowly
+    varying part of a GNSS position error (multipath, atmosphere, orbits)."""
+    sigma = np.asarray(sigma, dtype=float)
+    phi, drive = fogm_coefficients(sigma, tau, float(times[1] - times[0]) if len(times) > 1 else 1.0)
+    b0 = sigma * np.stack([g.standard_normal(3) for g in rngs])
+    w = np.stack([g.standard_normal((len(times) - 1, 3)) for g in rngs])
+    path, last = fogm_path(b0, w, phi, drive)
+    return np.concatenate([path, last[:, None]], axis=1)
+
+
 def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | None = None,
                        n_particles: int = 2000, adis_particles: int = 1000, fix_sigma=FIX_SIGMA,
-                       accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES) -> NavSources:
+                       accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES,
+                       fix_correlated=(0.0, 0.0, 0.0), fix_tau: float = 300.0) -> NavSources:
     """Antenna (reference point) positions at every pulse from each navigation source, NED metres relative to
     the true position at the first pulse: ``positions`` source -> (R, P, 3) (``truth`` is (1, P, 3)), and the
     fix-epoch errors and covariances of the UPF and the interpolated KF (:class:`NavSources`).
@@ -530,6 +544,11 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
     ``sir-3adis`` (three ADIS16465 PFs on the pulse grid, SIR-fused at each fix, indices held in between),
     ``novatel`` (the NovAtel PF on the pulse grid: the UPF with ``adis_particles`` particles, the multi-IMU
     comparison's single-IMU solution). The lever arm IMU -> antenna is zero (gap G12).
+
+    Fix errors: white N(0, ``fix_sigma``^2) per NED axis at every fix (gnss-ins-sim's model, the default) plus,
+    when ``fix_correlated`` (3,) [m] is non-zero, a first-order Gauss-Markov error of that stationary 1-sigma and
+    correlation time ``fix_tau`` (:func:`correlated_fix_errors`); the filters assume the total 1-sigma
+    ``sqrt(fix_sigma^2 + fix_correlated^2)`` as white (what a receiver's specification gives them).
     """
     from sarnav.filters.pulse_grid import spline_positions
 
@@ -541,7 +560,11 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
     seqs = _seeds(seed, runs)
     sig = np.asarray(fix_sigma, dtype=float)
     t_fix = uniform_times(0.0, t_end, 20.0)
-    fixes = simulate_fixes(geo, t_fix, sig, _rngs(seqs, 1))
+    corr = np.asarray(fix_correlated, dtype=float)
+    bias = correlated_fix_errors(t_fix, corr, fix_tau, _rngs(seqs, 5)) if np.any(corr > 0) else np.zeros(3)
+    fixes = simulate_fixes(geo, t_fix, sig, _rngs(seqs, 1), bias)
+    sig = np.hypot(sig, corr)  # what the filters assume
+    fixes = FixStream(fixes.times, fixes.position, sig)
     truth0 = _truth_native(geo, pulse_times[:1])[0][0]
     to_ned = lambda p: geodetic_difference_ned(p[..., 0], p[..., 1], p[..., 2], *truth0)  # noqa: E731
     out = {"truth": to_ned(_truth_native(geo, pulse_times)[0])[None]}

@@ -21,8 +21,8 @@ reflector. Per source and reflector (``focus_metrics``):
 
 The phase error a position error makes is ``(4 pi / lambda) u . delta`` (eq. 4.12, u the line of sight):
 ``los_error_rms`` reports, per source and reflector, the RMS over the aperture of ``u . delta`` after removing
-its mean (a constant offset only translates the image; the varying part defocuses when above lambda/16,
-eq. 4.13, T31).
+its mean and linear trend (a constant offset only translates the image, a linear drift shifts it along track;
+the rest defocuses when above lambda/16, eq. 4.13, T31).
 """
 
 from __future__ import annotations
@@ -107,12 +107,16 @@ def focus_metrics(chip, target) -> tuple[np.ndarray, bool]:
 
 
 def los_error_rms(positions, truth, targets) -> np.ndarray:
-    """RMS over the pulses of the line-of-sight component of (positions - truth) after removing its mean, per
-    run and reflector: positions (R, P, 3), truth (P, 3), targets (K, 3) -> (R, K) [m]."""
+    """RMS over the pulses of the line-of-sight component of (positions - truth) after removing its best-fit
+    line in time (a constant LOS error shifts the image in range, a linear one in azimuth: neither defocuses),
+    per run and reflector: positions (R, P, 3), truth (P, 3), targets (K, 3) -> (R, K) [m]."""
     u = truth[None] - targets[:, None]  # (K, P, 3) from reflector to antenna
     u /= np.linalg.norm(u, axis=-1, keepdims=True)
     los = np.einsum("kpi,rpi->rkp", u, np.asarray(positions) - truth[None])
-    return np.sqrt(np.mean((los - los.mean(axis=-1, keepdims=True)) ** 2, axis=-1))
+    x = np.linspace(-1.0, 1.0, los.shape[-1])
+    slope = (los @ x) / (x @ x)
+    res = los - los.mean(axis=-1, keepdims=True) - slope[..., None] * x
+    return np.sqrt(np.mean(res**2, axis=-1))
 
 
 @dataclass
@@ -143,8 +147,11 @@ def echoes(geo: FocusGeometry, truth, targets, pulse_times) -> PulseData:
 
 
 def run_focus(seeds, geo: FocusGeometry | None = None, sources=NAV_SOURCES, n_particles: int = 2000,
-              adis_particles: int = 1000, fix_sigma=(0.3, 0.3, 0.5)) -> FocusRun:
-    """The experiment of the module docstring for the runs of ``seeds`` (one SeedSequence per run)."""
+              adis_particles: int = 1000, fix_sigma=(0.3, 0.3, 0.5), fix_correlated=(0.0, 0.0, 0.0),
+              fix_tau: float = 300.0) -> FocusRun:
+    """The experiment of the module docstring for the runs of ``seeds`` (one SeedSequence per run); the fix
+    errors: white ``fix_sigma`` plus a Gauss-Markov part ``fix_correlated``, ``fix_tau``
+    (``multi_imu.navigation_sources``)."""
     geo = geo or FocusGeometry()
     if "truth" not in sources:
         raise ConfigError("sources", "must include 'truth' (the reference image)")
@@ -152,7 +159,7 @@ def run_focus(seeds, geo: FocusGeometry | None = None, sources=NAV_SOURCES, n_pa
     track = cart_track(float(np.ceil(pt[-1] + 0.1)) + 1.0, geo.speed, heading=0.0)
     nav = navigation_sources(pt, runs=len(seeds), seed=list(seeds), track=track, n_particles=n_particles,
                              adis_particles=adis_particles, fix_sigma=np.asarray(fix_sigma, dtype=float),
-                             sources=tuple(sources))
+                             sources=tuple(sources), fix_correlated=fix_correlated, fix_tau=fix_tau)
     truth = nav.positions["truth"][0]
     targets = reflector_positions(geo, truth)
     rc = echoes(geo, truth, targets, pt)
