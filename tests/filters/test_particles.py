@@ -282,3 +282,24 @@ def test_tempered_update_matches_the_kalman_posterior_where_one_sir_step_collaps
     plain.update_log_likelihood(ll(*plain.particle_states()))
     _, _, vp0, vv0 = moments(plain)
     assert np.max(np.abs(vp0 / post_var_p - 1.0)) > 0.4 and np.min(vv0 / post_var_v) < 0.2
+
+
+def test_tempered_update_with_zero_likelihood_everywhere_is_named_or_rejected():
+    """All log-likelihoods -inf (a measurement no particle can have made): the named error, or with
+    on_collapse='keep-prior' the measurement is rejected for that run and nothing becomes NaN."""
+    from sarnav.filters.grid_particle import GridParticleFilter
+    from sarnav.filters.pulse_grid import NavFrame
+
+    def make(mode):
+        pf = GridParticleFilter(NavFrame(), 200, 0.0, on_collapse=mode)
+        return pf.initialize(0.0, np.zeros((2, 3)), np.zeros((2, 3)), [1.0, 0, 0, 0], np.eye(6), _rngs(2, 3))
+
+    dead = lambda p, v: np.where(np.arange(2)[:, None] == 0, -np.inf, -0.5 * p[..., 0] ** 2)  # noqa: E731
+    with pytest.raises(InputDataError, match=r"log_likelihood: .*runs \[0\]"):
+        make("raise").update_tempered(dead)
+    pf = make("keep-prior")
+    pf.update_tempered(dead)
+    assert pf.collapsed.tolist() == [True, False]
+    assert np.all(np.isfinite(pf.particle_states()[0])) and np.all(np.isfinite(pf.position_covariance()))
+    with pytest.raises(InputDataError, match="log_likelihood"):
+        pf.update_log_likelihood(np.zeros((2, 7)))

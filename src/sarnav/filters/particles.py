@@ -349,7 +349,8 @@ def tempering_exponent(log_weights, log_likelihood, remaining, target_ess: float
     def ess(lam):
         scaled = np.where(np.isneginf(ll), -np.inf, lam[:, None] * np.where(np.isneginf(ll), 0.0, ll))
         post, lse = normalize_log_weights(lw + scaled)
-        return np.where(np.isfinite(lse), effective_sample_size(post), 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):  # runs with zero likelihood everywhere: N_eff 0
+            return np.where(np.isfinite(lse), effective_sample_size(post), 0.0)
 
     ok = ess(rem) >= target_ess * n
     lo, hi = np.zeros_like(rem), rem.copy()
