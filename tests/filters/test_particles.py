@@ -303,3 +303,40 @@ def test_tempered_update_with_zero_likelihood_everywhere_is_named_or_rejected():
     assert np.all(np.isfinite(pf.particle_states()[0])) and np.all(np.isfinite(pf.position_covariance()))
     with pytest.raises(InputDataError, match="log_likelihood"):
         pf.update_log_likelihood(np.zeros((2, 7)))
+
+
+def test_gaussian_pf_update_is_the_kalman_update_for_a_linear_measurement():
+    """The same problem through ``update_gaussian`` (Kotecha & Djuric 2003): for a linear measurement the importance
+    weights are equal (N_eff = N) and the new cloud has the Kalman posterior's mean and covariance (the cloud's own
+    prior moments, updated)."""
+    runs, n, sig, z = 16, 2000, 1e-3, 0.7
+    pf = _static_pf(n, runs, 2)
+    pos, vel = pf.particle_states()
+    w = np.exp(pf.logw)
+    x = np.concatenate([pos, vel], -1)
+    m = np.einsum("rn,rnd->rd", w, x)
+    P = np.einsum("rn,rni,rnj->rij", w, x - m[:, None], x - m[:, None])
+    H = np.zeros((runs, 1, 6))
+    H[:, 0, 0] = 1.0
+    lin = lambda p, v: (p[:, :1], H)  # noqa: E731
+    ll = lambda p, v: -0.5 * ((z - p[..., 0]) / sig) ** 2  # noqa: E731
+    ess = pf.update_gaussian(lin, ll, np.full((runs, 1), z), [[sig**2]])
+    np.testing.assert_allclose(ess, 1.0, atol=1e-9)
+    K = P[:, :, 0] / (P[:, 0, 0] + sig**2)[:, None]  # Kalman gain of the cloud's prior moments
+    m1 = m + K * (z - m[:, :1])
+    P1 = P - K[:, :, None] * P[:, None, 0, :]
+    pos, vel = pf.particle_states()
+    x = np.concatenate([pos, vel], -1)
+    w = np.exp(pf.logw)
+    got_m = np.einsum("rn,rnd->rd", w, x)
+    got_P = np.einsum("rn,rni,rnj->rij", w, x - got_m[:, None], x - got_m[:, None])
+    se = np.sqrt(np.diagonal(P1, axis1=1, axis2=2) / n)
+    assert np.all(np.abs(got_m - m1) < 5 * se)
+    np.testing.assert_allclose(np.diagonal(got_P, axis1=1, axis2=2) / np.diagonal(P1, axis1=1, axis2=2), 1.0,
+                               atol=5 * np.sqrt(2 / n))
+    with pytest.raises(ConfigError, match="pf.model"):
+        from sarnav.filters.grid_particle import GridParticleFilter
+        from sarnav.filters.pulse_grid import NavFrame
+
+        geo = GridParticleFilter(NavFrame(geodetic=True, origin=(0.6, -1.7, 1000.0)), 10, model="geodetic")
+        geo.update_gaussian(lin, ll, np.zeros((1, 1)), [[1.0]])

@@ -30,8 +30,10 @@ from sarnav.filters.particles import (
     RESAMPLING_METHODS,
     ParticleCloud,
     check_particle_count,
+    effective_sample_size,
     gaussian_log_likelihood,
     kernel_shrinkage,
+    normalize_log_weights,
     resample,
     roughen,
     sir_update,
@@ -294,6 +296,46 @@ class GridParticleFilter(GridFilter):
         self.mean = np.einsum("rn,rnd->rd", np.exp(self.logw), self.parts)
         return stages
 
+    def update_gaussian(self, linearize, log_likelihood_fn, z, meas_cov) -> np.ndarray:
+        """Gaussian particle filter update (Kotecha & Djuric 2003) for a measurement too informative for the
+        bootstrap proposal: the cloud's weighted mean m and covariance P, the Kalman update with the measurement
+        linearised at m, ``linearize(p (R, 3), v (R, 3)) -> (z_hat (R, M), H (R, M, 6))`` for the state [p, v]
+        (local metres, m/s), a new cloud drawn from that Gaussian posterior N(m1, P1), importance-weighted by
+        ``exp(log_likelihood_fn(p, v)) N(x; m, P) / N(x; m1, P1)`` (exact for a linear measurement: equal weights),
+        then the filter's resampling rule. Linear motion model only. ``z`` (R, M), ``meas_cov`` (M, M) or
+        (R, M, M). Returns the importance weights' N_eff / N (R,)."""
+        if self.model != "linear":
+            raise ConfigError("pf.model", "the Gaussian update needs the linear motion model")
+        pos, vel = self.particle_states()
+        x = np.concatenate([pos, vel], -1)
+        w = np.exp(self.logw)
+        m = np.einsum("rn,rnd->rd", w, x)
+        d = x - m[:, None]
+        P = np.einsum("rn,rni,rnj->rij", w, d, d)
+        zh, H = linearize(m[:, :3], m[:, 3:])
+        Rm = np.broadcast_to(np.asarray(meas_cov, dtype=float), (x.shape[0],) + np.shape(meas_cov)[-2:])
+        S = H @ P @ np.swapaxes(H, -1, -2) + Rm
+        K = P @ np.swapaxes(H, -1, -2) @ np.linalg.inv(S)
+        m1 = m + np.einsum("rij,rj->ri", K, np.asarray(z, dtype=float) - zh)
+        A = np.eye(6) - K @ H
+        P1 = A @ P @ np.swapaxes(A, -1, -2) + K @ Rm @ np.swapaxes(K, -1, -2)  # Joseph form
+        jitter = lambda C: C + (1e-12 * np.trace(C, axis1=-2, axis2=-1)[:, None, None] + 1e-300) * np.eye(6)  # noqa: E731
+        L1 = np.linalg.cholesky(jitter(0.5 * (P1 + np.swapaxes(P1, -1, -2))))
+        e = np.stack([g.standard_normal((self.n, 6)) for g in self.rngs])
+        new = m1[:, None] + np.einsum("rij,rnj->rni", L1, e)
+        L0 = np.linalg.cholesky(jitter(P))
+        u = np.linalg.solve(L0[:, None], (new - m[:, None])[..., None])[..., 0]
+        log_prior_over_proposal = -0.5 * np.sum(u**2, -1) + 0.5 * np.sum(e**2, -1) \
+            - np.log(np.abs(np.diagonal(L0, axis1=-2, axis2=-1))).sum(-1)[:, None] \
+            + np.log(np.abs(np.diagonal(L1, axis1=-2, axis2=-1))).sum(-1)[:, None]
+        self.parts = np.ascontiguousarray(new)
+        self.logw = np.full_like(self.logw, -np.log(self.n))
+        ll = np.asarray(log_likelihood_fn(new[..., :3], new[..., 3:]), dtype=float) + log_prior_over_proposal
+        ll = ll - np.max(ll, axis=1, keepdims=True)
+        ess = effective_sample_size_ratio(normalize_log_weights(ll)[0])
+        self.update_log_likelihood(ll)
+        return ess
+
     def position_covariance(self) -> np.ndarray:
         """(R, 3, 3) weighted sample covariance of the particle positions now, NED metres [m^2]."""
         return self._position_cov()
@@ -304,6 +346,10 @@ class GridParticleFilter(GridFilter):
     def cloud_positions(self) -> np.ndarray:
         """(R, N, 3) particle positions as NED metres from the cloud mean (the cloud of eq. 5.22)."""
         return self._offsets_from(self._native(self.mean[:, :3]))
+
+
+def effective_sample_size_ratio(log_weights) -> np.ndarray:
+    return effective_sample_size(log_weights) / np.shape(log_weights)[-1]
 
 
 __all__ = ["GridParticleFilter", "MOTION_MODELS"]

@@ -22,7 +22,7 @@ from sarnav.scenarios.fields import vector as _vector
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, SOURCE_ATTRS, SourceKind, choice, integer, number
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS
-from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SarFixSetup, run_sar_fix, sensor_names
+from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_UPDATES, SarFixSetup, run_sar_fix, sensor_names
 
 __all__ = ["MultiImuSarKind", "default_config"]
 
@@ -48,6 +48,7 @@ def default_config() -> dict:
         "initial": {"p_3sigma": [1.9, 1.9, 4.4], "v_3sigma": [0.3, 0.3, 0.5]},  # paper Table 1
         "filter": {"n_particles": 1000,  # L908
                    "accel_psd_scale": 1.0,  # x spec_accel_psd of each IMU (G16)
+                   "sar_update": "gaussian",  # "gaussian" (GPF update) | "tempered" (bootstrap SIR, progressive)
                    "settle_s": 5.0},
         "fusion": {"n_draws": 50, "per_axis": True},
     }
@@ -114,7 +115,7 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
         n_particles=integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
         psd_scale=number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6),
         n_draws=integer(cfg, "fusion", "n_draws", 1, 10_000), per_axis=_bool(cfg, "fusion", "per_axis"),
-        p0_sigma=tuple(x / 3.0 for x in p3 + v3))
+        p0_sigma=tuple(x / 3.0 for x in p3 + v3), update=choice(cfg, "filter", "sar_update", SAR_UPDATES))
     return setup, settle
 
 

@@ -14,9 +14,15 @@ linear model in the flat frame, process noise from the IMU's specs). Per sub-ape
 2. the SAR fix is the pair of rda-nav (``measurements.sar``): slant range ``|p_targ - p(eta0)| = R0`` (eq. 47) and
    the zero-Doppler cross-range ``v/|v| . (p(eta0) - p_targ) = 0``, with R from the measured registration errors
    (``sar_sigma``), plus a barometric altitude ``-p_D(eta0)`` (``AltimeterMeasurement``); no measurement biases;
-3. the real PFs are propagated to eta0 and updated there with the exact likelihood of the three values at every
-   particle (``GridParticleFilter.update_log_likelihood``; the models' value, first-order Jacobian and Hessian at
-   the cloud mean, ``Measurement.predict``, give the particles' predicted measurements to third order);
+3. the real PFs are propagated to eta0 and updated there (``update``): ``"gaussian"`` (default), the Gaussian
+   particle filter update (``GridParticleFilter.update_gaussian``, Kotecha & Djuric 2003: Kalman update of the
+   cloud's mean and covariance with the models' Jacobians, ``Measurement.predict``, a new cloud drawn from it and
+   importance-weighted by the exact likelihood), or ``"tempered"``, the bootstrap SIR update applied by adaptive
+   tempering (``update_tempered``); the exact likelihood of the three values at every particle comes from the
+   models' value, Jacobian and Hessian at the prior mean (third-order accurate). A 1.25-mm range and a
+   cross-range whose velocity lever is ground range / speed = 180 s make the likelihood thousands of times
+   narrower than the cloud: one bootstrap SIR step keeps a few particles and even the tempered one leaves the
+   filters inconsistent (docs/particles.md);
 4. the SIR sensor weights (Algorithm 1, G13) are the likelihood of each sensor's estimate at eta0 given the same
    measurement, per component: the cross-range weights the along-track axis, the range the cross-track axis and
    the altitude the down axis (``per_axis``), or the product for a joint draw; the drawn indices are held until
@@ -58,9 +64,11 @@ from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, _rngs, gnss_ins_sim_imu
 from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.sampled import closest_approach
 
-__all__ = ["FIX_SOURCES", "SarFixSetup", "run_sar_fix", "reference_targets", "sensor_names"]
+__all__ = ["FIX_SOURCES", "SAR_UPDATES", "SarFixSetup", "run_sar_fix", "reference_targets", "sensor_names"]
 
 FIX_SOURCES = ("sar", "oracle", "gps")
+#: how each PF takes a SAR fix: Gaussian particle filter update (default) or adaptive tempering of the bootstrap SIR
+SAR_UPDATES = ("gaussian", "tempered")
 #: the measurement layout of the SAR fix (position/velocity blocks of the error state; scalar biases unused: 0)
 LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
 #: estimated-track epochs per second handed to the imager (the INS history of rda-nav is 10 Hz)
@@ -93,8 +101,11 @@ class SarFixSetup:
     n_draws: int = 50
     per_axis: bool = True
     p0_sigma: tuple = (1.9 / 3, 1.9 / 3, 4.4 / 3, 0.1, 0.1, 0.5 / 3)
+    update: str = "gaussian"
 
     def __post_init__(self):
+        if self.update not in SAR_UPDATES:
+            raise ConfigError("filter.sar_update", f"must be one of {list(SAR_UPDATES)}, got {self.update!r}")
         if self.fix_source not in FIX_SOURCES:
             raise ConfigError("fix.source", f"must be one of {list(FIX_SOURCES)}, got {self.fix_source!r}")
         if not 1 <= self.n_adis <= len(ADIS_LEVER_ARMS):
@@ -221,6 +232,18 @@ def _predicted(models, p, v, p_mean, v_mean):
     return np.stack(out, -1)
 
 
+def _linearized(models, p, v):
+    """(z_hat (1, 3), H (1, 3, 6)) of the models at the antenna point (p, v) for the state [p, v] (the lever arm
+    is a constant offset of the position: the same Jacobian)."""
+    L = LAYOUT
+    zh, H = [], []
+    for m in models:
+        pred = m.predict(_nav(p[None], v[None]))
+        zh.append(pred.z_hat[0, 0])
+        H.append(np.r_[pred.H[0, 0, L.slice("p")], pred.H[0, 0, L.slice("v")]])
+    return np.array(zh)[None], np.array(H)[None]
+
+
 def _measure_sar(setup, imager, models, u, sensors, truth_traj, noise_rng):
     """(z (3,), eta0, registration errors (range, along-track) or NaN) of sub-aperture u."""
     targ = models[0].target
@@ -263,13 +286,21 @@ def _sar_update(setup, sensors, models, z_sar, z_alt, sigma):
     z = np.r_[z_sar, z_alt]
     est_p, est_v = [], []
     for s in sensors:
-        def loglik(pos, vel, s=s):
-            ant = s.antenna(pos, s.pf.q[:, None, :])[0]
-            w = np.exp(s.pf.logw[0])
-            zh = _predicted(models, ant, vel[0], w @ ant, w @ vel[0])
+        w0 = np.exp(s.pf.logw[0])
+        pos0, vel0 = s.pf.particle_states()
+        ref = (w0 @ s.antenna(pos0, s.pf.q[:, None, :])[0], w0 @ vel0[0])  # expansion point: the prior mean
+
+        def loglik(pos, vel, s=s, ref=ref):
+            zh = _predicted(models, s.antenna(pos, s.pf.q[:, None, :])[0], vel[0], *ref)
             return (-0.5 * np.sum(((z - zh) / sigma) ** 2, axis=-1))[None]
 
-        s.pf.update_tempered(loglik)
+        def linearize(p, v, s=s):
+            return _linearized(models, s.antenna(p[:, None], s.pf.q[:, None, :])[0, 0], v[0])
+
+        if setup.update == "gaussian":
+            s.pf.update_gaussian(linearize, loglik, z[None], np.diag(sigma**2))
+        else:
+            s.pf.update_tempered(loglik)
         p, v = _antenna_now(s, s.pf)
         est_p.append(p)
         est_v.append(v)
@@ -366,7 +397,25 @@ def _gps_second(setup, sensors, traj, u, rng_meas, rng_fuse, idx):
     fixes = FixStream(t_fix, (truth + sig * rng_meas.standard_normal(truth.shape))[None], sig)
     est = []
     for s in sensors:
-        s.pf.run(s.imu, u + 1.0, fixes)
+        if setup.update == "gaussian":  # the same update as for the SAR fixes, at every GPS fix
+            for k, t in enumerate(t_fix):
+                s.pf.run(s.imu, t)
+                _gps_gaussian_update(s, fixes.position[0, k], sig)
+        else:
+            s.pf.run(s.imu, u + 1.0, fixes)
         est.append(_antenna_now(s, s.pf)[0])
     ll = -0.5 * ((fixes.position[0, -1] - np.array(est)) / sig) ** 2  # (S, 3) at the last fix (u + 1)
     return _draw(ll, setup, rng_fuse)
+
+
+def _gps_gaussian_update(sensor, z, sigma):
+    """Gaussian PF update of one sensor with a GPS fix ``z`` (3,) of the antenna (reference point)."""
+    off = sensor.antenna(np.zeros((1, 3)), sensor.pf.q)[0]  # -C a: antenna = IMU position + off
+
+    def linearize(p, v):
+        return p + off, np.broadcast_to(np.hstack([np.eye(3), np.zeros((3, 3))]), (p.shape[0], 3, 6))
+
+    def loglik(p, v):
+        return -0.5 * np.sum(((z - (p + off)) / sigma) ** 2, axis=-1)
+
+    sensor.pf.update_gaussian(linearize, loglik, z[None], np.diag(sigma**2))
