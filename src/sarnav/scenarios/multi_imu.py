@@ -51,6 +51,12 @@ def number(cfg: dict, name: str, key: str, lo: float, hi: float, unit: str = "")
     return require_finite(f"{name}.{key}", _get(cfg, name, key), lo, hi, unit)
 
 
+def bounded_vector(cfg: dict, name: str, key: str, lo: float, hi: float, n: int = 3, unit: str = "m") -> tuple:
+    """``name.key`` as a list of ``n`` finite numbers, each in [lo, hi]."""
+    v = _vector(cfg, name, key, n=n, unit=unit)
+    return tuple(require_finite(f"{name}.{key}[{i}]", x, lo, hi, unit) for i, x in enumerate(v))
+
+
 def choice(cfg: dict, name: str, key: str, options) -> str:
     v = _get(cfg, name, key)
     if v not in options:
@@ -58,15 +64,16 @@ def choice(cfg: dict, name: str, key: str, options) -> str:
     return v
 
 
-def records(rec: SourceRecords, run_ids, extras=None) -> list[RunRecord]:
+def records(rec: SourceRecords, run_ids, extras=None, sources: bool = True) -> list[RunRecord]:
     """One RunRecord per run: states = the filters' position errors, no measurement residuals (the filters'
-    updates are the fixes; their consistency is the NEES), ``source_error`` / ``source_ms`` and ``extras``
-    name -> (dims, (R, ...) array) as kind variables."""
+    updates are the fixes; their consistency is the NEES), ``filter_nees``, (``sources``) ``source_error`` /
+    ``source_ms`` and ``extras`` name -> (dims, (R, ...) array) as kind variables."""
     out = []
     for i, run in enumerate(run_ids):
-        ex = {"source_error": (("time", "source", "axis"), rec.source_error[i]),
-              "source_ms": (("source",), rec.source_ms[i]),
-              "filter_nees": (("time", "filter"), rec.filter_nees[i])}
+        ex = {"filter_nees": (("time", "filter"), rec.filter_nees[i])}
+        if sources:
+            ex["source_error"] = (("time", "source", "axis"), rec.source_error[i])
+            ex["source_ms"] = (("source",), rec.source_ms[i])
         for name, (dims, arr) in (extras or {}).items():
             ex[name] = (dims, arr[i])
         out.append(RunRecord(run=int(run), time=rec.time.copy(), error=rec.error[i], sigma=rec.sigma[i],
@@ -288,14 +295,10 @@ class MultiImuKind(SourceKind):
         stride = round(20.0 / rec)
         if abs(20.0 / rec - stride) > 1e-9:
             raise ConfigError("output.record_rate_hz", f"must divide the 20 Hz fix rate (20, 10, 5, 4, 2, 1, ...), got {rec}")
-        sig = _vector(cfg, "fix", "sigma_m", positive=True, unit="m")
-        for i, v in enumerate(sig):
-            require_finite(f"fix.sigma_m[{i}]", v, 1e-3, 100.0, "m")
-        bias = _vector(cfg, "fix", "bias_m", unit="m")
-        for i, v in enumerate(bias):
-            require_finite(f"fix.bias_m[{i}]", v, -100.0, 100.0, "m")
+        sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0)
+        bias = bounded_vector(cfg, "fix", "bias_m", -100.0, 100.0)
         return MultiImuParams(runs, duration, number(cfg, "flight", "speed", 5.0, 150.0, "m/s"),
-                              integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)), tuple(sig), tuple(bias),
+                              integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)), sig, bias,
                               _bool(cfg, "fix", "shared"), integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
                               number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6), settle,
                               integer(cfg, "fusion", "n_draws", 1, 10_000), _bool(cfg, "fusion", "per_axis"),
@@ -389,12 +392,10 @@ class UpfFlightKind(SourceKind):
             raise ConfigError("output.record_rate_hz", f"must divide fix.rate_hz = {fix_rate} Hz, got {rec}")
         if duration * fix_rate > 1e6 or duration * max(out_rate, imu_rate) > 1e9:
             raise ConfigError("flight.duration", f"{duration} s at these rates is too long (at most 1e6 fixes, 1e9 epochs)")
-        sig = _vector(cfg, "fix", "sigma_m", positive=True, unit="m")
-        for i, v in enumerate(sig):
-            require_finite(f"fix.sigma_m[{i}]", v, 1e-3, 100.0, "m")
+        sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0)
         return UpfParams(runs, duration, number(cfg, "flight", "speed", 5.0, 150.0, "m/s"),
                          number(cfg, "flight", "climb_rate", 0.0, 20.0, "m/s"), choice(cfg, "imu", "preset", IMU_PRESETS),
-                         imu_rate, tuple(sig), fix_rate, integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
+                         imu_rate, sig, fix_rate, integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
                          number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6),
                          choice(cfg, "filter", "noise_at", ("fix", "imu")), settle, out_rate, rec)
 

@@ -18,8 +18,7 @@ from sarnav.errors import ConfigError, require_finite
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, SOURCE_ATTRS, SourceKind, choice, integer, number
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, SOURCE_ATTRS, SourceKind, bounded_vector, choice, integer, number
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS
 from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_UPDATES, SarFixSetup, run_sar_fix, sensor_names
@@ -76,11 +75,6 @@ def _scene(cfg, altitude, radar):
                 reflector_amplitude=number(cfg, "scene", "reflector_amplitude", 1e-3, 1e6))
 
 
-def _positive3(cfg, table, key, lo, hi):
-    v = _vector(cfg, table, key, positive=True, unit="m")
-    return tuple(require_finite(f"{table}.{key}[{i}]", x, lo, hi, "m") for i, x in enumerate(v))
-
-
 def parse(cfg: dict) -> tuple[SarFixSetup, float]:
     """(setup, settling time [s]); ConfigError names the first bad field and its range."""
     validate_campaign(cfg)
@@ -99,17 +93,16 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
     settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
     if settle > duration - 1.0:
         raise ConfigError("filter.settle_s", f"must be <= flight.duration - 1 = {duration - 1} s, got {settle}")
-    reg = _vector(cfg, "sar", "registration_sigma_m", n=2, positive=True, unit="m")
-    reg = tuple(require_finite(f"sar.registration_sigma_m[{i}]", x, 1e-5, 100.0, "m") for i, x in enumerate(reg))
-    p3 = _positive3(cfg, "initial", "p_3sigma", 1e-3, 1e4)
-    v3 = _positive3(cfg, "initial", "v_3sigma", 1e-4, 100.0)
+    reg = bounded_vector(cfg, "sar", "registration_sigma_m", 1e-5, 100.0, n=2)
+    p3 = bounded_vector(cfg, "initial", "p_3sigma", 1e-3, 1e4)
+    v3 = bounded_vector(cfg, "initial", "v_3sigma", 1e-4, 100.0)
     setup = SarFixSetup(
         duration=duration, speed=speed, altitude=altitude, radar=radar,
         snr_db=require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB"),
         **_scene(cfg, altitude, radar), sar_sigma=reg,
         alt_sigma=number(cfg, "sar", "altimeter_sigma_m", 1e-3, 100.0, "m"),
         fix_source=choice(cfg, "fix", "source", FIX_SOURCES),
-        gps_sigma=_positive3(cfg, "fix", "gps_sigma_m", 1e-3, 100.0),
+        gps_sigma=bounded_vector(cfg, "fix", "gps_sigma_m", 1e-3, 100.0),
         gps_rate=number(cfg, "fix", "gps_rate_hz", 1.0, 100.0, "Hz"),
         n_adis=integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)),
         n_particles=integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),

@@ -26,8 +26,7 @@ from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, SourceKind, integer, number
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, SourceKind, bounded_vector, integer, number, records
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES, source_records
 from sarnav.simulation.multi_imu import NAV_SOURCES
@@ -132,17 +131,13 @@ def parse(cfg: dict) -> FocusParams:
     chip = number(cfg, "image", "chip_half_m", 0.05, 20.0, "m")
     if chip / spacing < 8 or chip / spacing > 500:
         raise ConfigError("image.chip_half_m", f"must be 8 to 500 pixels of image.spacing_m = {spacing} m, got {chip}")
-    sig = _vector(cfg, "navigation", "fix_sigma_m", positive=True, unit="m")
-    for i, v in enumerate(sig):
-        require_finite(f"navigation.fix_sigma_m[{i}]", v, 1e-3, 100.0, "m")
-    corr = _vector(cfg, "navigation", "fix_correlated_sigma_m", unit="m")
-    for i, v in enumerate(corr):
-        require_finite(f"navigation.fix_correlated_sigma_m[{i}]", v, 0.0, 100.0, "m")
+    sig = bounded_vector(cfg, "navigation", "fix_sigma_m", 1e-3, 100.0)
+    corr = bounded_vector(cfg, "navigation", "fix_correlated_sigma_m", 0.0, 100.0)
     tau = number(cfg, "navigation", "fix_correlation_time_s", 1.0, 1e6, "s")
     geo = FocusGeometry(radar=radar, speed=speed, run_in=run_in, n_pulses=n_pulses, reflectors=reflectors,
                         antenna_height=height, chip_half=chip, spacing=spacing)
     return FocusParams(runs, geo, _sources(cfg), integer(cfg, "navigation", "n_particles", 1, MAX_PARTICLES),
-                       integer(cfg, "navigation", "adis_particles", 1, MAX_PARTICLES), tuple(sig), tuple(corr), tau)
+                       integer(cfg, "navigation", "adis_particles", 1, MAX_PARTICLES), sig, corr, tau)
 
 
 class NavFocusKind(SourceKind):
@@ -196,19 +191,12 @@ class NavFocusKind(SourceKind):
                         prm.fix_correlated, prm.fix_tau)
         filters = self.filters(prm)
         rec = source_records(res.fix_times, res.fix_errors, res.fix_covs, filters, filters, 0.0)
-        out = []
-        for i, run in enumerate(run_ids):
-            ex = {"focus": (("source", "reflector", "metric"), res.focus[i]),
-                  "focus_censored": (("source", "reflector"), res.censored[i].astype("int8")),
-                  "los_error_rms": (("source", "reflector"), res.los_rms[i]),
-                  "nav_error": (("pulse", "source", "axis"), res.nav_error[i]),
-                  "source_ms": (("source",), (res.nav_error[i] ** 2).sum(-1).mean(0)),
-                  "filter_nees": (("time", "filter"), rec.filter_nees[i])}
-            out.append(RunRecord(run=int(run), time=rec.time.copy(), error=rec.error[i], sigma=rec.sigma[i],
-                                 nees=rec.nees[i], update_time=rec.time[:0].copy(), residual=rec.error[i, :0, :0],
-                                 residual_sigma=rec.error[i, :0, :0], nis=rec.time[:0].copy(),
-                                 nis_dof=rec.time[:0].astype(int), extras=ex))
-        return out
+        extras = {"focus": (("source", "reflector", "metric"), res.focus),
+                  "focus_censored": (("source", "reflector"), res.censored.astype("int8")),
+                  "los_error_rms": (("source", "reflector"), res.los_rms),
+                  "nav_error": (("pulse", "source", "axis"), res.nav_error),
+                  "source_ms": (("source",), (res.nav_error**2).sum(-1).mean(1))}
+        return records(rec, run_ids, extras, sources=False)
 
     def summary_extras(self, results) -> dict:
         from sarnav.analysis.sources import focus_table
