@@ -2,7 +2,7 @@
 geometric truth and its R, the SAR-aided filters against their covariance, the oracle and GPS modes, the per-run
 purity. The full campaigns (10 runs each of sar / oracle / gps, numbers in docs/particles.md) are slow::
 
-    .venv/bin/python -m pytest -q -p no:xdist -m slow tests/simulation/test_multi_imu_sar.py   # about 25 min, one core
+    .venv/bin/python -m pytest -q -p no:xdist -m slow tests/simulation/test_multi_imu_sar.py
 """
 
 import numpy as np
@@ -66,12 +66,19 @@ def test_setup_and_seed_errors_are_named():
 
 @pytest.mark.slow
 def test_fusion_gain_with_sar_fixes_against_gps():
-    """The scenario's three fix sources on rda-nav's flight, 10 runs each (docs/particles.md, multi-imu-sar-fix)."""
+    """The scenario's three fix sources on rda-nav's flight, 6 runs each (the 10-run campaigns of docs/particles.md:
+    mean of three ADIS 1.20x better than one with GPS, 1.44x with image-derived SAR fixes, 1.51x oracle; SIR no
+    further gain in any mode). Asserted: the mean helps in every mode, SIR adds nothing (0.8-1.25), the SAR-aided
+    solutions are worse than the 20 Hz GPS-aided ones, and the Gaussian-PF-updated filters are consistent (NovAtel
+    NEES within twice its band, the ADIS filters not over-confident)."""
     out = {}
     for source in ("gps", "oracle", "sar"):
-        rec, _ = run_sar_fix(SarFixSetup(fix_source=source), np.random.SeedSequence(29).spawn(10), settle=5.0)
+        rec, _ = run_sar_fix(SarFixSetup(fix_source=source), np.random.SeedSequence(29).spawn(6), settle=5.0)
         out[source] = dict(zip(rec.sources, np.sqrt(rec.source_ms.mean(axis=0))))
+        nees = rec.filter_nees.mean(axis=(0, 1))  # sensor1..3, novatel (3 dof each)
+        assert 3 / 2 / 2 < nees[3] < 2 * 4.7 and np.all(nees[:3] < 2 * 4.7), (source, nees)
     for src, r in out.items():
         single = np.mean([r[f"sensor{i}"] for i in (1, 2, 3)])
-        assert single / r["mean"] > 1.0, (src, r)  # the mean of three IMUs helps in every mode
-    assert out["sar"]["mean"] > out["gps"]["mean"]  # the SAR fix (1 Hz) aids less than 20 Hz GPS here
+        assert single / r["mean"] > 1.05, (src, r)
+        assert 0.8 < r["mean"] / r["sir"] < 1.25, (src, r)
+    assert out["sar"]["mean"] > 2 * out["gps"]["mean"]  # 1-Hz SAR fixes aid less than 20 Hz GPS here
