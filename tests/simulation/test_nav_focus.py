@@ -142,8 +142,10 @@ def test_navigation_source_focus_ranking_T30_T32(model):
     the spline of the fixes most (T30's 'splines do not focus' holds for spline-gps only; UPF and the interpolated
     KF are alike, T30's 'UPF > iKF' not reproduced). Gauss-Markov fix errors (0.3 m, 300 s) with 1 cm white noise:
     the filters' tracks are smooth (LOS RMS below lambda/16), their images near-ideal and translated by the fix error
-    (the iKF image's peak offset, T30), the spline of the fixes unfocused. T32: the 3-ADIS SIR image is at least as
-    focused as the NovAtel's (kurtosis) with white fixes."""
+    (the iKF image's peak offset, T30), the spline of the fixes unfocused. T32 (the 3-ADIS SIR image at least as
+    focused as the NovAtel's): with white fixes the two are alike, in either order depending on the seed (kurtosis
+    2.80 vs 2.56 in the 10-run campaign, 2.64 vs 3.01 here); with Gauss-Markov fixes the SIR image is worse (its
+    drawn sensor changes at every fix)."""
     geo = FocusGeometry(run_in=20.0)
     kw = {} if model == "white" else dict(fix_sigma=(0.01, 0.01, 0.01), fix_correlated=(0.3, 0.3, 0.5))
     r = run_focus(np.random.SeedSequence(12).spawn(6), geo, **kw)
@@ -152,13 +154,15 @@ def test_navigation_source_focus_ranking_T30_T32(model):
     ent, kurt, off = 3, 4, 2
     lam16 = geo.radar.wavelength / 16
     filters = ("upf", "kf-interp", "spline-kf", "spline-pf", "novatel")
-    assert all(m["truth"][ent] < m[s][ent] for s in r.sources if s != "truth")
-    assert all(m["spline-gps"][ent] > m[s][ent] and m["spline-gps"][kurt] < m[s][kurt] for s in filters)
-    assert abs(m["upf"][ent] / m["kf-interp"][ent] - 1) < 0.03  # UPF and iKF alike (T30 'UPF > iKF' not met)
+    info = {s: (np.round(m[s], 3).tolist(), round(1e3 * los[s], 2)) for s in r.sources}
+    assert all(m["truth"][ent] < m[s][ent] for s in r.sources if s != "truth"), info
+    assert all(m["spline-gps"][ent] > m[s][ent] and m["spline-gps"][kurt] < m[s][kurt] for s in filters), info
+    assert abs(m["upf"][ent] / m["kf-interp"][ent] - 1) < 0.03, info  # UPF and iKF alike (T30 'UPF > iKF' not met)
     if model == "white":
-        assert all(los[s] > 3 * lam16 for s in filters)
-        assert m["sir-3adis"][kurt] >= m["novatel"][kurt]  # T32
+        assert all(los[s] > 3 * lam16 for s in filters), info
+        assert abs(m["sir-3adis"][kurt] / m["novatel"][kurt] - 1) < 0.3, info  # T32: alike (either order)
     else:
-        assert all(los[s] < lam16 for s in filters) and los["spline-gps"] > 3 * lam16
-        assert all(m[s][kurt] > 0.8 * m["truth"][kurt] for s in ("upf", "kf-interp"))  # near-ideal response
-        assert m["kf-interp"][off] > 0.1  # translated by the correlated fix error (metres of error, decimetres shift)
+        assert all(los[s] < lam16 for s in filters) and los["spline-gps"] > 3 * lam16, info
+        assert all(m[s][kurt] > 0.8 * m["truth"][kurt] for s in ("upf", "kf-interp")), info  # near-ideal response
+        assert m["kf-interp"][off] > 0.1, info  # translated by the correlated fix error
+        assert m["sir-3adis"][kurt] < 0.8 * m["novatel"][kurt], info  # T32 not met: the SIR switches sensors
