@@ -420,12 +420,13 @@ def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles:
         nu, om, _, _, ba, bg = model.measure(f, w, ba, bg, rng["imu"])
         fixes = simulate_fixes(geo, uniform_times(t0, t1, fix_rate)[1:], sig, rng["fix"])
         t_out = uniform_times(t0, t1, out_rate)[1:]
+        truth = (_truth_native(geo, t_out)[0], _truth_native(geo, fixes.times)[0])  # once for both filters
         for name, filt in filters.items():
             tic = time.perf_counter()
             out = filt.run(ImuStream(t_imu, nu, om), t1, fixes, t_out)
             acc.seconds[name] += time.perf_counter() - tic
-            acc.add(name, frame, geo, out)
-        acc.add_fixes(frame, geo, fixes)
+            acc.add(name, frame, truth, out)
+        acc.add_fixes(frame, truth[1], fixes)
         t0 = t1
     info = {"accel_psd": q, "n_particles": n_particles, "out_rate": out_rate, "duration": flat.duration,
             "noise_at": noise_at, "imu": imu, "collapsed_runs": int(np.count_nonzero(filters["upf"].collapsed))}
@@ -453,9 +454,10 @@ class _UpfAccumulator:
         self.sums[key] += np.sum(err[:, k] ** 2, axis=(1, 2))
         self.counts[key] += int(np.count_nonzero(k))
 
-    def add(self, name, frame, geo, out: GridOutput):
-        self._sum(name, frame.error_ned(out.position, _truth_native(geo, out.times)[0]), out.times)
-        ef = frame.error_ned(out.fix_position, _truth_native(geo, out.fix_times)[0])
+    def add(self, name, frame, truth, out: GridOutput):
+        """``truth``: native truth at the output epochs and at the fix epochs of the segment."""
+        self._sum(name, frame.error_ned(out.position, truth[0]), out.times)
+        ef = frame.error_ned(out.fix_position, truth[1])
         self._sum("pf" if name == "upf" else "kf", ef, out.fix_times)
         keep = np.round(out.fix_times * self.fix_rate).astype(np.int64) % self.every == 0
         self.rec_e[name].append(ef[:, keep])
@@ -465,8 +467,8 @@ class _UpfAccumulator:
             self.var.append(np.diagonal(out.position_cov, axis1=-2, axis2=-1))
             self.rec_t.append(out.fix_times[keep])
 
-    def add_fixes(self, frame, geo, fixes: FixStream):
-        ef = frame.error_ned(fixes.position, _truth_native(geo, fixes.times)[0])
+    def add_fixes(self, frame, truth_fix, fixes: FixStream):
+        ef = frame.error_ned(fixes.position, truth_fix)
         self._sum("fix", ef, fixes.times)
         self.rec_fix.append(ef[:, np.round(fixes.times * self.fix_rate).astype(np.int64) % self.every == 0])
 
