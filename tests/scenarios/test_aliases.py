@@ -19,7 +19,7 @@ FILES = sorted(OLD.glob("*.toml"))
 def test_every_scenario_of_0_1_has_a_saved_file():
     from sarnav.scenarios.registry import list_scenarios
 
-    assert {f.stem for f in FILES} == {name for name, _ in list_scenarios()}
+    assert {f.stem for f in FILES} <= {name for name, _ in list_scenarios()}  # scenarios added since 0.1 have none
 
 
 @pytest.mark.parametrize("path", FILES, ids=[f.stem for f in FILES])

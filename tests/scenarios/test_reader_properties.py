@@ -44,7 +44,9 @@ from sarnav.sensors.imu import GRADE_THREE_SIGMA
 
 #: one scenario per kind
 KINDS = {"telemetry": "telemetry", "rda-nav": "rda-nav", "image": "point-target", "bpa-sensitivity": "bpa-sensitivity",
-         "study": "telemetry-imu-grade", "spacecraft": "spacecraft-tc2", "spacecraft-closed-loop": "spacecraft-closed-loop"}
+         "study": "telemetry-imu-grade", "spacecraft": "spacecraft-tc2", "spacecraft-closed-loop": "spacecraft-closed-loop",
+         "multi-imu-path1": "multi-imu-path1", "multi-imu": "multi-imu-adis", "upf-flight": "upf-flight",
+         "nav-source-focus": "nav-source-focus", "multi-imu-sar": "multi-imu-sar-fix"}
 #: kinds without [campaign] runs (the run property gives them no --runs)
 NO_RUNS = ("image", "bpa-sensitivity")
 #: the run property's small scenarios (paths into the file -> value): one run (``--runs 1``), a 1-s flight, a short
@@ -57,10 +59,18 @@ SMALL = {
     "bpa-sensitivity": {("trajectory", "duration"): 3.0, ("image", "spacing"): 0.2, ("image", "margin"): 2.0},
     "spacecraft": {("simulation", "duration"): 20.0},
     "spacecraft-closed-loop": {("simulation", "duration"): 5.0},
+    "multi-imu-path1": {("path", "duration"): 2.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 0.5},
+    "multi-imu": {("flight", "duration"): 10.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 1.0},
+    "upf-flight": {("flight", "duration"): 120.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 1.0,
+                   ("output", "rate_hz"): 200.0},
+    "nav-source-focus": {("cart", "run_in_s"): 1.0, ("aperture", "n_pulses"): 150, ("navigation", "n_particles"): 50,
+                         ("navigation", "adis_particles"): 50, ("image", "chip_half_m"): 0.4},
+    "multi-imu-sar": {("flight", "duration"): 2.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 0.5},
 }
 #: run examples per kind in the default test run (bpa-sensitivity's nine injected errors cost ~1 s a file)
 RUN_EXAMPLES = {"telemetry": 40, "rda-nav": 30, "study": 20, "image": 24, "bpa-sensitivity": 8, "spacecraft": 10,
-                "spacecraft-closed-loop": 3}
+                "spacecraft-closed-loop": 3, "multi-imu-path1": 8, "multi-imu": 6, "upf-flight": 4,
+                "nav-source-focus": 4, "multi-imu-sar": 6}
 #: the fewest files of each run property that must get past validation and run (a fraction of the examples)
 MIN_RAN = 0.4
 #: keys that set a run's size: the run property varies them by at most x2 and never sets them to an upper bound

@@ -30,11 +30,14 @@ from sarnav.filters.particles import (
     RESAMPLING_METHODS,
     ParticleCloud,
     check_particle_count,
+    effective_sample_size,
     gaussian_log_likelihood,
     kernel_shrinkage,
+    normalize_log_weights,
     resample,
     roughen,
     sir_update,
+    tempering_exponent,
     weighted_covariance,
 )
 from sarnav.filters.pulse_grid import GridFilter, ImuStream, NavFrame
@@ -222,6 +225,20 @@ class GridParticleFilter(GridFilter):
         if np.any(self.fix_lever_arm):  # the fix is taken at particle + C_b^n r (lever arm IMU -> antenna)
             off = off + np.einsum("rij,j->ri", quat_to_dcm(self.q), self.fix_lever_arm)[:, None, :]
         ll = gaussian_log_likelihood(off, np.zeros((off.shape[0], 3)), np.diag(np.asarray(sigma, dtype=float) ** 2))
+        self.update_log_likelihood(ll)
+
+    def particle_states(self) -> tuple[np.ndarray, np.ndarray]:
+        """(positions (R, N, 3) in the frame's local metres, NED velocities (R, N, 3)) of the particles (the point
+        the filter tracks), copies: for measurements other than a position fix (``update_log_likelihood``)."""
+        pos = self.parts[..., :3] if self.model == "linear" else self.frame.to_local(self.parts[..., :3])
+        return np.array(pos, dtype=float), np.array(self.parts[..., 3:], dtype=float)
+
+    def update_log_likelihood(self, log_likelihood) -> None:
+        """Bayes update at the current time with any measurement: per-particle log-likelihoods (R, N) (eq. 3.22
+        with the bootstrap proposal), then the filter's resampling and regularisation, as at a fix."""
+        ll = np.asarray(log_likelihood, dtype=float)
+        if ll.shape != self.logw.shape:
+            raise InputDataError("log_likelihood", f"must have shape {self.logw.shape} (runs, particles), got {ll.shape}")
         self.logw, _, collapsed = sir_update(self.logw, ll, self.on_collapse)
         self.collapsed |= collapsed
         cloud, mask = resample(ParticleCloud(self.parts, self.logw), self.rngs, self.resampling, self.ess_threshold)
@@ -232,18 +249,96 @@ class GridParticleFilter(GridFilter):
         self.parts, self.logw = np.ascontiguousarray(cloud.particles), cloud.log_weights
         self.mean = np.einsum("rn,rnd->rd", np.exp(self.logw), self.parts)
 
-    def _shrink(self, parts, mask):
+    def _shrink(self, parts, mask, h=None):
         """Liu-West kernel shrinkage in NED metres (geodetic particles are mapped to offsets from the mean)."""
+        h = self.kernel_h if h is None else h
         if self.model != "geodetic":
-            return kernel_shrinkage(parts, self.rngs, self.kernel_h, mask)
+            return kernel_shrinkage(parts, self.rngs, h, mask)
         m = parts.mean(axis=1)
         off = geodetic_difference_ned(parts[..., 0], parts[..., 1], parts[..., 2], m[:, None, 0], m[:, None, 1], m[:, None, 2])
-        x = kernel_shrinkage(np.concatenate([off, parts[..., 3:]], -1), self.rngs, self.kernel_h, mask)
+        x = kernel_shrinkage(np.concatenate([off, parts[..., 3:]], -1), self.rngs, h, mask)
         lat, lon, h = ned_offset_to_geodetic(m[:, None, 0], m[:, None, 1], m[:, None, 2], x[..., :3])
         return np.concatenate([np.stack([lat, lon, h], -1), x[..., 3:]], -1)
 
     def _current(self):
         return self._native(self.mean[:, :3]), self.mean[:, 3:].copy(), self.q.copy()
+
+    def update_tempered(self, log_likelihood_fn, target_ess: float = 0.5, max_stages: int = 200) -> int:
+        """Bayes update with a likelihood too informative for one SIR step (a SAR range of 1 mm against a cloud of
+        centimetres): adaptive tempering / progressive correction (``particles.tempering_exponent``). The
+        likelihood is applied in stages L^lambda_1, L^lambda_2, ... with sum lambda = 1, each the largest that
+        keeps N_eff >= ``target_ess`` N, every stage followed by resampling and the Liu-West move
+        (``kernel_h``, 0.3 when the filter has none), which restores distinct particles with the cloud's mean and
+        covariance; ``log_likelihood_fn(positions (R, N, 3) local, velocities (R, N, 3)) -> (R, N)`` is
+        evaluated again at every stage. After ``max_stages`` the rest is applied at once. Returns the number of
+        stages (a plain SIR update is one stage)."""
+        remaining = np.ones(self.parts.shape[0])
+        h = self.kernel_h if self.kernel_h > 0 else 0.3
+        stages = 0
+        while np.any(remaining > 1e-9):
+            ll = np.asarray(log_likelihood_fn(*self.particle_states()), dtype=float)
+            if ll.shape != self.logw.shape:
+                raise InputDataError("log_likelihood", f"must have shape {self.logw.shape}, got {ll.shape}")
+            lam = remaining if stages + 1 >= max_stages else tempering_exponent(self.logw, ll, remaining, target_ess)
+            part = np.where(np.isneginf(ll), -np.inf, lam[:, None] * np.where(np.isneginf(ll), 0.0, ll))
+            part[lam <= 0] = 0.0
+            self.logw, _, collapsed = sir_update(self.logw, part, self.on_collapse)
+            self.collapsed |= collapsed
+            rows = np.flatnonzero(lam > 0)  # only these runs draw random numbers (batch independence)
+            sub, _ = resample(ParticleCloud(self.parts[rows], self.logw[rows]), [self.rngs[r] for r in rows],
+                              self.resampling, 1.0)
+            parts, logw = self.parts.copy(), self.logw.copy()
+            parts[rows], logw[rows] = sub.particles, sub.log_weights
+            self.parts = np.ascontiguousarray(self._shrink(parts, lam > 0, h))
+            self.logw = logw
+            remaining = np.maximum(remaining - lam, 0.0)
+            stages += 1
+        self.mean = np.einsum("rn,rnd->rd", np.exp(self.logw), self.parts)
+        return stages
+
+    def update_gaussian(self, linearize, log_likelihood_fn, z, meas_cov) -> np.ndarray:
+        """Gaussian particle filter update (Kotecha & Djuric 2003) for a measurement too informative for the
+        bootstrap proposal: the cloud's weighted mean m and covariance P, the Kalman update with the measurement
+        linearised at m, ``linearize(p (R, 3), v (R, 3)) -> (z_hat (R, M), H (R, M, 6))`` for the state [p, v]
+        (local metres, m/s), a new cloud drawn from that Gaussian posterior N(m1, P1), importance-weighted by
+        ``exp(log_likelihood_fn(p, v)) N(x; m, P) / N(x; m1, P1)`` (exact for a linear measurement: equal weights),
+        then the filter's resampling rule. Linear motion model only. ``z`` (R, M), ``meas_cov`` (M, M) or
+        (R, M, M). Returns the importance weights' N_eff / N (R,)."""
+        if self.model != "linear":
+            raise ConfigError("pf.model", "the Gaussian update needs the linear motion model")
+        pos, vel = self.particle_states()
+        x = np.concatenate([pos, vel], -1)
+        w = np.exp(self.logw)
+        m = np.einsum("rn,rnd->rd", w, x)
+        d = x - m[:, None]
+        P = np.einsum("rn,rni,rnj->rij", w, d, d)
+        zh, H = linearize(m[:, :3], m[:, 3:])
+        Rm = np.broadcast_to(np.asarray(meas_cov, dtype=float), (x.shape[0],) + np.shape(meas_cov)[-2:])
+        S = H @ P @ np.swapaxes(H, -1, -2) + Rm
+        K = P @ np.swapaxes(H, -1, -2) @ np.linalg.inv(S)
+        m1 = m + np.einsum("rij,rj->ri", K, np.asarray(z, dtype=float) - zh)
+        A = np.eye(6) - K @ H
+        P1 = A @ P @ np.swapaxes(A, -1, -2) + K @ Rm @ np.swapaxes(K, -1, -2)  # Joseph form
+        jitter = lambda C: C + (1e-12 * np.trace(C, axis1=-2, axis2=-1)[:, None, None] + 1e-300) * np.eye(6)  # noqa: E731
+        L1 = np.linalg.cholesky(jitter(0.5 * (P1 + np.swapaxes(P1, -1, -2))))
+        e = np.stack([g.standard_normal((self.n, 6)) for g in self.rngs])
+        new = m1[:, None] + np.einsum("rij,rnj->rni", L1, e)
+        L0 = np.linalg.cholesky(jitter(P))
+        u = np.linalg.solve(L0[:, None], (new - m[:, None])[..., None])[..., 0]
+        log_prior_over_proposal = -0.5 * np.sum(u**2, -1) + 0.5 * np.sum(e**2, -1) \
+            - np.log(np.abs(np.diagonal(L0, axis1=-2, axis2=-1))).sum(-1)[:, None] \
+            + np.log(np.abs(np.diagonal(L1, axis1=-2, axis2=-1))).sum(-1)[:, None]
+        self.parts = np.ascontiguousarray(new)
+        self.logw = np.full_like(self.logw, -np.log(self.n))
+        ll = np.asarray(log_likelihood_fn(new[..., :3], new[..., 3:]), dtype=float) + log_prior_over_proposal
+        ll = ll - np.max(ll, axis=1, keepdims=True)
+        ess = effective_sample_size_ratio(normalize_log_weights(ll)[0])
+        self.update_log_likelihood(ll)
+        return ess
+
+    def position_covariance(self) -> np.ndarray:
+        """(R, 3, 3) weighted sample covariance of the particle positions now, NED metres [m^2]."""
+        return self._position_cov()
 
     def _position_cov(self):
         return weighted_covariance(self._offsets_from(self._native(self.mean[:, :3])), self.logw)
@@ -251,6 +346,10 @@ class GridParticleFilter(GridFilter):
     def cloud_positions(self) -> np.ndarray:
         """(R, N, 3) particle positions as NED metres from the cloud mean (the cloud of eq. 5.22)."""
         return self._offsets_from(self._native(self.mean[:, :3]))
+
+
+def effective_sample_size_ratio(log_weights) -> np.ndarray:
+    return effective_sample_size(log_weights) / np.shape(log_weights)[-1]
 
 
 __all__ = ["GridParticleFilter", "MOTION_MODELS"]

@@ -331,3 +331,32 @@ def unique_count(particles) -> np.ndarray:
     """Number of distinct particles per run (R,) (diagnostic of impoverishment, T9)."""
     particles = np.asarray(particles)
     return np.array([np.unique(p, axis=0).shape[0] for p in particles])
+
+
+def tempering_exponent(log_weights, log_likelihood, remaining, target_ess: float = 0.5,
+                       iterations: int = 60) -> np.ndarray:
+    """Adaptive tempering (progressive correction; Oudjane & Musso 2000, Jasra et al. 2011): per run the largest
+    lambda in (0, remaining] whose partial update ``w L^lambda`` keeps N_eff >= target_ess N (bisection;
+    ``remaining`` (R,) itself where the whole rest of the likelihood keeps it). log_weights, log_likelihood
+    (R, N); -inf likelihoods allowed. Runs with nothing remaining get 0."""
+    lw = np.asarray(log_weights, dtype=float)
+    ll = np.asarray(log_likelihood, dtype=float)
+    rem = np.broadcast_to(np.asarray(remaining, dtype=float), lw.shape[:1]).copy()
+    if not 0.0 < target_ess <= 1.0:
+        raise ConfigError("particles.target_ess", f"must be in (0, 1], got {target_ess!r}")
+    n = lw.shape[1]
+
+    def ess(lam):
+        scaled = np.where(np.isneginf(ll), -np.inf, lam[:, None] * np.where(np.isneginf(ll), 0.0, ll))
+        post, lse = normalize_log_weights(lw + scaled)
+        with np.errstate(divide="ignore", invalid="ignore"):  # runs with zero likelihood everywhere: N_eff 0
+            return np.where(np.isfinite(lse), effective_sample_size(post), 0.0)
+
+    ok = ess(rem) >= target_ess * n
+    lo, hi = np.zeros_like(rem), rem.copy()
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        good = ess(np.where(mid > 0, mid, hi)) >= target_ess * n
+        lo, hi = np.where(good, mid, lo), np.where(good, hi, mid)
+    lam = np.where(ok, rem, np.maximum(lo, 1e-12 * rem))  # always progress (a run stuck at N_eff < target)
+    return np.where(rem > 0, lam, 0.0)

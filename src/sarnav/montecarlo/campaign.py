@@ -24,7 +24,7 @@ import xarray as xr
 from tqdm import tqdm
 
 import sarnav
-from sarnav.analysis.consistency import summarize
+from sarnav.analysis.consistency import strict, summarize
 from sarnav.errors import ConfigError, Interrupted, raise_interrupted
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
@@ -278,7 +278,8 @@ def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed, stamp):
     ds = assemble_results(records, kind.state_names(canonical), kind.meas_names(canonical),
                           kind.state_units(canonical), kind.meas_units(canonical), attrs,
                           extra_attrs=kind.extra_attrs(canonical), extra_coords=kind.extra_coords(canonical))
-    summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summarize(ds)}
+    summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summarize(ds),
+               **strict(kind.summary_extras(ds))}
     write_results(ds, out / store.RESULTS)
     store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return ds, summary

@@ -73,6 +73,11 @@ class ScenarioKind(ABC):
         """Optional kind-specific figures beyond the standard ones; returns written paths."""
         return []
 
+    def summary_extras(self, results) -> dict:
+        """Optional kind-specific statistics of the assembled results, merged into ``summary.json`` (finite
+        numbers; e.g. the ``rmse`` per navigation source of the multi-IMU kinds)."""
+        return {}
+
 
 #: largest campaign (runs) and seed accepted: seeds are stored as signed 64-bit integers (netCDF attributes)
 MAX_RUNS = 100_000

@@ -6,6 +6,8 @@
 * :func:`flexsar`: FlexSAR real-data radar, paper Table 6 / thesis Table 5.3: 9.75 GHz, 500 MHz,
   over-sample 1 (fs = B = 500 MHz, equality allowed), PRF 5000 Hz decimated to 1667 Hz, imaged
   slant ranges 1948-2112 m.
+* :func:`sun_ku_cart`: Ku-band ground-cart radar of Sun (2022) §6.2: 16.6 GHz, 300 MHz, PRF 3 kHz, reflectors
+  20 m away (its gap fills in the function's docstring).
 
 Gap fills (not in the sources; thesis extraction §18, paper note §6 G7):
 
@@ -67,6 +69,27 @@ def flexsar(**overrides) -> RadarParams:
         carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), pulse_length=pulse_length,
         sample_rate=sample_rate, prf=5000.0 / 3.0, near_range=near, n_range_samples=n,
         antenna_length=0.0756, look_side="right", range_window="none", azimuth_window="none",
+    )
+    kw.update(overrides)
+    return RadarParams(**kw)
+
+
+#: slant ranges imaged by the ground-cart test of Sun (2022) §6.2 (reflectors 20 m from the radar, L1322) [m]
+SUN_KU_CART_RANGES = (17.0, 24.0)
+
+
+def sun_ku_cart(imaged: tuple[float, float] = SUN_KU_CART_RANGES, **overrides) -> RadarParams:
+    """Ku-band cart radar of Sun (2022) §6.2 (L1313-1322): 16.6 GHz, LFM B = 300 MHz (range resolution c/2B =
+    0.4997 m, eq. 4.4), PRF 3 kHz, no window (L1332). Not given (gap G25), chosen here: complex sampling
+    fs = 2B = 600 MHz, pulse length T = 0.2 us (TB = 60), horn antennas of 0.5 rad one-way beamwidth, right
+    looking; the receive window covers the ``imaged`` slant ranges widened by cT/4 (as the other presets)."""
+    pulse_length = overrides.pop("pulse_length", us_to_s(0.2))
+    sample_rate = overrides.pop("sample_rate", 2.0 * mhz_to_hz(300.0))
+    near, n = _window_for(tuple(imaged), pulse_length, sample_rate)
+    kw = dict(
+        carrier_frequency=ghz_to_hz(16.6), bandwidth=mhz_to_hz(300.0), pulse_length=pulse_length,
+        sample_rate=sample_rate, prf=3000.0, near_range=near, n_range_samples=n,
+        azimuth_beamwidth=0.5, look_side="right", range_window="none", azimuth_window="none",
     )
     kw.update(overrides)
     return RadarParams(**kw)

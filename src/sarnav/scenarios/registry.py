@@ -50,6 +50,11 @@ KINDS: dict[str, str] = {
     "image": "sarnav.scenarios.imaging:ImageKind",
     "spacecraft": "sarnav.scenarios.spacecraft:SpacecraftKind",
     "spacecraft-closed-loop": "sarnav.scenarios.spacecraft_closed_loop:ClosedLoopKind",
+    "multi-imu-path1": "sarnav.scenarios.multi_imu:MultiImuPath1Kind",
+    "multi-imu": "sarnav.scenarios.multi_imu:MultiImuKind",
+    "upf-flight": "sarnav.scenarios.multi_imu:UpfFlightKind",
+    "nav-source-focus": "sarnav.scenarios.nav_focus:NavFocusKind",
+    "multi-imu-sar": "sarnav.scenarios.multi_imu_sar:MultiImuSarKind",
 }
 
 # fmt: off
@@ -69,6 +74,11 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("spacecraft-tc2", "spacecraft", "Pogorelsky et al. 2022 TC-2 open loop: LEO MEKF, misalignment 0.01 deg, 100 runs x 600 s", "sarnav.scenarios.spacecraft:tc2_config"),
     ScenarioEntry("spacecraft-closed-loop", "spacecraft-closed-loop", "Pogorelsky et al. 2022 closed loop, simulated: L-band echoes, autofocus v_ic, registration r_f, 3 updates", "kind:"),
     ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "sarnav.scenarios.imaging:scatterers_config"),
+    ScenarioEntry("multi-imu-path1", "multi-imu-path1", "Sun 2022 path 1 (eq. 5.21): three position sensors (Table 5.1), one PF each, mean vs SIR fusion", "kind:"),
+    ScenarioEntry("multi-imu-adis", "multi-imu", "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 PFs fused (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C", "kind:"),
+    ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "kind:"),
+    ScenarioEntry("nav-source-focus", "nav-source-focus", "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions (focus.csv)", "kind:"),
+    ScenarioEntry("multi-imu-sar-fix", "multi-imu-sar", "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes (rda-nav flight)", "kind:"),
 )
 # fmt: on
 

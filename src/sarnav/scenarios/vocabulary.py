@@ -12,7 +12,8 @@
 ``[initial]``             3-sigma initial uncertainty: ``p_3sigma`` [m], ``v_3sigma`` [m/s], ``theta_3sigma``
                           [rad] (each 3 numbers); optional ``accel_bias_3sigma`` [g], ``gyro_bias_3sigma``
                           [deg/hr] (default: the filter's IMU figures)
-``[radar]``               ``preset`` ("nav-paper-sim" | "flexsar") and/or the fields with their units in the key:
+``[radar]``               ``preset`` ("nav-paper-sim" | "flexsar" | "sun-ku-cart") and/or the fields with their
+                          units in the key:
                           ``carrier_ghz``, ``bandwidth_mhz``, ``sample_rate_mhz``, ``pulse_length_us``,
                           ``prf_hz``, ``antenna_length_m``, ``look_side``, ``range_window``, ``azimuth_window``;
                           ``snr_db`` (receiver noise), ``range_margin_m`` (receive-window margin) where used
@@ -201,7 +202,7 @@ RADAR_KEYS = {
     "range_window": ("range_window", None),
     "azimuth_window": ("azimuth_window", None),
 }
-PRESETS = {"nav-paper-sim": presets.nav_paper_sim, "flexsar": presets.flexsar}
+PRESETS = {"nav-paper-sim": presets.nav_paper_sim, "flexsar": presets.flexsar, "sun-ku-cart": presets.sun_ku_cart}
 #: RadarParams field -> [radar] key (for error messages)
 _KEY_OF = {f: k for k, (f, _) in RADAR_KEYS.items()}
 

@@ -21,11 +21,12 @@ discussed in docs/particles.md.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters.fusion import cloud_mean, draw_sensors, mean_fuse, sensor_log_weights, virtual_imu
 from sarnav.filters.grid_kalman import GridKalmanFilter
 from sarnav.filters.grid_particle import GridParticleFilter
@@ -33,6 +34,7 @@ from sarnav.filters.pulse_grid import FixStream, GridOutput, ImuStream, NavFrame
 from sarnav.frames.wgs84 import geodetic_difference_ned, ned_offset_to_geodetic
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors import ImuModel, imu_grade
+from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
 from sarnav.trajectory import Maneuvering, RateProfile
 from sarnav.trajectory.geodetic import GeodeticFlight
@@ -53,6 +55,12 @@ SPEC_HORIZON = 100.0
 
 
 def _seeds(seed, runs):
+    """One SeedSequence per run: ``seed`` (int or SeedSequence) spawns ``runs`` children; a list of SeedSequences
+    (a campaign's run seeds, ``sarnav.montecarlo.seeding.run_seeds``) is used as given, one per run."""
+    if isinstance(seed, (list, tuple)):
+        if len(seed) != runs or not all(isinstance(s, np.random.SeedSequence) for s in seed):
+            raise InputDataError("seeds", f"need {runs} SeedSequences (one per run), got {len(seed)}")
+        return list(seed)
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     return ss.spawn(runs)
 
@@ -71,13 +79,16 @@ def _rms(err, t, settle):
 @dataclass
 class FusionResult:
     """Per-source results: ``rmse`` [m] (3-D RMS after ``settle``), ``errors`` (R, K, 3) NED error time series
-    at ``times`` (K,), ``cloud_rmse`` [m] (eq. 5.22, filters with a cloud), ``info`` (settings used)."""
+    at ``times`` (K,), ``cloud_rmse`` [m] (eq. 5.22, filters with a cloud), ``info`` (settings used),
+    ``covariances`` (R, K - 1, 3, 3) [m^2] the cloud's position covariance after each update at ``times[1:]`` (the
+    per-sensor filters: sensor1.., novatel)."""
 
     rmse: dict
     errors: dict
     times: np.ndarray
     cloud_rmse: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)
+    covariances: dict = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -145,7 +156,7 @@ def run_path1(runs: int = 4, seed=0, duration: float = 100.0, sensor_sigmas=PATH
     f_b = np.broadcast_to(a - [0.0, 0.0, frame.gravity], (runs, t_imu.size, 3))
     imu = ImuStream(t_imu, f_b, np.zeros((runs, t_imu.size, 3)))
     p_fix, v0 = path1(t_fix)[0], path1(0.0)[1]
-    est, clouds, errors, rmse, cloud_rmse = [], [], {}, {}, {}
+    est, covs, errors, rmse, cloud_rmse = [], {}, {}, {}, {}
     for s, sig in enumerate(sensor_sigmas):
         noise = np.stack([g.standard_normal((t_fix.size, 3)) for g in _rngs(seqs, 10 + s)])
         meas = FixStream(t_fix, p_fix[None] + sig * noise, np.full(3, sig))
@@ -154,6 +165,7 @@ def run_path1(runs: int = 4, seed=0, duration: float = 100.0, sensor_sigmas=PATH
                       np.diag([sig**2] * 3 + [1.0] * 3), _rngs(seqs, 20 + s))
         out = pf.run(imu, duration, meas, t_fix)
         est.append(out.position)
+        covs[f"sensor{s + 1}"] = out.position_cov
         errors[f"sensor{s + 1}"] = out.position - p_fix
         rmse[f"sensor{s + 1}"] = _rms(errors[f"sensor{s + 1}"], t_fix, settle)
         cloud_rmse[f"sensor{s + 1}"] = _cloud_rms(out, errors[f"sensor{s + 1}"], t_fix, settle)
@@ -165,7 +177,8 @@ def run_path1(runs: int = 4, seed=0, duration: float = 100.0, sensor_sigmas=PATH
     for k in ("mean", "sir", "fix"):
         rmse[k] = _rms(errors[k], t_fix, settle)
     return FusionResult(rmse, errors, t_fix, cloud_rmse,
-                        {"fix_sigma": fix_sigma, "accel_psd": accel_psd, "n_particles": n_particles, "runs": runs})
+                        {"fix_sigma": fix_sigma, "accel_psd": accel_psd, "n_particles": n_particles, "runs": runs},
+                        covs)
 
 
 def _cloud_rms(out: GridOutput, err, t, settle):
@@ -242,11 +255,11 @@ def spec_accel_psd(name: str, rate: float, horizon: float = SPEC_HORIZON) -> flo
 def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: int = 1000, n_adis: int = 3,
                   accel_psd="spec", fix_sigma=FIX_SIGMA, n_draws: int = 50, per_axis: bool = True,
                   settle: float = 10.0, virtual: bool = True, fix_bias=(0.0, 0.0, 0.0),
-                  shared_fix: bool = True) -> FusionResult:
+                  shared_fix: bool = True, speed: float = 50.0) -> FusionResult:
     """S x ADIS16465 (100 Hz) against one NovAtel IMU-ISA-100C (200 Hz), 20 Hz fixes, on :func:`climb_and_turn`.
 
     Each IMU has its own geodetic aided PF (``n_particles``; process noise ``accel_psd`` [m^2/s^3] for all, or
-    ``"spec"``: :func:`spec_accel_psd` of each IMU); the ADIS sit at :data:`ADIS_LEVER_ARMS`, the NovAtel and
+    ``"spec"``: :func:`spec_accel_psd` of each IMU, or a dict preset name -> PSD); the ADIS sit at :data:`ADIS_LEVER_ARMS`, the NovAtel and
     the fix antenna at the reference point. ``shared_fix`` True: every PF is aided by the same fix stream
     (one receiver on the rig); False: each IMU's PF by its own independent fix realisation (what separate
     gnss-ins-sim runs per IMU give), the NovAtel's stream weighting the SIR. Returns rmse for ``sensor1..S``
@@ -255,15 +268,16 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
     if not 1 <= n_adis <= len(ADIS_LEVER_ARMS):
         raise ConfigError("multi_imu.n_adis", f"must be in [1, {len(ADIS_LEVER_ARMS)}], got {n_adis}")
     seqs = _seeds(seed, runs)
-    flight = GeodeticFlight(climb_and_turn(duration), *ORIGIN)
+    flight = GeodeticFlight(climb_and_turn(duration, speed), *ORIGIN)
     t_fix = uniform_times(0.0, duration, 20.0)
     truth, _ = _truth_native(flight, t_fix)
     fixes = simulate_fixes(flight, t_fix, fix_sigma, _rngs(seqs, 1), fix_bias)
     fix_for = lambda s: fixes if shared_fix else simulate_fixes(flight, t_fix, fix_sigma, _rngs(seqs, 50 + s), fix_bias)  # noqa: E731
-    psd = lambda name, rate: spec_accel_psd(name, rate) if accel_psd == "spec" else accel_psd  # noqa: E731
+    psd = lambda name, rate: (spec_accel_psd(name, rate) if isinstance(accel_psd, str) and accel_psd == "spec"  # noqa: E731
+                              else accel_psd[name] if isinstance(accel_psd, dict) else accel_psd)
     t_adis, t_nov = uniform_times(0.0, duration, 100.0), uniform_times(0.0, duration, 200.0)
     adis = gnss_ins_sim_imu("adis16465", 100.0)
-    est, errors, rmse, cloud = [], {}, {}, {}
+    est, errors, rmse, cloud, covs = [], {}, {}, {}, {}
     imus = []
     for s in range(n_adis):
         imu = rig_imu(flight, t_adis, ADIS_LEVER_ARMS[s], adis, _rngs(seqs, 10 + s))
@@ -271,6 +285,7 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
         pos, out = _aided_pf(flight, imu, fix_for(s), ADIS_LEVER_ARMS[s], n_particles, psd("adis16465", 100.0),
                              _rngs(seqs, 20 + s), t_fix, duration)
         est.append(pos)
+        covs[f"sensor{s + 1}"] = out.position_cov
         errors[f"sensor{s + 1}"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
         cloud[f"sensor{s + 1}"] = _cloud_rms(out, errors[f"sensor{s + 1}"], t_fix, settle)
     nov = rig_imu(flight, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), _rngs(seqs, 5))
@@ -278,12 +293,14 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
                          t_fix, duration)
     errors["novatel"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
     cloud["novatel"] = _cloud_rms(out, errors["novatel"], t_fix, settle)
+    covs["novatel"] = out.position_cov
     if virtual:
         f, w = virtual_imu(np.stack([i.specific_force for i in imus]), np.stack([i.angular_rate for i in imus]),
                            ADIS_LEVER_ARMS[:n_adis], 0.01)
-        pos, _ = _aided_pf(flight, ImuStream(t_adis, f, w), fix_for(9), np.zeros(3), n_particles,
-                           psd("adis16465", 100.0) / n_adis, _rngs(seqs, 7), t_fix, duration)
+        pos, out = _aided_pf(flight, ImuStream(t_adis, f, w), fix_for(9), np.zeros(3), n_particles,
+                             psd("adis16465", 100.0) / n_adis, _rngs(seqs, 7), t_fix, duration)
         errors["vimu"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
+        covs["vimu"] = out.position_cov
     # fusion in NED metres about the truth (any common origin gives the same weights)
     est_ned = np.stack([geodetic_difference_ned(*np.moveaxis(p, -1, 0), *np.moveaxis(truth, -1, 0)) for p in est], 1)
     fix_ned = geodetic_difference_ned(*np.moveaxis(fixes.position, -1, 0), *np.moveaxis(truth, -1, 0))
@@ -295,7 +312,7 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
     info = {"fix_sigma": np.asarray(fix_sigma).tolist(), "runs": runs, "n_particles": n_particles,
             "accel_psd": {"adis16465": psd("adis16465", 100.0), "novatel": psd("novatel-isa-100c", 200.0)},
             "shared_fix": shared_fix, "per_axis": per_axis, "duration": duration}
-    return FusionResult(rmse, errors, t_fix, cloud, info)
+    return FusionResult(rmse, errors, t_fix, cloud, info, covs)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -329,13 +346,25 @@ def survey_flight(duration: float = 3600.0, speed: float = 50.0, climb: float = 
 class UpfFlightResult:
     """``rmse`` [m] per source at the output (pulse) epochs after ``settle`` (``upf``, ``kf-interp``) and at
     the fix epochs (``pf``, ``kf``, ``fix``); ``cloud_var_times`` (K,), ``cloud_var`` (R, K, 3) the UPF cloud's
-    position variance per NED axis after each fix [m^2]; ``settle_time`` [s] (T13); ``info``."""
+    position variance per NED axis after each fix [m^2]; ``settle_time`` [s] (T13, worst run); ``info``.
+    Per run: ``ms`` source -> (R,) mean squared 3-D error after ``settle`` [m^2], ``settle_times`` (R,) [s];
+    at ``record_times`` (K1,) (fix epochs at the record rate): ``record_errors`` / ``record_covs`` filter ->
+    (R, K1, 3) NED estimate - truth [m] / (R, K1, 3, 3) [m^2] after the update, ``record_cloud_var`` (R, K1, 3);
+    ``seconds`` filter -> wall time of the whole batch [s] (T12)."""
 
     rmse: dict
     cloud_var_times: np.ndarray
     cloud_var: np.ndarray
     settle_time: float
     info: dict
+    ms: dict = field(default_factory=dict)
+    record_times: np.ndarray | None = None
+    record_errors: dict = field(default_factory=dict)
+    record_covs: dict = field(default_factory=dict)
+    record_cloud_var: np.ndarray | None = None
+    settle_times: np.ndarray | None = None
+    seconds: dict = field(default_factory=dict)
+    record_fix_errors: np.ndarray | None = None
 
 
 def cloud_settle_time(times, variance, tolerance: float = 0.5, window: float = 5.0) -> float:
@@ -359,64 +388,102 @@ def cloud_settle_time(times, variance, tolerance: float = 0.5, window: float = 5
 def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles: int = 2000,
                    out_rate: float = 3000.0, imu: str = "novatel-isa-100c", imu_rate: float = 200.0,
                    accel_psd="spec", fix_sigma=FIX_SIGMA, segment: float = 10.0, settle: float = 75.0,
-                   noise_at: str = "fix", flight: Maneuvering | None = None) -> UpfFlightResult:
+                   noise_at: str = "fix", flight: Maneuvering | None = None, record_rate: float = 1.0,
+                   fix_rate: float = 20.0) -> UpfFlightResult:
     """The UPF (geodetic model, ``n_particles``) and the interpolated KF (eq. 3.10 model) on the pulse grid at
     ``out_rate`` over :func:`survey_flight`, 200 Hz IMU + 20 Hz fixes; processed in ``segment``-second pieces
-    so that one hour at 3 kHz fits in memory. Errors accumulate as sums of squares."""
+    so that one hour at 3 kHz fits in memory. Errors accumulate as sums of squares per run; the filters' fix-epoch
+    estimates and covariances are kept at ``record_rate`` (a divisor of ``fix_rate``)."""
     seqs = _seeds(seed, runs)
     flat = flight if flight is not None else survey_flight(duration)
-    duration = flat.duration
     geo = GeodeticFlight(flat, *ORIGIN)
     frame = NavFrame(geodetic=True, origin=ORIGIN)
     model = gnss_ins_sim_imu(imu, imu_rate)
     q = spec_accel_psd(imu, imu_rate) if accel_psd == "spec" else float(accel_psd)
     sig = np.asarray(fix_sigma, dtype=float)
     s0 = geo.state(0.0)
-    r_imu, r_fix, r_pf = _rngs(seqs, 1), _rngs(seqs, 2), _rngs(seqs, 3)
-    ba, bg = model.initial_biases(r_imu)
+    rng = {"imu": _rngs(seqs, 1), "fix": _rngs(seqs, 2)}
+    ba, bg = model.initial_biases(rng["imu"])
     fix0 = simulate_fixes(geo, np.array([0.0]), sig, _rngs(seqs, 4)).position[:, 0]
     p0 = np.diag(np.r_[sig**2, [0.05**2] * 3])
     v0 = np.broadcast_to(s0.velocity, (runs, 3))
-    upf = GridParticleFilter(frame, n_particles, q, model="geodetic", noise_at=noise_at, ess_threshold=0.5,
-                             kernel_h=0.3).initialize(0.0, fix0, v0, s0.quaternion, p0, r_pf)
-    kf = GridKalmanFilter(frame, q).initialize(0.0, fix0, v0, s0.quaternion, p0)
-    sums = {k: 0.0 for k in ("upf", "kf-interp", "pf", "kf", "fix")}
-    counts = {k: 0 for k in sums}
-    var_t, var = [], []
-    t0, last = 0.0, None
-    while t0 < duration - 1e-9:
-        t1 = min(duration, t0 + segment)
+    filters = {"upf": GridParticleFilter(frame, n_particles, q, model="geodetic", noise_at=noise_at,
+                                         ess_threshold=0.5, kernel_h=0.3).initialize(0.0, fix0, v0, s0.quaternion,
+                                                                                     p0, _rngs(seqs, 3)),
+               "kf-interp": GridKalmanFilter(frame, q).initialize(0.0, fix0, v0, s0.quaternion, p0)}
+    acc = _UpfAccumulator(runs, settle, fix_rate, record_rate)
+    t0 = 0.0
+    while t0 < flat.duration - 1e-9:
+        t1 = min(flat.duration, t0 + segment)
         t_imu = uniform_times(t0, t1, imu_rate)
         f, w = geo.imu(t_imu)
-        nu, om, _, _, ba, bg = model.measure(f, w, ba, bg, r_imu)
-        stream = ImuStream(t_imu, nu, om)
-        t_fix = uniform_times(t0, t1, 20.0)[1:]
-        fixes = simulate_fixes(geo, t_fix, sig, r_fix)
+        nu, om, _, _, ba, bg = model.measure(f, w, ba, bg, rng["imu"])
+        fixes = simulate_fixes(geo, uniform_times(t0, t1, fix_rate)[1:], sig, rng["fix"])
         t_out = uniform_times(t0, t1, out_rate)[1:]
-        truth_out = _truth_native(geo, t_out)[0]
-        for name, filt in (("upf", upf), ("kf-interp", kf)):
-            out = filt.run(stream, t1, fixes, t_out)
-            e = frame.error_ned(out.position, truth_out)
-            k = out.times >= settle
-            sums[name] += float(np.sum(e[:, k] ** 2))
-            counts[name] += int(np.count_nonzero(k)) * runs
-            ef = frame.error_ned(out.fix_position, _truth_native(geo, out.fix_times)[0])
-            kf_ = out.fix_times >= settle
-            key = "pf" if name == "upf" else "kf"
-            sums[key] += float(np.sum(ef[:, kf_] ** 2))
-            counts[key] += int(np.count_nonzero(kf_)) * runs
-            if name == "upf":
-                var_t.append(out.fix_times)
-                var.append(np.diagonal(out.position_cov, axis1=-2, axis2=-1))
-        ef = frame.error_ned(fixes.position, _truth_native(geo, t_fix)[0])
-        sums["fix"] += float(np.sum(ef[:, t_fix >= settle] ** 2))
-        counts["fix"] += int(np.count_nonzero(t_fix >= settle)) * runs
+        truth = (_truth_native(geo, t_out)[0], _truth_native(geo, fixes.times)[0])  # once for both filters
+        for name, filt in filters.items():
+            tic = time.perf_counter()
+            out = filt.run(ImuStream(t_imu, nu, om), t1, fixes, t_out)
+            acc.seconds[name] += time.perf_counter() - tic
+            acc.add(name, frame, truth, out)
+        acc.add_fixes(frame, truth[1], fixes)
         t0 = t1
-    rmse = {k: float(np.sqrt(sums[k] / max(counts[k], 1))) for k in sums}
-    var_t, var = np.concatenate(var_t), np.concatenate(var, axis=1)
-    info = {"accel_psd": q, "n_particles": n_particles, "out_rate": out_rate, "duration": duration,
-            "noise_at": noise_at, "imu": imu, "collapsed_runs": int(np.count_nonzero(upf.collapsed))}
-    return UpfFlightResult(rmse, var_t, var, cloud_settle_time(var_t, var), info)
+    info = {"accel_psd": q, "n_particles": n_particles, "out_rate": out_rate, "duration": flat.duration,
+            "noise_at": noise_at, "imu": imu, "collapsed_runs": int(np.count_nonzero(filters["upf"].collapsed))}
+    return acc.result(info)
+
+
+class _UpfAccumulator:
+    """Per-run sums of squared 3-D errors after ``settle`` and the records of :func:`run_upf_flight`."""
+
+    def __init__(self, runs, settle, fix_rate, record_rate):
+        self.settle, self.runs = settle, runs
+        self.every = int(round(fix_rate / record_rate))
+        if self.every < 1 or abs(fix_rate / record_rate - self.every) > 1e-9:
+            raise ConfigError("upf.record_rate_hz", f"must divide the fix rate {fix_rate} Hz, got {record_rate}")
+        self.fix_rate = fix_rate
+        self.sums = {k: np.zeros(runs) for k in ("upf", "kf-interp", "pf", "kf", "fix")}
+        self.counts = {k: 0 for k in self.sums}
+        self.seconds = {"upf": 0.0, "kf-interp": 0.0}
+        self.var_t, self.var, self.rec_t, self.rec_fix = [], [], [], []
+        self.rec_e = {"upf": [], "kf-interp": []}
+        self.rec_c = {"upf": [], "kf-interp": []}
+
+    def _sum(self, key, err, times):
+        k = times >= self.settle
+        self.sums[key] += np.sum(err[:, k] ** 2, axis=(1, 2))
+        self.counts[key] += int(np.count_nonzero(k))
+
+    def add(self, name, frame, truth, out: GridOutput):
+        """``truth``: native truth at the output epochs and at the fix epochs of the segment."""
+        self._sum(name, frame.error_ned(out.position, truth[0]), out.times)
+        ef = frame.error_ned(out.fix_position, truth[1])
+        self._sum("pf" if name == "upf" else "kf", ef, out.fix_times)
+        keep = np.round(out.fix_times * self.fix_rate).astype(np.int64) % self.every == 0
+        self.rec_e[name].append(ef[:, keep])
+        self.rec_c[name].append(out.position_cov[:, keep])
+        if name == "upf":
+            self.var_t.append(out.fix_times)
+            self.var.append(np.diagonal(out.position_cov, axis1=-2, axis2=-1))
+            self.rec_t.append(out.fix_times[keep])
+
+    def add_fixes(self, frame, truth_fix, fixes: FixStream):
+        ef = frame.error_ned(fixes.position, truth_fix)
+        self._sum("fix", ef, fixes.times)
+        self.rec_fix.append(ef[:, np.round(fixes.times * self.fix_rate).astype(np.int64) % self.every == 0])
+
+    def result(self, info) -> "UpfFlightResult":
+        ms = {k: self.sums[k] / max(self.counts[k], 1) for k in self.sums}
+        rmse = {k: float(np.sqrt(np.mean(v))) for k, v in ms.items()}
+        var_t, var = np.concatenate(self.var_t), np.concatenate(self.var, axis=1)
+        settle = np.array([cloud_settle_time(var_t, var[r:r + 1]) for r in range(self.runs)])
+        rec_t = np.concatenate(self.rec_t)
+        keep = np.round(var_t * self.fix_rate).astype(np.int64) % self.every == 0
+        return UpfFlightResult(rmse, var_t, var, float(settle.max()), info, ms=ms, record_times=rec_t,
+                               record_errors={k: np.concatenate(v, axis=1) for k, v in self.rec_e.items()},
+                               record_covs={k: np.concatenate(v, axis=1) for k, v in self.rec_c.items()},
+                               record_cloud_var=var[:, keep], settle_times=settle, seconds=dict(self.seconds),
+                               record_fix_errors=np.concatenate(self.rec_fix, axis=1))
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -431,11 +498,46 @@ def cart_track(duration: float, speed: float = 1.0, heading: float = np.pi / 2) 
                        RateProfile((0.0,), (0.0,), 1.0), duration)
 
 
+@dataclass
+class NavSources:
+    """What :func:`navigation_sources` returns: ``positions`` source -> (R, P, 3) antenna positions at the pulses,
+    NED metres relative to the true first-pulse position (``truth`` (1, P, 3)); for the filters with a covariance
+    (``upf``, ``kf-interp``) at their fix epochs ``fix_times`` (K,): ``fix_errors`` name -> (R, K, 3) estimate -
+    truth [m] after the update and ``fix_covs`` name -> (R, K, 3, 3) [m^2] (cloud sample covariance / KF P)."""
+
+    positions: dict
+    fix_times: np.ndarray | None = None
+    fix_errors: dict = field(default_factory=dict)
+    fix_covs: dict = field(default_factory=dict)
+
+
 def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Maneuvering | None = None,
                                  n_particles: int = 2000, adis_particles: int = 1000, fix_sigma=FIX_SIGMA,
                                  accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES):
+    """The positions of :func:`navigation_sources` (dict source -> (R, P, 3))."""
+    return navigation_sources(pulse_times, runs, seed, track, n_particles, adis_particles, fix_sigma, accel_psd,
+                              n_draws, sources).positions
+
+
+def correlated_fix_errors(times, sigma, tau, rngs) -> np.ndarray:
+    """(R, K, 3) first-order Gauss-Markov fix errors (stationary 1-sigma ``sigma`` (3,) [m], correlation time
+    ``tau`` [s]; ``sensors.gauss_markov``, exact discretisation) at uniformly spaced ``times`` (K,): the slowly
+    varying part of a GNSS position error (multipath, atmosphere, orbits)."""
+    sigma = np.asarray(sigma, dtype=float)
+    phi, drive = fogm_coefficients(sigma, tau, float(times[1] - times[0]) if len(times) > 1 else 1.0)
+    b0 = sigma * np.stack([g.standard_normal(3) for g in rngs])
+    w = np.stack([g.standard_normal((len(times) - 1, 3)) for g in rngs])
+    path, last = fogm_path(b0, w, phi, drive)
+    return np.concatenate([path, last[:, None]], axis=1)
+
+
+def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | None = None,
+                       n_particles: int = 2000, adis_particles: int = 1000, fix_sigma=FIX_SIGMA,
+                       accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES,
+                       fix_correlated=(0.0, 0.0, 0.0), fix_tau: float = 300.0) -> NavSources:
     """Antenna (reference point) positions at every pulse from each navigation source, NED metres relative to
-    the true position at the first pulse: dict source -> (R, P, 3) (``truth`` is (1, P, 3)).
+    the true position at the first pulse: ``positions`` source -> (R, P, 3) (``truth`` is (1, P, 3)), and the
+    fix-epoch errors and covariances of the UPF and the interpolated KF (:class:`NavSources`).
 
     ``pulse_times`` (P,) [s] must start after a run-in (the filters start at t = 0 from the first fix and
     converge, e.g. 30 s, then the aperture). Sources (L1332-1403): ``upf`` (NovAtel + 20 Hz fix, 2000-particle
@@ -444,6 +546,11 @@ def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Mane
     ``sir-3adis`` (three ADIS16465 PFs on the pulse grid, SIR-fused at each fix, indices held in between),
     ``novatel`` (the NovAtel PF on the pulse grid: the UPF with ``adis_particles`` particles, the multi-IMU
     comparison's single-IMU solution). The lever arm IMU -> antenna is zero (gap G12).
+
+    Fix errors: white N(0, ``fix_sigma``^2) per NED axis at every fix (gnss-ins-sim's model, the default) plus,
+    when ``fix_correlated`` (3,) [m] is non-zero, a first-order Gauss-Markov error of that stationary 1-sigma and
+    correlation time ``fix_tau`` (:func:`correlated_fix_errors`); the filters assume the total 1-sigma
+    ``sqrt(fix_sigma^2 + fix_correlated^2)`` as white (what a receiver's specification gives them).
     """
     from sarnav.filters.pulse_grid import spline_positions
 
@@ -455,7 +562,11 @@ def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Mane
     seqs = _seeds(seed, runs)
     sig = np.asarray(fix_sigma, dtype=float)
     t_fix = uniform_times(0.0, t_end, 20.0)
-    fixes = simulate_fixes(geo, t_fix, sig, _rngs(seqs, 1))
+    corr = np.asarray(fix_correlated, dtype=float)
+    bias = correlated_fix_errors(t_fix, corr, fix_tau, _rngs(seqs, 5)) if np.any(corr > 0) else np.zeros(3)
+    fixes = simulate_fixes(geo, t_fix, sig, _rngs(seqs, 1), bias)
+    sig = np.hypot(sig, corr)  # what the filters assume
+    fixes = FixStream(fixes.times, fixes.position, sig)
     truth0 = _truth_native(geo, pulse_times[:1])[0][0]
     to_ned = lambda p: geodetic_difference_ned(p[..., 0], p[..., 1], p[..., 2], *truth0)  # noqa: E731
     out = {"truth": to_ned(_truth_native(geo, pulse_times)[0])[None]}
@@ -468,6 +579,12 @@ def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Mane
     both = np.union1d(pulse_times, t_nov[(t_nov >= pulse_times[0] - 0.05) & (t_nov <= pulse_times[-1] + 0.05)])
     at_pulse = np.searchsorted(both, pulse_times)
     want = set(sources)
+    res = NavSources(out, fixes.times[1:])
+
+    def keep_fix(name, o):
+        res.fix_errors[name] = frame.error_ned(o.fix_position, _truth_native(geo, o.fix_times)[0])
+        res.fix_covs[name] = o.position_cov
+
     if want & {"upf", "spline-pf"}:
         pf = GridParticleFilter(frame, n_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
         pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, _rngs(seqs, 3))
@@ -475,12 +592,14 @@ def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Mane
         out["upf"] = to_ned(o.position[:, at_pulse])
         k = np.isin(both, t_nov)
         out["spline-pf"] = to_ned(spline_positions(both[k], o.position[:, k], pulse_times))
+        keep_fix("upf", o)
     if want & {"kf-interp", "spline-kf"}:
         kf = GridKalmanFilter(frame, q_nov).initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0)
         o = kf.run(nov, t_end, fixes, both)
         out["kf-interp"] = to_ned(o.position[:, at_pulse])
         k = np.isin(both, t_nov)
         out["spline-kf"] = to_ned(spline_positions(both[k], o.position[:, k], pulse_times))
+        keep_fix("kf-interp", o)
     if "spline-gps" in want:
         out["spline-gps"] = to_ned(spline_positions(t_fix, fixes.position, pulse_times))
     if "novatel" in want:
@@ -490,7 +609,8 @@ def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Mane
     if "sir-3adis" in want:
         out["sir-3adis"] = _sir_at_pulses(geo, fixes, pulse_times, t_end, adis_particles, accel_psd, n_draws,
                                           seqs, to_ned)
-    return {k: out[k] for k in sources if k in out}
+    res.positions = {k: out[k] for k in sources if k in out}
+    return res
 
 
 def _sir_at_pulses(geo, fixes, pulse_times, t_end, n_particles, accel_psd, n_draws, seqs, to_ned):

@@ -1,0 +1,169 @@
+"""The ``multi-imu-sar`` kind (scenario ``multi-imu-sar-fix``): GPS-denied multi-IMU fusion, the absolute fix that aids
+each IMU's particle filter and weights the SIR fusion made from SAR images (range and cross-range to a geolocated
+reference every second, as in rda-nav) instead of GPS. Beyond Sun (2022) (gap G29). Configuration and wiring of
+``sarnav.simulation.multi_imu_sar``; docs/particles.md "multi-imu-sar-fix".
+
+``fix.source``: ``"sar"`` (image-derived: echoes along the true track, RDA + mapdrift with the estimated track,
+registration against the reference chip), ``"oracle"`` (the same pair synthesised from the truth at the true TOC plus
+N(0, sar.registration_sigma_m^2): the only mode in which truth enters the SAR measurement) or ``"gps"`` (the source's
+setting on the same flight: 20 Hz GPS fixes, for the comparison of the fusion gain).
+"""
+
+from __future__ import annotations
+
+import math
+
+from sarnav.analysis.consistency import registration_statistics
+from sarnav.errors import ConfigError, require_finite
+from sarnav.montecarlo.kind import validate_campaign
+from sarnav.scenarios.fields import boolean as _bool
+from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, SOURCE_ATTRS, SourceKind, bounded_vector, choice, integer, number
+from sarnav.scenarios.vocabulary import make_radar, radar_fields
+from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS
+from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_UPDATES, SarFixSetup, run_sar_fix, sensor_names
+
+__all__ = ["MultiImuSarKind", "default_config"]
+
+#: slant-range half-window the imager searches around the predicted range (measurements.sar_image) [m]
+SEARCH_HALF_RANGE = 12.0
+
+
+def default_config() -> dict:
+    """rda-nav's flight and scene (Tables 1-3 of the NAVIGATION paper) with the rig of multi-imu-adis."""
+    return {
+        "scenario": {"name": "multi-imu-sar-fix", "kind": "multi-imu-sar",
+                     "description": "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes"},
+        "campaign": {"runs": 10, "seed": 29},
+        "flight": {"duration": 50.0, "speed": 10.0, "altitude": 1000.0},  # rda-nav (paper Table 3, 50 apertures)
+        "imu": {"n_adis": 3},
+        "fix": {"source": "sar",  # "sar" | "oracle" | "gps"
+                "gps_sigma_m": [0.3, 0.3, 0.5], "gps_rate_hz": 20.0},  # fix.source = "gps" only
+        "sar": {"registration_sigma_m": [0.00125, 0.0315],  # R: rda-nav's measured registration 1-sigma
+                "altimeter_sigma_m": 4.0 / 3.0},  # paper Table 2: 4 m 3-sigma
+        "radar": {"preset": "nav-paper-sim", "snr_db": -10.0},  # as rda-nav
+        "scene": {"seed": 7, "ground_range_min": 1760.0, "ground_range_max": 1940.0, "toc_jitter_s": 0.25,
+                  "clutter_per_image": 4, "clutter_per_run": True, "reflector_amplitude": 3.16},
+        "initial": {"p_3sigma": [1.9, 1.9, 4.4], "v_3sigma": [0.3, 0.3, 0.5]},  # paper Table 1
+        "filter": {"n_particles": 1000,  # L908
+                   "accel_psd_scale": 1.0,  # x spec_accel_psd of each IMU (G16)
+                   "sar_update": "gaussian",  # "gaussian" (GPF update) | "tempered" (bootstrap SIR, progressive)
+                   "settle_s": 5.0},
+        "fusion": {"n_draws": 50, "per_axis": True},
+    }
+
+
+def _scene(cfg, altitude, radar):
+    seed = _get(cfg, "scene", "seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError("scene.seed", f"must be an integer >= 0, got {seed!r}")
+    gmin = number(cfg, "scene", "ground_range_min", 1.0, 1e5, "m")
+    gmax = number(cfg, "scene", "ground_range_max", 1.0, 1e5, "m")
+    if not gmax > gmin:
+        raise ConfigError("scene.ground_range_max", f"must be > scene.ground_range_min = {gmin} m, got {gmax}")
+    lo, hi = radar.target_range_limits
+    if math.hypot(gmin, altitude) - SEARCH_HALF_RANGE < lo:
+        raise ConfigError("scene.ground_range_min", f"slant range {math.hypot(gmin, altitude):.1f} m - "
+                          f"{SEARCH_HALF_RANGE} m leaves the receive window (targets from {lo:.1f} m)")
+    if math.hypot(gmax, altitude) + SEARCH_HALF_RANGE > hi:
+        raise ConfigError("scene.ground_range_max", f"slant range {math.hypot(gmax, altitude):.1f} m + "
+                          f"{SEARCH_HALF_RANGE} m leaves the receive window (targets up to {hi:.1f} m)")
+    return dict(scene_seed=seed, ground_range=(gmin, gmax),
+                toc_jitter=number(cfg, "scene", "toc_jitter_s", 0.0, 0.4, "s"),
+                clutter=integer(cfg, "scene", "clutter_per_image", 0, 1000),
+                clutter_per_run=_bool(cfg, "scene", "clutter_per_run"),
+                reflector_amplitude=number(cfg, "scene", "reflector_amplitude", 1e-3, 1e6))
+
+
+def parse(cfg: dict) -> tuple[SarFixSetup, float]:
+    """(setup, settling time [s]); ConfigError names the first bad field and its range."""
+    validate_campaign(cfg)
+    duration = number(cfg, "flight", "duration", 2.0, 600.0, "s")
+    if abs(duration - round(duration)) > 1e-9:
+        raise ConfigError("flight.duration", f"must be a whole number of 1-s sub-apertures, got {duration}")
+    altitude = number(cfg, "flight", "altitude", 100.0, 20_000.0, "m")
+    speed = number(cfg, "flight", "speed", 1.0, 100.0, "m/s")
+    preset, fields = radar_fields(cfg)
+    if preset != "nav-paper-sim":
+        raise ConfigError("radar.preset", f"must be 'nav-paper-sim' (rda-nav's radar and window), got {preset!r}")
+    radar = make_radar(preset, fields)
+    if radar.doppler_bandwidth(speed) >= radar.prf:
+        raise ConfigError("flight.speed", f"Doppler bandwidth {radar.doppler_bandwidth(speed):.1f} Hz at {speed} m/s "
+                          f"exceeds the PRF {radar.prf} Hz")
+    settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
+    if settle > duration - 1.0:
+        raise ConfigError("filter.settle_s", f"must be <= flight.duration - 1 = {duration - 1} s, got {settle}")
+    reg = bounded_vector(cfg, "sar", "registration_sigma_m", 1e-5, 100.0, n=2)
+    p3 = bounded_vector(cfg, "initial", "p_3sigma", 1e-3, 1e4)
+    v3 = bounded_vector(cfg, "initial", "v_3sigma", 1e-4, 100.0)
+    setup = SarFixSetup(
+        duration=duration, speed=speed, altitude=altitude, radar=radar,
+        snr_db=require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB"),
+        **_scene(cfg, altitude, radar), sar_sigma=reg,
+        alt_sigma=number(cfg, "sar", "altimeter_sigma_m", 1e-3, 100.0, "m"),
+        fix_source=choice(cfg, "fix", "source", FIX_SOURCES),
+        gps_sigma=bounded_vector(cfg, "fix", "gps_sigma_m", 1e-3, 100.0),
+        gps_rate=number(cfg, "fix", "gps_rate_hz", 1.0, 100.0, "Hz"),
+        n_adis=integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)),
+        n_particles=integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
+        psd_scale=number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6),
+        n_draws=integer(cfg, "fusion", "n_draws", 1, 10_000), per_axis=_bool(cfg, "fusion", "per_axis"),
+        p0_sigma=tuple(x / 3.0 for x in p3 + v3), update=choice(cfg, "filter", "sar_update", SAR_UPDATES))
+    return setup, settle
+
+
+class MultiImuSarKind(SourceKind):
+    """GPS-denied multi-IMU fusion with SAR fixes (module docstring)."""
+
+    kind = "multi-imu-sar"
+
+    def default_config(self) -> dict:
+        return default_config()
+
+    def optional_keys(self) -> list[str]:
+        return []
+
+    def parse(self, cfg: dict):
+        return parse(cfg)
+
+    def filters(self, prm) -> list[str]:
+        return sensor_names(prm[0])
+
+    def sources(self, prm) -> list[str]:
+        return sensor_names(prm[0]) + ["mean", "sir"]
+
+    def extra_attrs(self, cfg: dict) -> dict:
+        out = dict(SOURCE_ATTRS)
+        out["sar_registration_error"] = {"units": "m", "description": "image-derived minus geometric truth per "
+                                         "sub-aperture: range of closest approach, along-track V x TOC error (NaN "
+                                         "unless fix.source = 'sar')"}
+        out["fix_time"] = {"units": "s", "description": "epoch of each SAR fix (the TOC used; NaN for GPS)"}
+        return out
+
+    def extra_coords(self, cfg: dict) -> dict:
+        out = super().extra_coords(cfg)
+        setup, _ = self.parse(cfg)
+        out["aperture"] = (list(range(setup.n_apertures)), {"units": "", "description": "1-s sub-aperture index"})
+        out["sar_axis"] = (["range", "along_track"], {"units": "", "description": "registration error components"})
+        return out
+
+    def run_batch(self, prm, seeds):
+        setup, settle = prm
+        rec, ex = run_sar_fix(setup, seeds, settle)
+        return rec, {"sar_registration_error": (("aperture", "sar_axis"), ex["registration_error"]),
+                     "fix_time": (("aperture",), ex["fix_time"])}
+
+    def gains(self, rmse: dict) -> dict:
+        from sarnav.analysis.sources import rmse_ratio
+
+        sensors = [k for k in rmse if k.startswith("sensor")]
+        return {"single_over_mean": rmse_ratio(rmse, sensors, "mean"), "mean_over_sir": rmse_ratio(rmse, "mean", "sir"),
+                "sir_over_novatel": rmse_ratio(rmse, "sir", "novatel"),
+                "single_over_novatel": rmse_ratio(rmse, sensors, "novatel")}
+
+    def summary_extras(self, results) -> dict:
+        out = super().summary_extras(results)
+        reg = results["sar_registration_error"].values
+        if reg.size and (reg == reg).any():  # image-derived fixes: the numbers that justify R
+            out["registration"] = registration_statistics(reg, ["range", "along_track"], ["m", "m"])
+        return out

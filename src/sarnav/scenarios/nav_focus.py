@@ -1,0 +1,237 @@
+"""The ``nav-source-focus`` kind: which navigation source focuses a back-projected Ku-band image (Sun 2022 §6.2-6.3,
+Figs. 6.5-6.9; extraction seed-003 §3.7, E9; claims T27-T32). Configuration and wiring of
+``sarnav.simulation.nav_focus``; docs/particles.md "nav-source-focus".
+
+Per run: the cart's navigation sources (truth, UPF, interpolated KF, splines of the fix / of the 200 Hz KF and PF
+output, 3-ADIS SIR, one NovAtel PF) at every pulse; echoes along the true track; one BPA chip per reflector and
+source; IRW and PSLR along track, peak offset, entropy and kurtosis. Records: the states are the position errors of
+the UPF and the KF at their fix epochs (run-in and aperture) against their covariances; the kind's variables are
+``focus (source, reflector, metric)``, ``focus_censored``, ``los_error_rms (source, reflector)``, ``nav_error
+(pulse, source, axis)`` and ``source_ms (source)`` (3-D position error over the aperture).
+
+``sarnav run nav-source-focus`` writes the campaign (results.nc, summary.json), ``focus.csv`` (one row per source,
+columns ``source, irw_along_m, pslr_along_db, peak_offset_m, entropy, kurtosis``: means over reflectors and runs)
+and, with figures, ``figures/images.png`` (run 0's images side by side, re-simulated from its seed).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from sarnav.analysis.sources import filter_nees_summary, source_rmse
+from sarnav.errors import ConfigError, require_finite
+from sarnav.montecarlo.kind import validate_campaign
+from sarnav.montecarlo.record import RunRecord
+from sarnav.radar.params import RadarParams
+from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, SourceKind, bounded_vector, integer, number, records
+from sarnav.scenarios.vocabulary import make_radar, radar_fields
+from sarnav.simulation.fusion_records import AXES, source_records
+from sarnav.simulation.multi_imu import NAV_SOURCES
+from sarnav.simulation.nav_focus import FOCUS_METRICS, FocusGeometry, run_focus
+from sarnav.units import C
+
+__all__ = ["NavFocusKind", "default_config", "FOCUS_FILTERS"]
+
+#: the sources whose filter has a covariance (recorded as the states), and the source that carries each
+FOCUS_FILTERS = {"upf": ("upf", "spline-pf"), "kf-interp": ("kf-interp", "spline-kf")}
+#: receive-window margin beyond the reflectors' slant ranges over the aperture [m]
+RANGE_MARGIN = 3.0
+
+
+def default_config() -> dict:
+    """§6.2 (L1313-1332): 16.6 GHz, 300 MHz, PRF 3 kHz, three reflectors at 20 m, 2000 pulses at 1 m/s, no window;
+    gap fills (G25) commented."""
+    return {
+        "scenario": {"name": "nav-source-focus", "kind": "nav-source-focus",
+                     "description": "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions"},
+        "campaign": {"runs": 10, "seed": 1332},
+        "radar": {"preset": "sun-ku-cart", "carrier_ghz": 16.6, "bandwidth_mhz": 300.0, "prf_hz": 3000.0},  # L1313-1318
+        "cart": {"speed": 1.0,  # 10 m in 10 s (L1322)
+                 "run_in_s": 30.0,  # navigation before the aperture (filters start from the first fix at t = 0)
+                 "antenna_height_m": 1.5},  # G25: not given
+        "aperture": {"n_pulses": 2000},  # L1322: ~0.67 s, ~0.67 m
+        "scene": {"along_track_m": [-2.5, 0.0, 2.5],  # three reflectors (L1322); spacing G25
+                  "ground_range_m": [19.5, 20.0, 20.5]},  # "20 m from the radar"
+        "image": {"chip_half_m": 1.2, "spacing_m": 0.04},  # ground chip per reflector (about 6 px per IRW)
+        "navigation": {"sources": list(NAV_SOURCES),
+                       "n_particles": 2000,  # UPF (L766)
+                       "adis_particles": 1000,  # per ADIS PF and the NovAtel PF of the multi-IMU comparison (L908)
+                       "fix_sigma_m": [0.3, 0.3, 0.5],  # white, per fix: extraction §8 default (G8)
+                       "fix_correlated_sigma_m": [0.0, 0.0, 0.0],  # + Gauss-Markov part (0: none; docs/particles.md)
+                       "fix_correlation_time_s": 300.0},
+    }
+
+
+@dataclass(frozen=True)
+class FocusParams:
+    runs: int
+    geometry: FocusGeometry
+    sources: tuple
+    n_particles: int
+    adis_particles: int
+    fix_sigma: tuple
+    fix_correlated: tuple
+    fix_tau: float
+
+
+def _reflectors(cfg):
+    along = _get(cfg, "scene", "along_track_m")
+    ground = _get(cfg, "scene", "ground_range_m")
+    for key, v in (("along_track_m", along), ("ground_range_m", ground)):
+        if not isinstance(v, list) or not 1 <= len(v) <= 10:
+            raise ConfigError(f"scene.{key}", f"must be a list of 1 to 10 numbers [m], got {v!r}")
+    if len(ground) != len(along):
+        raise ConfigError("scene.ground_range_m", f"must have one entry per scene.along_track_m ({len(along)}), "
+                          f"got {len(ground)}")
+    return tuple((require_finite(f"scene.along_track_m[{i}]", a, -50.0, 50.0, "m"),
+                  require_finite(f"scene.ground_range_m[{i}]", g, 2.0, 500.0, "m"))
+                 for i, (a, g) in enumerate(zip(along, ground)))
+
+
+def _sources(cfg):
+    src = _get(cfg, "navigation", "sources")
+    if not isinstance(src, list) or not src or any(s not in NAV_SOURCES for s in src) or len(set(src)) != len(src):
+        raise ConfigError("navigation.sources", f"must be a list of distinct names from {list(NAV_SOURCES)}, got {src!r}")
+    if "truth" not in src:
+        raise ConfigError("navigation.sources", "must include 'truth' (the reference image)")
+    if not any(s in src for pair in FOCUS_FILTERS.values() for s in pair):
+        raise ConfigError("navigation.sources", "must include a filter with a covariance: upf, kf-interp, spline-pf "
+                          "or spline-kf")
+    return tuple(src)
+
+
+def _radar(cfg, reflectors, height, speed, n_pulses) -> RadarParams:
+    """The configured radar with a receive window over the reflectors' slant ranges along the aperture."""
+    preset, fields = radar_fields(cfg)
+    first = make_radar(preset, fields)
+    half = 0.5 * speed * n_pulses / first.prf
+    ranges = [math.sqrt(g * g + height * height + d * d) for a, g in reflectors for d in (a - half, a + half, a)]
+    near = min(ranges) - RANGE_MARGIN - first.pulse_half_extent
+    if near <= 0.0:
+        raise ConfigError("scene.ground_range_m", f"the nearest reflector ({min(ranges):.3g} m) is within the pulse "
+                          f"half-extent + margin ({first.pulse_half_extent + RANGE_MARGIN:.3g} m) of the radar")
+    span = max(ranges) + RANGE_MARGIN + first.pulse_half_extent - near
+    n = int(math.ceil(span / (C / (2.0 * first.sample_rate)))) + 1
+    return make_radar(preset, fields, near_range=near, n_range_samples=n)
+
+
+def parse(cfg: dict) -> FocusParams:
+    """Validate ``cfg`` and convert it to SI; ConfigError names the first bad field and its range."""
+    runs, _ = validate_campaign(cfg)
+    speed = number(cfg, "cart", "speed", 0.05, 50.0, "m/s")
+    run_in = number(cfg, "cart", "run_in_s", 1.0, 600.0, "s")
+    height = number(cfg, "cart", "antenna_height_m", 0.0, 100.0, "m")
+    n_pulses = integer(cfg, "aperture", "n_pulses", 16, 30_000)
+    reflectors = _reflectors(cfg)
+    radar = _radar(cfg, reflectors, height, speed, n_pulses)
+    spacing = number(cfg, "image", "spacing_m", 1e-3, 1.0, "m")
+    chip = number(cfg, "image", "chip_half_m", 0.05, 20.0, "m")
+    if chip / spacing < 8 or chip / spacing > 500:
+        raise ConfigError("image.chip_half_m", f"must be 8 to 500 pixels of image.spacing_m = {spacing} m, got {chip}")
+    sig = bounded_vector(cfg, "navigation", "fix_sigma_m", 1e-3, 100.0)
+    corr = bounded_vector(cfg, "navigation", "fix_correlated_sigma_m", 0.0, 100.0)
+    tau = number(cfg, "navigation", "fix_correlation_time_s", 1.0, 1e6, "s")
+    geo = FocusGeometry(radar=radar, speed=speed, run_in=run_in, n_pulses=n_pulses, reflectors=reflectors,
+                        antenna_height=height, chip_half=chip, spacing=spacing)
+    return FocusParams(runs, geo, _sources(cfg), integer(cfg, "navigation", "n_particles", 1, MAX_PARTICLES),
+                       integer(cfg, "navigation", "adis_particles", 1, MAX_PARTICLES), sig, corr, tau)
+
+
+class NavFocusKind(SourceKind):
+    """Which navigation source focuses a BPA image (module docstring)."""
+
+    kind = "nav-source-focus"
+
+    def default_config(self) -> dict:
+        return default_config()
+
+    def parse(self, cfg: dict) -> FocusParams:
+        return parse(cfg)
+
+    def filters(self, prm) -> list[str]:
+        return [f for f, carriers in FOCUS_FILTERS.items() if any(s in prm.sources for s in carriers)]
+
+    def sources(self, prm) -> list[str]:
+        return list(prm.sources)
+
+    def extra_attrs(self, cfg: dict) -> dict:
+        return {
+            "focus": {"units": "m, dB, m, nats, 1", "description": "per source and reflector: irw_along_m, "
+                      "pslr_along_db, peak_offset_m, entropy, kurtosis of the BPA chip (simulation.nav_focus)"},
+            "focus_censored": {"units": "1", "description": "1 where the along-track response does not reach -3 dB "
+                               "or a null inside the chip (IRW = chip length, PSLR = 0 dB)"},
+            "los_error_rms": {"units": "m", "description": "RMS over the aperture of the line-of-sight antenna "
+                              "position error after removing its mean and linear trend (defocus above lambda/16)"},
+            "nav_error": {"units": "m", "description": "antenna position estimate minus truth at every pulse, NED"},
+            "source_ms": {"units": "m2", "description": "mean over the aperture of the squared 3-D antenna error"},
+            "filter_nees": {"units": "1", "description": "NEES of the UPF / KF position at their fix epochs (3 dof)"},
+        }
+
+    def extra_coords(self, cfg: dict) -> dict:
+        prm = self.parse(cfg)
+        pt = prm.geometry.pulse_times()
+        return {"source": (list(prm.sources), {"units": "", "description": "navigation sources"}),
+                "reflector": (list(range(len(prm.geometry.reflectors))), {"units": "", "description": "reflector "
+                              "index (scene.along_track_m, scene.ground_range_m)"}),
+                "metric": (list(FOCUS_METRICS), {"units": "", "description": "focus measures"}),
+                "axis": (list(AXES), {"units": "", "description": "NED axes"}),
+                "filter": (self.filters(prm), {"units": "", "description": "filters with a covariance"}),
+                "pulse": (pt, {"units": "s", "description": "pulse times"})}
+
+    def simulate(self, cfg: dict, run_ids, seeds) -> list[RunRecord]:
+        if len(run_ids) != len(seeds):
+            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        if len(run_ids) == 0:
+            return []
+        prm = self.parse(cfg)
+        res = run_focus(list(seeds), prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
+                        prm.fix_correlated, prm.fix_tau)
+        filters = self.filters(prm)
+        rec = source_records(res.fix_times, res.fix_errors, res.fix_covs, filters, filters, 0.0)
+        extras = {"focus": (("source", "reflector", "metric"), res.focus),
+                  "focus_censored": (("source", "reflector"), res.censored.astype("int8")),
+                  "los_error_rms": (("source", "reflector"), res.los_rms),
+                  "nav_error": (("pulse", "source", "axis"), res.nav_error),
+                  "source_ms": (("source",), (res.nav_error**2).sum(-1).mean(1))}
+        return records(rec, run_ids, extras, sources=False)
+
+    def summary_extras(self, results) -> dict:
+        from sarnav.analysis.sources import focus_table
+
+        out = source_rmse(results)
+        out["filter_nees"] = filter_nees_summary(results)
+        out["focus"] = {row["source"]: {k: v for k, v in row.items() if k != "source"} for row in focus_table(results)}
+        return out
+
+    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts):
+        """``sarnav run nav-source-focus``: the campaign, then ``focus.csv`` and (``figures``) the figures."""
+        from sarnav.analysis.sources import focus_table
+        from sarnav.montecarlo.campaign import run_campaign
+        from sarnav.report.figures import write_campaign_figures
+        from sarnav.report.source_figures import write_focus_csv
+
+        res = run_campaign(cfg, out, kind=self, **campaign_opts)
+        write_focus_csv(focus_table(res.dataset), Path(out) / "focus.csv")
+        if figures:
+            write_campaign_figures(res.dataset, out, kind=self)
+        return res
+
+    def figures(self, results, outdir) -> list[str]:
+        """``images.png``: run 0's images of every source side by side (run 0 simulated again from its seed: the
+        same numbers as the stored run)."""
+        from sarnav.montecarlo.seeding import run_seeds
+        from sarnav.report.source_figures import plot_focus_images
+        from sarnav.simulation.nav_focus import scene_images
+        from sarnav.tomlio import parse_toml
+
+        cfg = parse_toml(results.attrs["scenario"])
+        prm = self.parse(cfg)
+        seed0 = run_seeds(int(cfg["campaign"]["seed"]), int(cfg["campaign"]["runs"]))[0]
+        res = run_focus([seed0], prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
+                        prm.fix_correlated, prm.fix_tau)
+        images, extent = scene_images(res, prm.geometry)
+        return [plot_focus_images(images, extent, res.targets[:, :2], Path(outdir) / "images.png",
+                                  title=f"{cfg['scenario']['name']}: run 0, BPA per navigation source")]
