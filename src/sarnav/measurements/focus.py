@@ -33,6 +33,8 @@ from sarnav.filters.layout import ErrorStateLayout
 from sarnav.filters.prediction import Prediction
 from sarnav.imaging.offset_bpa import offset_moments, order_for
 from sarnav.imaging.quality import quality_measure
+from sarnav.ins.state import NavState
+from sarnav.measurements.base import Measurement, unit_noise
 
 __all__ = ["FocusFix", "extract_focus_velocity", "calibrate_kappa", "FocusVelocityMeasurement"]
 
@@ -156,33 +158,36 @@ def calibrate_kappa(errors, curvatures) -> tuple[float, float]:
     return float(np.mean(err**2 * c)), math.sqrt(2.0 / err.size)
 
 
-class FocusVelocityMeasurement:
+class FocusVelocityMeasurement(Measurement):
     """Best-focus along-track velocity fixes of R runs as an error-state measurement (module docstring).
+
+    One model of the measurement contract (:class:`~sarnav.measurements.base.Measurement`, checked by
+    tests/measurements/test_contract.py): linear in the velocity error, so its Hessians are zero.
 
     Parameters
     ----------
     layout : the filter's :class:`~sarnav.filters.layout.ErrorStateLayout` (needs the ``v`` block).
-    directions : (R, 3) or (3,) unit along-track directions e of the fixes.
+    directions : (R, 3) or (3,) unit along-track directions e of the fixes (normalised here; must not be zero).
     sigma : (R,) or scalar 1-sigma noise of each fix [m/s] (from ``kappa / curvature``, or a constant).
     """
 
     names = ("v_focus",)
     units = ("m/s",)
 
-    @property
-    def dim(self) -> int:
-        return len(self.names)
-
     def __init__(self, layout: ErrorStateLayout, directions, sigma):
         if not layout.has("v"):
             raise ConfigError("layout.blocks", "the focus velocity needs the 'v' block")
         self.layout = layout
-        self.directions = np.atleast_2d(np.asarray(directions, dtype=np.float64))
+        e = np.atleast_2d(np.asarray(directions, dtype=np.float64))
         s = np.atleast_1d(np.asarray(sigma, dtype=np.float64))
-        if self.directions.shape[-1] != 3 or not np.all(np.isfinite(self.directions)):
-            raise InputDataError("directions", f"must be (R, 3) or (3,), got {np.shape(directions)}")
-        if not np.all(np.isfinite(s)) or np.any(s <= 0):
+        if e.ndim != 2 or e.shape[-1] != 3 or not np.all(np.isfinite(e)):
+            raise InputDataError("directions", f"must be finite (R, 3) or (3,), got shape {np.shape(directions)}")
+        norm = np.sqrt(np.sum(e * e, axis=1, keepdims=True))
+        if np.any(norm == 0):
+            raise InputDataError("directions", "must be non-zero along-track directions")
+        if s.ndim != 1 or not np.all(np.isfinite(s)) or np.any(s <= 0):
             raise ConfigError("focus.sigma", f"must be finite and > 0 m/s, got {sigma!r}")
+        self.directions = e / norm
         self.sigma = s
 
     @classmethod
@@ -203,27 +208,24 @@ class FocusVelocityMeasurement:
                                  f"directions and {self.sigma.shape[0]} sigmas")
         return e, s
 
-    def predict(self, state) -> Prediction:
-        """Expected fix e . v_hat, H = e^T on the velocity block, R = sigma^2 (batched over runs)."""
-        v = np.asarray(state.v, dtype=np.float64)
+    def predict(self, nav: NavState) -> Prediction:
+        """Expected fix e . v_hat, H = e^T on the velocity block, R = sigma^2, zero Hessians (batched over runs)."""
+        v = np.asarray(nav.v, dtype=np.float64)
         runs = v.shape[0]
         e, s = self._per_run(runs)
-        H = np.zeros((runs, 1, self.layout.n))
+        n = self.layout.n
+        H = np.zeros((runs, 1, n))
         H[:, 0, self.layout.slice("v")] = e
-        return Prediction(np.einsum("ri,ri->r", e, v)[:, None], H, (s**2)[:, None, None], names=self.names)
+        return Prediction(np.sum(e * v, axis=1)[:, None], H, (s**2)[:, None, None],
+                          hessians=np.zeros((runs, 1, n, n)), names=self.names)
 
-    def simulate(self, truth, rngs=None, noise=None) -> np.ndarray:
+    def simulate(self, truth: NavState, rngs=None, noise=None) -> np.ndarray:
         """Oracle fixes from the true velocity: e . v + sigma x unit normal, (R, 1); ``noise`` (R, 1) unit normals,
         else one draw from each run's Generator in ``rngs`` (the contract of measurements.base)."""
         v = np.asarray(truth.v, dtype=np.float64)
         runs = v.shape[0]
         e, s = self._per_run(runs)
         if noise is not None:
-            noise = np.asarray(noise, dtype=np.float64).reshape(-1)
-            if noise.shape != (runs,) or not np.all(np.isfinite(noise)):
-                raise InputDataError("noise", f"must be finite unit normals of shape ({runs}, 1)")
-        else:
-            if rngs is None or len(rngs) != runs:
-                raise InputDataError("rngs", f"need one Generator per run ({runs}) or the noise itself")
-            noise = np.array([g.standard_normal() for g in rngs])
-        return (np.einsum("ri,ri->r", e, v) + s * noise)[:, None]
+            noise = np.asarray(noise, dtype=np.float64).reshape(runs, -1) if np.size(noise) == runs else noise
+        n = unit_noise(runs, 1, rngs, noise)[:, 0]
+        return (np.sum(e * v, axis=1) + s * n)[:, None]
