@@ -31,7 +31,8 @@ LOCK = ".sarnav.lock"
 #: files sarnav writes at the top of an output folder (removed by ``overwrite``)
 OUTPUT_FILES = ("results.nc", "summary.json", "campaign.json", "INCOMPLETE", "study.json", "sensitivity.csv",
                 "sensitivity.png", "image.npz", "image.png", "metrics.json", "report.html", "compare.html",
-                "compare.csv", IDENTITY)
+                "compare.csv", "rho.csv", "rho.csv.partial", "rho_diagnostics.csv", "rho_diagnostics.csv.partial",
+                "sweep.nc", "sweep.nc.partial", "claims.json", IDENTITY)
 OUTPUT_DIRS = ("runs", "figures")
 
 

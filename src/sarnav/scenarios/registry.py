@@ -48,6 +48,8 @@ KINDS: dict[str, str] = {
     "rda-nav": "sarnav.scenarios.rda_nav:RdaNavKind",
     "bpa-sensitivity": "sarnav.scenarios.bpa_sensitivity:BpaSensitivityKind",
     "image": "sarnav.scenarios.imaging:ImageKind",
+    "quality-sweep": "sarnav.scenarios.quality_sweep:QualitySweepKind",
+    "gpsd-search": "sarnav.scenarios.gpsd_search:GpsdSearchKind",
 }
 
 # fmt: off
@@ -62,6 +64,9 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
     ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "sarnav.scenarios.imaging:point_target_config"),
     ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "sarnav.scenarios.imaging:scatterers_config"),
+    ScenarioEntry("quality-sweep", "quality-sweep", "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs along- and cross-track velocity error", "kind:"),
+    ScenarioEntry("gpsd-search", "gpsd-search", "Hathaway 2023 Alg. 3.3: reduced Table 4.1 sweep (rho.csv), controls, searches that span the bias (~2 min)", "kind:"),
+    ScenarioEntry("gpsd-search-table41", "gpsd-search", "Hathaway 2023 Table 4.1: the full velocity-offset search sweep, all six (S_i, L)", "sarnav.scenarios.gpsd_search:table41_config"),
 )
 # fmt: on
 
