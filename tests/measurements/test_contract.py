@@ -51,6 +51,10 @@ MODELS = {
     # the best-focus along-track velocity (Hathaway 2023 / docs/quality.md §7): e from a slightly turned track
     "focus-velocity": (lambda runs: FocusVelocityMeasurement(SAR, [0.995, 0.0998, 0.0], np.full(runs, 0.05)), SAR,
                        _sar_nav, 1e-2),
+    # with the line-of-sight acceleration coupling (lever R / 2V = 17 s, right-looking, level flight's f)
+    "focus-velocity-accel": (lambda runs: FocusVelocityMeasurement(
+        SAR, [1.0, 0.0, 0.0], 0.05, los=[0.0, 0.87, 0.49], lever=17.0, f_body=[0.05, -0.02, -9.81],
+        f_ref=[0.03, 0.01, -9.80]), SAR, _sar_nav, 1e-3),
 }
 
 

@@ -234,6 +234,10 @@ def summarize(ds, confidence: float = 0.95) -> dict:
         }
     if "registration_error" in ds:
         out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units)
+    if "focus_error" in ds:  # quality-nav: the focus fixes against their sigma and mapdrift (analysis.focus_nav)
+        from sarnav.analysis.focus_nav import focus_statistics
+
+        out["focus"] = focus_statistics(ds, confidence)
     out.update(consistency_verdict(error, sigma, out["nees"]))
     return strict(out)
 

@@ -24,7 +24,7 @@ from sarnav.errors import InputDataError
 from sarnav.filters.ekf import correlated_update, joseph_update, normalized_squared
 from sarnav.filters.prediction import Prediction
 
-__all__ = ["Update", "joseph", "correlated"]
+__all__ = ["Update", "joseph", "correlated", "innovation_covariance"]
 
 
 @dataclass(frozen=True)
@@ -71,3 +71,15 @@ def correlated(P, pred: Prediction, z) -> Update:
     C = pred.C if pred.C is not None else np.zeros((pred.runs, pred.n_states, pred.dim))
     dx, P_post, S = correlated_update(P, pred.H, pred.R, C, r)
     return Update(dx, P_post, S, r)
+
+
+def innovation_covariance(P, pred: Prediction) -> np.ndarray:
+    """(R, m, m) innovation covariance S = H P H^T + R + H C + C^T H^T of a prediction (C = None: zero), before any
+    update: the spread a consistent filter expects of z - z_hat (search windows, innovation gates)."""
+    H = pred.H
+    Ht = np.swapaxes(H, -1, -2)
+    S = H @ np.asarray(P, dtype=np.float64) @ Ht + pred.R
+    if pred.C is not None:
+        HC = H @ pred.C
+        S = S + HC + np.swapaxes(HC, -1, -2)
+    return 0.5 * (S + np.swapaxes(S, -1, -2))

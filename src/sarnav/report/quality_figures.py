@@ -24,7 +24,7 @@ from sarnav.analysis.consistency import strict
 from sarnav.report.figures import save_png
 
 __all__ = ["write_rows_csv", "write_strict_json", "sweep_dataset", "plot_score_curves", "plot_t3", "plot_reliability", "plot_whiskers",
-           "plot_realisations", "plot_failure", "plot_methods"]
+           "plot_realisations", "plot_failure", "plot_methods", "plot_focus_nav"]
 
 
 def _cell(v) -> str:
@@ -249,4 +249,42 @@ def plot_methods(rows, path) -> Path:
     ax.set_yscale("log")
     ax.set_ylabel("variance ratio rho", fontsize=8)
     ax.set_title("the thesis' search, its controls and the searches that span the bias (same realisations)", fontsize=9)
+    return Path(save_png(fig, path))
+
+
+# ---------------------------------------------------------------------------------------------
+# quality-nav
+
+def plot_focus_nav(ds, free_time, free_sigma, path, max_runs: int = 50) -> Path:
+    """(a) along-track (north) velocity error of the runs, the filter's mean +-3 sigma and the free INS's 3 sigma
+    (run 0 without fixes); (b) every fix error against time with the mean +-1 sigma the filter gave the fixes, and
+    mapdrift's speed error on the same pulses."""
+    states = [str(s) for s in ds["state"].values]
+    j = states.index("vN")
+    t = ds["time"].values
+    err = ds["error"].values[:max_runs, :, j]
+    s3 = 3.0 * ds["sigma"].values[:, :, j].mean(axis=0)
+    fig = Figure(figsize=(11.0, 3.8), layout="constrained")
+    ax_a, ax_b = fig.subplots(1, 2)
+    ax_a.plot(t, err.T, color="0.6", lw=0.5)
+    ax_a.plot(t, s3, "r-", label="+-3 sigma (focus-aided)")
+    ax_a.plot(t, -s3, "r-")
+    ax_a.plot(free_time, 3.0 * free_sigma[:, j], "b--", label="+-3 sigma (free INS)")
+    ax_a.plot(free_time, -3.0 * free_sigma[:, j], "b--")
+    ax_a.set_xlabel("time [s]", fontsize=8)
+    ax_a.set_ylabel("vN error [m/s]", fontsize=8)
+    ax_a.legend(fontsize=7)
+    tu = ds["update_time"].values
+    fe = ds["focus_error"].values
+    ax_b.plot(np.broadcast_to(tu, fe.shape).ravel(), fe.ravel(), ".", ms=2, color="0.4", label="focus fix error")
+    if "mapdrift_error" in ds and np.isfinite(ds["mapdrift_error"].values).any():
+        md = ds["mapdrift_error"].values
+        ax_b.plot(np.broadcast_to(tu, md.shape).ravel() + 0.15, md.ravel(), "x", ms=2, color="tab:green",
+                  label="mapdrift speed error")
+    fs_ = np.sqrt(np.nanmean(ds["focus_sigma"].values ** 2, axis=0))
+    ax_b.plot(tu, fs_, "r-", label="+-1 sigma given to the fixes")
+    ax_b.plot(tu, -fs_, "r-")
+    ax_b.set_xlabel("time [s]", fontsize=8)
+    ax_b.set_ylabel("error [m/s]", fontsize=8)
+    ax_b.legend(fontsize=7)
     return Path(save_png(fig, path))

@@ -50,6 +50,7 @@ KINDS: dict[str, str] = {
     "image": "sarnav.scenarios.imaging:ImageKind",
     "quality-sweep": "sarnav.scenarios.quality_sweep:QualitySweepKind",
     "gpsd-search": "sarnav.scenarios.gpsd_search:GpsdSearchKind",
+    "quality-nav": "sarnav.scenarios.quality_nav:QualityNavKind",
 }
 
 # fmt: off
@@ -67,6 +68,7 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("quality-sweep", "quality-sweep", "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs along- and cross-track velocity error", "kind:"),
     ScenarioEntry("gpsd-search", "gpsd-search", "Hathaway 2023 Alg. 3.3: reduced Table 4.1 sweep (rho.csv), controls, searches that span the bias (~2 min)", "kind:"),
     ScenarioEntry("gpsd-search-table41", "gpsd-search", "Hathaway 2023 Table 4.1: the full velocity-offset search sweep, all six (S_i, L)", "sarnav.scenarios.gpsd_search:table41_config"),
+    ScenarioEntry("quality-nav", "quality-nav", "INS aided by the best-focus along-track velocity of its own BPA images (no map), 100 runs", "kind:"),
 )
 # fmt: on
 
