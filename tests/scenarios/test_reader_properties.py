@@ -24,9 +24,19 @@ from sarnav.scenarios.registry import get_scenario
 
 #: one scenario per kind; the run property shortens the flight (unless the mutation is the duration itself)
 KINDS = {"telemetry": "telemetry", "rda-nav": "rda-nav", "image": "point-target", "bpa-sensitivity": "bpa-sensitivity",
-         "study": "telemetry-imu-grade"}
+         "study": "telemetry-imu-grade", "quality-sweep": "quality-sweep", "gpsd-search": "gpsd-search",
+         "quality-nav": "quality-nav"}
 SHORTEN = {"telemetry": {("trajectory", "duration"): 2.0}, "rda-nav": {("trajectory", "duration"): 2.0},
-           "study": {("base", "trajectory", "duration"): 1.0}}
+           "study": {("base", "trajectory", "duration"): 1.0},
+           "quality-sweep": {("geometry", "n_pulses"): 200, ("sweep", "sizes"): [6], ("sweep", "steps"): 1,
+                             ("sweep", "figure_size"): 6, ("reliability", "scenes"): 0, ("sweep", "bins"): [10]},
+           "gpsd-search": {("geometry", "n_pulses"): 400, ("search", "initial_pulses"): 200,
+                           ("search", "block_pulses"): [100], ("image", "size"): 8, ("search", "sigmas"): 1,
+                           ("search", "spacings"): 1, ("geometry", "scene_extent"): 4.0},
+           "quality-nav": {("trajectory", "duration"): 1.0, ("focus", "calibration_apertures"): 2,
+                           ("focus", "pixels"): 16, ("focus", "aperture_pulses"): 300, ("scene", "length"): 12.0}}
+#: kinds without [campaign] runs (the run property gives them no --runs)
+NO_RUNS = ("image", "bpa-sensitivity", "quality-sweep")
 
 NUMBERS = st.one_of(
     st.floats(min_value=-1e300, max_value=1e300, allow_nan=False, allow_infinity=False),
@@ -157,7 +167,7 @@ def _run_property(kind, data, capsys):
         f = _write(cfg, Path(tmp))
         out = Path(tmp) / "out"
         argv = ["run", str(f), "--executor", "serial", "--quiet", "--no-figures", "--out", str(out)]
-        if kind not in ("image", "bpa-sensitivity"):
+        if kind not in NO_RUNS:
             argv += ["--runs", "1"]
         code = main(argv)
         _check_one_line(code, capsys.readouterr().err, cfg, f)

@@ -32,7 +32,7 @@ LOCK = ".sarnav.lock"
 OUTPUT_FILES = ("results.nc", "summary.json", "campaign.json", "INCOMPLETE", "study.json", "sensitivity.csv",
                 "sensitivity.png", "image.npz", "image.png", "metrics.json", "report.html", "compare.html",
                 "compare.csv", "rho.csv", "rho.csv.partial", "rho_diagnostics.csv", "rho_diagnostics.csv.partial",
-                "sweep.nc", "sweep.nc.partial", "claims.json", IDENTITY)
+                "sweep.nc", "sweep.nc.partial", "claims.json", "search.json", IDENTITY)
 OUTPUT_DIRS = ("runs", "figures")
 
 

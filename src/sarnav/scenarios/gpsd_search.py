@@ -20,7 +20,7 @@ sqrt(S_i))), ``measure``.
 
 Files in ``--out``: ``rho.csv`` (columns exactly ``method, block_pulses, candidates, sigma, spacing, realisation,
 rho``), ``rho_diagnostics.csv`` (the same rows with scorer, coverage, agreement with the oracle, reach bound and the
-error of a failed run), ``summary.json`` (per (S_i, L) and method: median, mean, range, per-sigma means; the failure
+error of a failed run), ``search.json`` (per (S_i, L) and method: median, mean, range, per-sigma means; the failure
 analysis; the source's numbers) and ``figures/``.
 """
 
@@ -198,7 +198,7 @@ def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = 
                 print(f"gpsd-search: {len(rows)} runs, {time.perf_counter() - t0:.0f} s", flush=True)
         path = write_rows_csv(rows, out / "rho.csv", fs.ROW_COLUMNS)
         write_rows_csv(rows, out / "rho_diagnostics.csv", fs.ROW_COLUMNS + fs.DIAGNOSTIC_COLUMNS)
-        write_strict_json(_summary(rows, prm, time.perf_counter() - t0), out / "summary.json")
+        write_strict_json(_summary(rows, prm, time.perf_counter() - t0), out / "search.json")
         if figures:
             _figures(rows, prm, out / "figures")
         marker.unlink()
