@@ -37,7 +37,7 @@ from sarnav.ins.state import NavState
 from sarnav.measurements.base import Measurement, unit_noise
 from sarnav.rotations import quat_to_dcm
 
-__all__ = ["FocusFix", "extract_focus_velocity", "calibrate_kappa", "FocusVelocityMeasurement"]
+__all__ = ["FocusFix", "extract_focus_velocity", "calibrate_kappa", "FocusVelocityMeasurement", "body_specific_force"]
 
 
 @dataclass(frozen=True)
@@ -150,6 +150,15 @@ def extract_focus_velocity(rc, grid, positions, times=None, span: float = 0.5, n
              else (pos[-1] - pos[0]) / (t[-1] - t[0]))
     rel = -c / s if s != 0 and c < 0 else 0.0
     return FocusFix(float(e @ v_hat + dv), float(dv), float(t_c), e, float(rel), float(s), float(k), bool(edge))
+
+
+def body_specific_force(q, f_nav, accel_bias) -> dict:
+    """``{"f_body", "f_ref"}`` of ``FocusVelocityMeasurement``'s coupling from the INS: its attitude q (R, 4), nav-frame
+    specific force f_nav (R, 3) and accelerometer-bias estimate (R, 3): f_body = C_b^n^T f_nav + b_a (the IMU's
+    raw specific force), f_ref = f_nav."""
+    f_ref = np.asarray(f_nav, dtype=np.float64)
+    f_body = np.einsum("rji,rj->ri", quat_to_dcm(np.asarray(q, dtype=np.float64)), f_ref) + np.asarray(accel_bias)
+    return {"f_body": f_body, "f_ref": f_ref}
 
 
 def _unit_rows(a, field: str) -> np.ndarray:

@@ -188,7 +188,8 @@ class FocusApertureImager:
         if st.mapdrift:
             r0 = float(np.linalg.norm(np.array([centre[0], centre[1], 0.0]) - p_hat[k]))
             r = rc.slant_range
-            a, b = int(np.searchsorted(r, r0 - st.mapdrift_half_range_m)), int(np.searchsorted(r, r0 + st.mapdrift_half_range_m))
+            half = st.mapdrift_half_range_m
+            a, b = int(np.searchsorted(r, r0 - half)), int(np.searchsorted(r, r0 + half))
             if b - a >= 16:
                 sub = replace(rc, data=rc.data[:, a:b], slant_range=r[a:b]).with_positions(p_hat)
                 try:

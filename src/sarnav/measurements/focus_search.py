@@ -516,8 +516,9 @@ def _safe_row(label, scorer, block_pulses, candidates, sigma, spacing, realisati
 def failure_analysis(rows) -> dict:
     """Why the thesis' search fails, from ``table41_rows`` output (docs/quality.md "failure analysis").
 
-    Returns per method label (rows with L = 1 under ``"<method> (L=1)"``; failed runs left out): ``rho`` (all values), ``median_rho``, ``mean_rho``, ``coverage`` (median grid
-    coverage) and ``agreement`` (mean fraction of blocks where the scorer chose the oracle's candidate); and
+    Returns per method label (rows with L = 1 under ``"<method> (L=1)"``; failed runs left out): ``rho`` (all
+    values), ``median_rho``, ``mean_rho``, ``coverage`` (median grid coverage) and ``agreement`` (mean fraction of
+    blocks where the scorer chose the oracle's candidate); and
     ``by_coverage``: for the thesis' grid, median rho of the quality measure and of the oracle in coverage bins
     (grid coverage limits the oracle; the gap between the two is the quality measure's own failure).
     """

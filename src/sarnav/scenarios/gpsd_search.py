@@ -223,7 +223,7 @@ class GpsdSearchKind(ScenarioKind):
         return []
 
     def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run gpsd-search``: the realisations run in this process (numba uses the cores)."""
+        """``sarnav run gpsd-search``: the realisations run in this process (the compiled kernels use the cores)."""
         return run_search_scenario(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False),
                                    quiet=campaign_opts.get("quiet", True))
 

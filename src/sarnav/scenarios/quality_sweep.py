@@ -209,7 +209,7 @@ class QualitySweepKind(ScenarioKind):
         return []
 
     def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run quality-sweep``: executor options do not apply (numba uses the cores)."""
+        """``sarnav run quality-sweep``: executor options do not apply (the compiled kernels use the cores)."""
         return run_sweep(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False))
 
     def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
