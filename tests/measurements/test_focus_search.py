@@ -234,3 +234,11 @@ def test_rows_with_the_single_candidate_control_and_a_failed_run(small):
     assert math.isnan(rows[-1]["rho"]) and "offsets" in rows[-1]["error"]
     fa = fs.failure_analysis(rows)
     assert "grid" not in fa and fa["source (L=1)"]["max_rho"] == 1.0
+
+
+def test_noise_drift_is_the_injected_along_track_error(small):
+    geo, prob = small
+    d = fs.noise_drift(0, 1, 2, 10, geo.n_pulses, 400, B, 3e-5)
+    w = fs._noise(0, 1, 2, 10, geo.n_pulses)[0]
+    noisy = fs.inject_velocity_noise(geo.positions(), geo.along_track, 400, B, 3e-5, w)
+    np.testing.assert_allclose(d, (noisy - geo.positions()) @ geo.along_track, atol=1e-15)

@@ -54,7 +54,7 @@ from sarnav.radar.quality_scenes import simulate_pulses
 __all__ = ["METHODS", "CONTROL_SCORERS", "ROW_COLUMNS", "DIAGNOSTIC_COLUMNS", "SearchProblem", "SearchResult",
            "SearchRun", "search_problem", "table41_rows", "failure_analysis", "linearise", "block_knots",
            "inject_velocity_noise", "candidate_offsets", "variance_ratio", "coverage", "run_search", "reach_bound",
-           "table41_sigmas", "table41_spacings"]
+           "table41_sigmas", "table41_spacings", "noise_drift"]
 
 METHODS = ("source", "grid", "brent")
 CONTROL_SCORERS = ("oracle", "random")
@@ -442,6 +442,16 @@ def _noise(seed: int, realisation: int, sigma_index: int, n_sigmas: int, n_pulse
     ss = np.random.SeedSequence(seed).spawn(realisation + 1)[realisation].spawn(n_sigmas)[sigma_index]
     w_ss, r_ss = ss.spawn(2)
     return np.random.default_rng(w_ss).standard_normal(n_pulses), np.random.default_rng(r_ss)
+
+
+def noise_drift(seed: int, realisation: int, sigma_index: int, n_sigmas: int, n_pulses: int, initial_pulses: int,
+                bias: float, sigma: float) -> np.ndarray:
+    """(P,) along-track position error [m] that the noise of one realisation and sigma of ``table41_rows`` makes:
+    0 before S_0, then sum (b + sigma w) (Alg. 3.3 steps 2-4; Fig. 4.25b)."""
+    w = _noise(seed, realisation, sigma_index, n_sigmas, n_pulses)[0]
+    out = np.zeros(n_pulses)
+    out[initial_pulses:] = np.cumsum(bias + sigma * w[initial_pulses:])
+    return out
 
 
 def _row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, res, cov):

@@ -24,7 +24,7 @@ from sarnav.analysis.consistency import strict
 from sarnav.report.figures import save_png
 
 __all__ = ["write_rows_csv", "write_strict_json", "sweep_dataset", "plot_score_curves", "plot_t3", "plot_reliability", "plot_whiskers",
-           "plot_realisations", "plot_failure", "plot_methods", "plot_focus_nav"]
+           "plot_realisations", "plot_noise_runs", "plot_failure", "plot_methods", "plot_focus_nav"]
 
 
 def _cell(v) -> str:
@@ -204,6 +204,29 @@ def plot_realisations(rows, block_pulses: int, candidates: int, path, method: st
         ax.set_xlabel("sigma [m/sample]", fontsize=8)
     axes[0].set_ylabel("variance ratio rho", fontsize=8)
     fig.suptitle(f"{method}, S_i = {block_pulses}, L = {candidates}: {len(reals)} noise realisations", fontsize=10)
+    return Path(save_png(fig, path))
+
+
+def plot_noise_runs(rows, block_pulses: int, candidates: int, sigma: float, drifts: dict, path,
+                    method: str = "source") -> Path | None:
+    """Fig. 4.25: (a) rho across the spacings of up to three realisations at one sigma; (b) the along-track position
+    error each realisation's noise makes, ``drifts`` {realisation: (P,) [m]}. None with fewer than two."""
+    reals = sorted(drifts)[:3]
+    if len(reals) < 2:
+        return None
+    fig = Figure(figsize=(11.0, 3.6), layout="constrained")
+    ax_a, ax_b = fig.subplots(1, 2)
+    groups = [[r["rho"] for r in _select(rows, method=method, block_pulses=block_pulses, candidates=candidates,
+                                         realisation=k) if r["sigma"] == sigma] for k in reals]
+    _boxes(ax_a, groups, [f"run {k}" for k in reals])
+    ax_a.set_ylabel("variance ratio rho", fontsize=8)
+    ax_a.set_title(f"(a) {method}, S_i = {block_pulses}, L = {candidates}, sigma = {sigma:.4g}", fontsize=9)
+    for k in reals:
+        ax_b.plot(drifts[k], lw=0.8, label=f"run {k}")
+    ax_b.set_xlabel("pulse", fontsize=8)
+    ax_b.set_ylabel("along-track position error of the noise [m]", fontsize=8)
+    ax_b.set_title("(b) the noise of each run (bias + sigma w, cumulated)", fontsize=9)
+    ax_b.legend(fontsize=7)
     return Path(save_png(fig, path))
 
 

@@ -162,14 +162,21 @@ def _summary(rows: list[dict], prm: dict, seconds: float) -> dict:
 
 
 def _figures(rows, prm, figdir: Path) -> None:
-    from sarnav.report.quality_figures import plot_failure, plot_methods, plot_realisations, plot_whiskers
+    from sarnav.report.quality_figures import (plot_failure, plot_methods, plot_noise_runs, plot_realisations,
+                                               plot_whiskers)
 
     figdir.mkdir(exist_ok=True)
     methods = ["source", "source-carry", "source-oracle", "source-random"]
-    for si in prm["search"]["block_pulses"]:
-        for L in prm["search"]["candidates"]:
+    s, geo = prm["search"], prm["geometry"]
+    k = min(3, s["sigmas"] - 1)  # Fig. 4.25: the fourth sigma, 3.266e-5 (L694)
+    sigma = float(fs.table41_sigmas(s["sigmas"])[k])
+    drifts = {r: fs.noise_drift(prm["seed"], r, k, s["sigmas"], geo.n_pulses, s["initial_pulses"], s["bias"], sigma)
+              for r in range(min(prm["runs"], 3))}
+    for si in s["block_pulses"]:
+        for L in s["candidates"]:
             plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
             plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")
+            plot_noise_runs(rows, si, L, sigma, drifts, figdir / f"fig4_25_Si{si}_L{L}.png")
     plot_failure(rows, figdir / "failure_analysis.png")
     plot_methods(rows, figdir / "methods.png")
 
