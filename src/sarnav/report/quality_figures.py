@@ -271,7 +271,7 @@ def plot_methods(rows, path) -> Path:
     _boxes(ax, groups, [f"{m} {si}/{L}" for m, si, L in keys])
     ax.set_yscale("log")
     ax.set_ylabel("variance ratio rho", fontsize=8)
-    ax.set_title("the thesis' search, its controls and the searches that span the bias (same realisations)", fontsize=9)
+    ax.set_title("every method on the same noise realisations", fontsize=9)
     return Path(save_png(fig, path))
 
 
