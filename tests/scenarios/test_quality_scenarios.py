@@ -173,8 +173,12 @@ def test_quality_sweep_claims(tmp_path):
     rough = c["T10"]["kurtosis_local_extrema"]
     assert rough["10"] >= max(rough["50"], rough["100"], rough["200"])                     # T10
     assert all(c["T13"]["trough_within_one_step"].values())                               # T11, T13
-    assert all(s >= m for s, m in c["T15"]["local_extrema_sum_magnitude"].values())        # T15
-    assert all(not v for v in c["T14"]["trough_within_one_step"].values())                 # T14
+    # T15 (sum never better than magnitude) holds at N = 10 only: at N = 100 and 1000 the sum curve has fewer local
+    # extrema and a deeper trough (docs/quality.md §3: not reproduced there)
+    s10, m10 = c["T15"]["local_extrema_sum_magnitude"]["10"]
+    assert s10 >= m10
+    assert all(not v for v in c["T14"]["trough_at_zero"].values())                         # T14
+    assert all(r == c["T14"]["errors"] - 1 for r in c["T14"]["rank_of_zero"].values())     # zero is the maximum
     assert all(r > 0.99 for n, r in c["T17"]["curve_correlation"].items() if n != "10")   # T17
     t16 = c["T16"]
     assert all(v == 1.0 for v in t16["within_one_step"].values())                          # T16 (our ordering)
