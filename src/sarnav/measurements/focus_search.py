@@ -186,10 +186,12 @@ class SearchProblem:
             quality_measure(self.measure, "search.measure")
 
     def image0(self) -> np.ndarray:
-        """The initial image (Alg. 3.3 step 7)."""
+        """The initial image (Alg. 3.3 step 7), back-projected with linear range interpolation like the block images
+        of ``imaging.offset_bpa`` that are added to it (BPA's default "auto" would upsample: a different image)."""
         if self.initial_image is None:
             s0 = self.initial_pulses
-            self.initial_image = backproject(_pulses(self.rc, 0, s0), self.grid, positions=self.truth[:s0]).data
+            self.initial_image = backproject(_pulses(self.rc, 0, s0), self.grid, positions=self.truth[:s0],
+                                             interpolation="linear").data
         return self.initial_image
 
     def g_max(self) -> float:
