@@ -2,7 +2,8 @@
 
 Fast: the contract of the records, batch independence (bit-identical), the oracle mode's consistency (the filter
 wiring: the acceleration coupling, the delayed state), the free INS, named configuration errors.
-Slow (``python -m pytest -q -m slow -s tests/scenarios/test_quality_nav.py``, about 25 min on 2 shared cores): the
+Slow (``python -m pytest -q -m slow -s tests/scenarios/test_quality_nav.py``: 25 min CPU, 76 min wall on 2 cores
+shared with four sessions): the
 100-run campaign of the default scenario in image mode: NEES and NIS in their bands, the along-track velocity
 3-sigma against the free INS, the fix errors against the sigma the filter gives them, mapdrift on the same pulses.
 """

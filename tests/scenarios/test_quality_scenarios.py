@@ -2,8 +2,8 @@
 
 Fast: tiny versions through ``sarnav run`` (files, columns, labels, the L = 1 and oracle controls, claims.json),
 ``sarnav show`` round trips, named errors. Slow (``python -m pytest -q -m slow -s tests/scenarios/test_quality_scenarios.py``):
-``sarnav run gpsd-search`` (the reduced Table 4.1 sweep, about 3 min on 2 cores) and ``sarnav run quality-sweep``
-(Figs. 4.1-4.8 and T16, about 10 min), their claims asserted from the files they write.
+``sarnav run gpsd-search`` (the reduced Table 4.1 sweep: 2 min wall, 83 s CPU on 2 shared cores) and ``sarnav run
+quality-sweep`` (Figs. 4.1-4.8 and T16: 3.5 min), their claims asserted from the files they write.
 """
 
 import csv
