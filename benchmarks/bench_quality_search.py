@@ -10,6 +10,8 @@ thesis' geometry (:class:`sarnav.radar.quality_scenes.QualityGeometry`, PRF 1667
 candidate images per second ("cand/s") of
 
 * ``scratch``: each candidate image formed from scratch (BPA of all S_0 + S_i pulses along the candidate track);
+  every BPA here uses linear range interpolation, the interpolation the expansion is exact for (BPA's default
+  "auto" upsamples these critically sampled pulses, fs = B, and would make a different image);
 * ``incremental``: the thesis' way, the block back-projected along each candidate and added to the kept image;
 * ``expansion``: :mod:`sarnav.imaging.offset_bpa`, one pass over the block's pulses for all L candidates;
 
@@ -72,10 +74,11 @@ def main(argv=None) -> None:
 
         def scratch_one():
             pos = np.concatenate([prob.truth[:s0], base + (deltas[-1] * tau)[:, None] * e])
-            backproject(head, grid, positions=pos)
+            backproject(head, grid, positions=pos, interpolation="linear")
 
         def incremental():
-            return [acc + backproject(block, grid, positions=base + (d * tau)[:, None] * e).data for d in deltas]
+            return [acc + backproject(block, grid, positions=base + (d * tau)[:, None] * e, interpolation="linear").data
+                    for d in deltas]
 
         def expansion():
             mom = offset_moments(block, grid, base, e, tau, 6)

@@ -13,6 +13,7 @@ import pytest
 from sarnav.filters import ErrorStateLayout, Prediction, apply_feedback
 from sarnav.ins import NavState
 from sarnav.measurements.base import Measurement
+from sarnav.measurements.focus import FocusVelocityMeasurement
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.rotations import quat_normalize
@@ -59,6 +60,13 @@ MODELS = {
     "sar-cross-paper": (lambda runs: SarCrossRangeMeasurement(
         SAR_TARGET, 0.25, SAR, model="paper", u_c=np.tile([10.0, 0.1, 0.0], (runs, 1)),
         r_orig=np.tile([113.0, 3.0, -1000.0], (runs, 1))), SAR, _sar_nav, 1e-2),
+    # the best-focus along-track velocity (Hathaway 2023 / docs/quality.md §7): e from a slightly turned track
+    "focus-velocity": (lambda runs: FocusVelocityMeasurement(SAR, [0.995, 0.0998, 0.0], np.full(runs, 0.05)), SAR,
+                       _sar_nav, 1e-2),
+    # with the line-of-sight acceleration coupling (lever R / 2V = 17 s, right-looking, level flight's f)
+    "focus-velocity-accel": (lambda runs: FocusVelocityMeasurement(
+        SAR, [1.0, 0.0, 0.0], 0.05, los=[0.0, 0.87, 0.49], lever=17.0, f_body=[0.05, -0.02, -9.81],
+        f_ref=[0.03, 0.01, -9.80]), SAR, _sar_nav, 1e-3),
 }
 
 

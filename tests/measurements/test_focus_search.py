@@ -185,3 +185,60 @@ def test_any_quality_measure_can_score_and_is_labelled(small):
     assert [r["method"] for r in rows] == ["source-intensity_entropy", "source"]
     assert [r["scorer"] for r in rows] == ["intensity_entropy", "kurtosis"]
     assert all(np.isfinite(r["rho"]) and r["rho"] > 0 for r in rows)
+
+
+def test_every_run_stays_inside_its_reach_bound(small):
+    """(1 - B)^2 <= rho <= (1 + B)^2 with B = max slope x std(t) / std(noisy error) (reach_bound), for the thesis'
+    grid with any scorer, the carry reading and the spanning grid; B = 0 for L = 1."""
+    geo, prob = small
+    noisy = _noisy(geo, 6e-5)
+    spacing = fs.table41_spacings(6e-5)[-1]
+    span = B + 3 * 6e-5 / math.sqrt(400)
+    runs = [fs.run_search(prob, noisy, 400, "source", 11, spacing=spacing, scorer=sc, rng=np.random.default_rng(1),
+                          carry=carry) for sc in ("kurtosis", "oracle", "random") for carry in (False, True)]
+    runs.append(fs.run_search(prob, noisy, 400, "grid", 11, span=span, scorer="oracle"))
+    for r in runs:
+        assert max(1 - r.reach, 0.0) ** 2 * (1 - 1e-12) <= r.rho <= (1 + r.reach) ** 2 * (1 + 1e-12)
+    assert runs[-1].reach > 1.0 > runs[0].reach  # only a grid spanning the bias can remove it
+    assert fs.run_search(prob, noisy, 400, "source", 1, spacing=spacing).reach == 0.0
+    # a straight ramp c = m t is the extreme correction: on a ramp error it meets the bound with equality
+    lin = np.zeros((50, 3))
+    noisy_lin = lin.copy()
+    noisy_lin[:, 0] = 3.0 * np.arange(50.0)
+    b = fs.reach_bound(noisy_lin, lin, [1, 0, 0], 0, 2.0)
+    corr = noisy_lin.copy()
+    corr[:, 0] += 2.0 * np.arange(50.0)
+    assert b == pytest.approx(2.0 / 3.0)
+    assert fs.variance_ratio(corr, noisy_lin, lin, [1, 0, 0], 0) == pytest.approx((1 + b) ** 2, rel=1e-12)
+
+
+def test_carrying_the_chosen_offset_lets_the_oracle_reach_further(small):
+    """Gap 10's other reading: the chosen offsets accumulate over blocks, so the thesis' grid can follow the bias."""
+    geo, prob = small
+    noisy = _noisy(geo, 3e-5)
+    spacing = fs.table41_spacings(3e-5)[-1]
+    plain = fs.run_search(prob, noisy, 400, "source", 11, spacing=spacing, scorer="oracle")
+    carried = fs.run_search(prob, noisy, 400, "source", 11, spacing=spacing, scorer="oracle", carry=True)
+    assert carried.rho < plain.rho < 1.0
+    assert carried.reach == pytest.approx(3 * plain.reach)  # three blocks: the slope can reach 3 floor(L/2) Delta
+
+
+def test_rows_with_the_single_candidate_control_and_a_failed_run(small):
+    geo, prob = small
+    rows = list(fs.table41_rows(prob, 400, 11, sigmas=[3e-5], n_spacings=1, scorers=("oracle",), improved=("grid",),
+                                single=True, carry=True, span_sigmas=1e5))
+    labels = [(r["method"], r["candidates"]) for r in rows]
+    assert labels == [("source", 1), ("source-oracle", 11), ("source-carry", 11), ("grid", 11)]
+    assert rows[0]["rho"] == 1.0 and rows[0]["reach"] == 0.0
+    # span_sigmas = 1e5 makes the spanning grid's offsets far beyond the candidate images' accuracy: recorded
+    assert math.isnan(rows[-1]["rho"]) and "offsets" in rows[-1]["error"]
+    fa = fs.failure_analysis(rows)
+    assert "grid" not in fa and fa["source (L=1)"]["max_rho"] == 1.0
+
+
+def test_noise_drift_is_the_injected_along_track_error(small):
+    geo, prob = small
+    d = fs.noise_drift(0, 1, 2, 10, geo.n_pulses, 400, B, 3e-5)
+    w = fs._noise(0, 1, 2, 10, geo.n_pulses)[0]
+    noisy = fs.inject_velocity_noise(geo.positions(), geo.along_track, 400, B, 3e-5, w)
+    np.testing.assert_allclose(d, (noisy - geo.positions()) @ geo.along_track, atol=1e-15)

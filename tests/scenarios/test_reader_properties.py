@@ -46,9 +46,10 @@ from sarnav.sensors.imu import GRADE_THREE_SIGMA
 KINDS = {"telemetry": "telemetry", "rda-nav": "rda-nav", "image": "point-target", "bpa-sensitivity": "bpa-sensitivity",
          "study": "telemetry-imu-grade", "spacecraft": "spacecraft-tc2", "spacecraft-closed-loop": "spacecraft-closed-loop",
          "multi-imu-path1": "multi-imu-path1", "multi-imu": "multi-imu-adis", "upf-flight": "upf-flight",
-         "nav-source-focus": "nav-source-focus", "multi-imu-sar": "multi-imu-sar-fix"}
+         "nav-source-focus": "nav-source-focus", "multi-imu-sar": "multi-imu-sar-fix", "quality-sweep": "quality-sweep",
+         "gpsd-search": "gpsd-search", "quality-nav": "quality-nav"}
 #: kinds without [campaign] runs (the run property gives them no --runs)
-NO_RUNS = ("image", "bpa-sensitivity")
+NO_RUNS = ("image", "bpa-sensitivity", "quality-sweep")
 #: the run property's small scenarios (paths into the file -> value): one run (``--runs 1``), a 1-s flight, a short
 #: image block, two of the nine injected errors on a coarser grid
 SMALL = {
@@ -66,11 +67,18 @@ SMALL = {
     "nav-source-focus": {("cart", "run_in_s"): 1.0, ("aperture", "n_pulses"): 150, ("navigation", "n_particles"): 50,
                          ("navigation", "adis_particles"): 50, ("image", "chip_half_m"): 0.4},
     "multi-imu-sar": {("flight", "duration"): 2.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 0.5},
+    "quality-sweep": {("geometry", "n_pulses"): 200, ("sweep", "sizes"): [6], ("sweep", "steps"): 1,
+                      ("sweep", "figure_size"): 6, ("reliability", "scenes"): 0, ("sweep", "bins"): [10]},
+    "gpsd-search": {("geometry", "n_pulses"): 400, ("search", "initial_pulses"): 200, ("search", "block_pulses"): [100],
+                    ("image", "size"): 8, ("search", "sigmas"): 1, ("search", "spacings"): 1,
+                    ("geometry", "scene_extent"): 4.0},
+    "quality-nav": {("trajectory", "duration"): 1.0, ("focus", "calibration_apertures"): 2, ("focus", "pixels"): 16,
+                    ("focus", "aperture_pulses"): 300, ("scene", "length"): 12.0},
 }
 #: run examples per kind in the default test run (bpa-sensitivity's nine injected errors cost ~1 s a file)
 RUN_EXAMPLES = {"telemetry": 40, "rda-nav": 30, "study": 20, "image": 24, "bpa-sensitivity": 8, "spacecraft": 10,
                 "spacecraft-closed-loop": 3, "multi-imu-path1": 8, "multi-imu": 6, "upf-flight": 4,
-                "nav-source-focus": 4, "multi-imu-sar": 6}
+                "nav-source-focus": 4, "multi-imu-sar": 6, "quality-sweep": 4, "gpsd-search": 4, "quality-nav": 3}
 #: the fewest files of each run property that must get past validation and run (a fraction of the examples)
 MIN_RAN = 0.4
 #: keys that set a run's size: the run property varies them by at most x2 and never sets them to an upper bound

@@ -241,6 +241,10 @@ def summarize(ds, confidence: float = 0.95) -> dict:
         out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units, pred)
     if "update_rejected" in ds:
         out["sar_updates"] = rejection_counts(ds["update_rejected"], ds["pairs_fused"] if "pairs_fused" in ds else None)
+    if "focus_error" in ds:  # quality-nav: the focus fixes against their sigma and mapdrift (analysis.focus_nav)
+        from sarnav.analysis.focus_nav import focus_statistics
+
+        out["focus"] = focus_statistics(ds, confidence)
     out.update(consistency_verdict(error, sigma, out["nees"]))
     return strict(out)
 

@@ -36,7 +36,9 @@ from sarnav.radar.quality_scenes import QualityGeometry, simulate_pulses
 
 __all__ = ["DIRECTIONS", "FIGURES", "DEFAULT_MEASURES", "compressed_pulses", "image_grid", "velocity_error_positions",
            "focus_depth", "error_grid", "score_images", "quality_sweep", "figure_data", "extremum_error",
-           "count_local_extrema", "local_minimum_near", "curve_correlation", "reliability_study", "t3_example"]
+           "count_local_extrema", "local_minimum_near", "curve_correlation", "reliability_study", "t3_example",
+           "SOURCE_CLAIMS", "trough_depth", "monotone_steps", "along_claims", "cross_claims", "reliability_claims",
+           "mean_to_rms"]
 
 DIRECTIONS = ("along", "cross")
 #: the measures of the thesis' USU study (Figs. 4.2-4.8) plus the mean-removed kurtosis (Figs. 4.11, 4.17)
@@ -254,3 +256,124 @@ def t3_example(rc, geometry: QualityGeometry, size: int = 100, along_error: floa
     if out["along_correlation"] > 1.0 + 1e-9:  # pragma: no cover - a normalised correlation
         raise InputDataError("registration", "correlation above 1")
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# the claims of a sweep, as numbers (scenario quality-sweep: claims.json; docs/quality.md §3)
+
+#: what the thesis says of each claim (notes/seed-004 §7)
+SOURCE_CLAIMS = {
+    "T3": "0.2 % along-track error blurs and shifts a 100x100 image; 0.002 m/m cross-track error blurs it (Fig. 4.1)",
+    "T7": "kurtosis peaks very close to 0 along-track error at >= 50x50 (Figs. 4.2a, 4.4-4.6)",
+    "T8": "the same for cross-track error (L513, L590)",
+    "T9": "smaller deviation, higher kurtosis near 0; local maxima at large deviations (L505, L586)",
+    "T10": "10x10 no trend; 50x50 a detectable peak; larger images smoother curves (L546-548)",
+    "T11": "entropy magnitude (N = 10, 100x100): a trough near 0, scattered, not the global minimum (Fig. 4.2b)",
+    "T12": "entropy sum: no trend at N = 10, a trough at N = 100, nothing more at 1000 (Figs. 4.2c, 4.7)",
+    "T13": "entropy magnitude: a distinct trough at N = 10 already; N = 100 small gain; N > 100 none (Fig. 4.7)",
+    "T14": "cross-track entropy has no trough at zero (Fig. 4.8)",
+    "T15": "entropy sum is never better than entropy magnitude (L588)",
+    "T16": "kurtosis is a more reliable measure than entropy (L469, L590, L636, L720)",
+    "T17": "mean-removed kurtosis ~ zero-mean kurtosis; pixel mean ~ 1e-3 of the pixels (L302, Figs. 4.11, 4.17)",
+}
+
+
+def _curve(ds, measure, size, n_bins=None) -> np.ndarray:
+    c = ds[measure].sel(size=size)
+    if "bins" in c.dims:
+        c = c.sel(bins=n_bins if n_bins is not None else int(ds["bins"].values[0]))
+    return np.asarray(c.values, dtype=np.float64)
+
+
+def _best_step(ds, measure, size, n_bins=None) -> int:
+    e = ds["error"].values
+    best = extremum_error(e, _curve(ds, measure, size, n_bins), bool(ds.attrs[f"maximise_{measure}"]))
+    return int(round(best / (e[1] - e[0])))
+
+
+def trough_depth(scores) -> float:
+    """(median - min) / std of a curve: how distinct its minimum is (T13)."""
+    s = np.asarray(scores, dtype=np.float64)
+    sd = float(np.std(s))
+    return float((np.median(s) - np.min(s)) / sd) if sd > 0 else 0.0
+
+
+def monotone_steps(scores) -> int:
+    """Largest k such that the curve rises strictly over the k steps before its maximum and falls over the k after (T9)."""
+    s = np.asarray(scores, dtype=np.float64)
+    i = int(np.argmax(s))
+    k = 0
+    while i - k - 1 >= 0 and i + k + 1 < s.size and s[i - k - 1] < s[i - k] and s[i + k + 1] < s[i + k]:
+        k += 1
+    return k
+
+
+def along_claims(ds: xr.Dataset, figure_size: int = 100) -> dict:
+    """T7, T9-T13, T15, T17 from an along-track sweep (:func:`quality_sweep`): grid steps of the extrema, curve
+    roughness, trough depths. ``figure_size``: the size of Figs. 4.2 and 4.7 (the nearest one swept is used)."""
+    sizes = [int(v) for v in ds["size"].values]
+    bins = [int(v) for v in ds["bins"].values]
+    fig = min(sizes, key=lambda n: abs(n - figure_size))
+    big = max(sizes)
+    names = set(ds.data_vars)
+    out = {"sizes": sizes, "bins": bins, "figure_size": fig}
+    if "kurtosis" in names:
+        out["T7"] = {"kurtosis_max_step": {n: _best_step(ds, "kurtosis", n) for n in sizes}}
+        out["T9"] = {"size": big, "monotone_steps": monotone_steps(_curve(ds, "kurtosis", big))}
+        out["T10"] = {"kurtosis_local_extrema": {n: count_local_extrema(_curve(ds, "kurtosis", n)) for n in sizes}}
+    e = ds["error"].values
+    for name, claim in (("entropy_magnitude", "T13"), ("entropy_sum", "T12")):
+        if name in names:
+            out[claim] = {f"{name}_min_step": {b: _best_step(ds, name, fig, b) for b in bins},
+                          "trough_within_one_step": {b: local_minimum_near(e, _curve(ds, name, fig, b), 1) for b in bins},
+                          "trough_depth": {b: trough_depth(_curve(ds, name, fig, b)) for b in bins}}
+    if "entropy_magnitude" in names:
+        b0 = min(bins)
+        c = _curve(ds, "entropy_magnitude", fig, b0)
+        out["T11"] = {"size": fig, "bins": b0, "trough_within_one_step": local_minimum_near(e, c, 1),
+                      "global_min_step": _best_step(ds, "entropy_magnitude", fig, b0),
+                      "local_extrema": count_local_extrema(c)}
+    if {"entropy_magnitude", "entropy_sum"} <= names:
+        out["T15"] = {"local_extrema_sum_magnitude": {b: [count_local_extrema(_curve(ds, "entropy_sum", fig, b)),
+                                                          count_local_extrema(_curve(ds, "entropy_magnitude", fig, b))]
+                                                      for b in bins}}
+    if {"kurtosis", "kurtosis_mean_removed"} <= names:
+        out["T17"] = {"curve_correlation": {n: curve_correlation(_curve(ds, "kurtosis", n),
+                                                                _curve(ds, "kurtosis_mean_removed", n)) for n in sizes}}
+    return out
+
+
+def cross_claims(ds: xr.Dataset, figure_size: int = 100) -> dict:
+    """T8 and T14 from a cross-track sweep: kurtosis arg-max steps per size; the rank of the zero-error entropy
+    among all errors (0 = the smallest, i.e. a trough at zero; n - 1 = the largest) and whether zero error is a local
+    minimum (the thesis: "no trough at zero deviation", L584)."""
+    sizes = [int(v) for v in ds["size"].values]
+    bins = [int(v) for v in ds["bins"].values]
+    fig = min(sizes, key=lambda n: abs(n - figure_size))
+    e = ds["error"].values
+    i0 = int(np.argmin(np.abs(e)))
+    out = {"sizes": sizes, "bins": bins, "figure_size": fig}
+    if "kurtosis" in ds:
+        out["T8"] = {"kurtosis_max_step": {n: _best_step(ds, "kurtosis", n) for n in sizes}}
+    if "entropy_magnitude" in ds:
+        curves = {b: _curve(ds, "entropy_magnitude", fig, b) for b in bins}
+        out["T14"] = {"size": fig, "rank_of_zero": {b: int(np.sum(c < c[i0])) for b, c in curves.items()},
+                      "trough_at_zero": {b: local_minimum_near(e, c, 0) for b, c in curves.items()},
+                      "errors": int(e.size)}
+    return out
+
+
+def reliability_claims(best, errors, measures) -> dict:
+    """T16 from :func:`reliability_study`: per measure, the fraction of scenes whose extremum is exactly at zero
+    error, within one step, and the mean distance in steps."""
+    steps = np.abs(np.round(np.asarray(best) / (errors[1] - errors[0])))
+    return {"scenes": int(steps.shape[0]),
+            "exactly_at_zero": {m: float(np.mean(steps[:, j] == 0)) for j, m in enumerate(measures)},
+            "within_one_step": {m: float(np.mean(steps[:, j] <= 1)) for j, m in enumerate(measures)},
+            "mean_distance_steps": {m: float(np.mean(steps[:, j])) for j, m in enumerate(measures)}}
+
+
+def mean_to_rms(image) -> float:
+    """|mean pixel| / rms pixel of an image (T17: the thesis' 'three orders of magnitude smaller')."""
+    y = np.asarray(getattr(image, "data", image)).ravel()
+    return float(abs(y.mean()) / np.sqrt(np.mean(np.abs(y) ** 2)))

@@ -32,9 +32,12 @@ from sarnav.errors import ConfigError, InputDataError, require_positive
 from sarnav.filters.layout import ErrorStateLayout
 from sarnav.filters.prediction import Prediction
 from sarnav.imaging.offset_bpa import offset_moments, order_for
-from sarnav.imaging.quality import quality_measure
+from sarnav.imaging.quality import normalised_complex_kurtosis, quality_measure
+from sarnav.ins.state import NavState
+from sarnav.measurements.base import Measurement, unit_noise
+from sarnav.rotations import quat_to_dcm
 
-__all__ = ["FocusFix", "extract_focus_velocity", "calibrate_kappa", "FocusVelocityMeasurement"]
+__all__ = ["FocusFix", "extract_focus_velocity", "calibrate_kappa", "FocusVelocityMeasurement", "body_specific_force"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,9 @@ class FocusFix:
     time : aperture centre time t_c [s]; direction : (3,) unit along-track direction e.
     curvature : relative curvature -S''/S of the score at dv* [1/(m/s)^2] (> 0 at a maximum; 0 if none found).
     score : the score at dv*.
+    contrast : normalised complex kurtosis (eq. 3.5 / m2^2) of the image at dv*: 0 for speckle (no focus
+        information), its standard error 2 / sqrt(P_eff) over P_eff independent cells.
+    at_edge : the first stage's best grid point is an end of its grid (the optimum may lie beyond ``span``).
     """
 
     value: float
@@ -56,6 +62,8 @@ class FocusFix:
     direction: np.ndarray
     curvature: float
     score: float
+    contrast: float = float("nan")
+    at_edge: bool = False
 
 
 def _aperture_direction(positions: np.ndarray) -> np.ndarray:
@@ -75,7 +83,8 @@ def _g_max(grid, positions, e) -> float:
 
 
 def _stage(rc, grid, base, e, tau, span, n_grid, measure, tolerance, g_max):
-    """Grid over +-span, Brent between the best point's neighbours; returns (dv*, S(dv*), S''(dv*))."""
+    """Grid over +-span, Brent between the best point's neighbours; returns (dv*, S(dv*), S''(dv*), normalised
+    kurtosis of the image at dv*, whether the grid's best point is an end point)."""
     k = 4.0 * math.pi / rc.params.wavelength
     order = order_for(k * span * float(np.max(np.abs(tau))) * g_max * 1.05, 0.1 * tolerance)
     mom = offset_moments(rc, grid, base, e, tau, order)
@@ -93,7 +102,7 @@ def _stage(rc, grid, base, e, tau, span, n_grid, measure, tolerance, g_max):
     h = 0.05 * (d[1] - d[0])
     lo2, hi2 = max(best - h, -span), min(best + h, span)
     curv = (score(hi2) - 2.0 * best_s + score(lo2)) / (0.25 * (hi2 - lo2) ** 2) if hi2 > lo2 else 0.0
-    return best, best_s, curv
+    return best, best_s, curv, normalised_complex_kurtosis(mom.image(best, tolerance)), i in (0, n_grid - 1)
 
 
 def extract_focus_velocity(rc, grid, positions, times=None, span: float = 0.5, n_grid: int = 11,
@@ -130,17 +139,37 @@ def extract_focus_velocity(rc, grid, positions, times=None, span: float = 0.5, n
     t_c = 0.5 * (t[0] + t[-1])
     tau = t - t_c
     g_max = _g_max(grid, pos, e)
-    d1, s1, c1 = _stage(rc, grid, pos, e, tau, span, n_grid, m, tolerance, g_max)
-    dv, s, c = d1, s1, c1
+    d1, s, c, k, edge = _stage(rc, grid, pos, e, tau, span, n_grid, m, tolerance, g_max)
+    dv = d1
     if refine:
         step = 2.0 * span / (n_grid - 1)
-        d2, s, c = _stage(rc, grid, pos + (d1 * tau)[:, None] * e[None, :], e, tau, step, n_grid, m,
-                          0.1 * tolerance, g_max)
+        d2, s, c, k, _ = _stage(rc, grid, pos + (d1 * tau)[:, None] * e[None, :], e, tau, step, n_grid, m,
+                                0.1 * tolerance, g_max)
         dv = d1 + d2
     v_hat = (np.asarray(velocity_estimate, dtype=np.float64) if velocity_estimate is not None
              else (pos[-1] - pos[0]) / (t[-1] - t[0]))
     rel = -c / s if s != 0 and c < 0 else 0.0
-    return FocusFix(float(e @ v_hat + dv), float(dv), float(t_c), e, float(rel), float(s))
+    return FocusFix(float(e @ v_hat + dv), float(dv), float(t_c), e, float(rel), float(s), float(k), bool(edge))
+
+
+def body_specific_force(q, f_nav, accel_bias) -> dict:
+    """``{"f_body", "f_ref"}`` of ``FocusVelocityMeasurement``'s coupling from the INS: its attitude q (R, 4), nav-frame
+    specific force f_nav (R, 3) and accelerometer-bias estimate (R, 3): f_body = C_b^n^T f_nav + b_a (the IMU's
+    raw specific force), f_ref = f_nav."""
+    f_ref = np.asarray(f_nav, dtype=np.float64)
+    f_body = np.einsum("rji,rj->ri", quat_to_dcm(np.asarray(q, dtype=np.float64)), f_ref) + np.asarray(accel_bias)
+    return {"f_body": f_body, "f_ref": f_ref}
+
+
+def _unit_rows(a, field: str) -> np.ndarray:
+    """(R, 3) or (1, 3) rows normalised to unit length; InputDataError naming ``field`` for a zero or bad row."""
+    e = np.atleast_2d(np.asarray(a, dtype=np.float64))
+    if e.ndim != 2 or e.shape[-1] != 3 or not np.all(np.isfinite(e)):
+        raise InputDataError(field, f"must be finite (R, 3) or (3,), got shape {np.shape(a)}")
+    norm = np.sqrt(np.sum(e * e, axis=1, keepdims=True))
+    if np.any(norm == 0):
+        raise InputDataError(field, "must be non-zero directions")
+    return e / norm
 
 
 def calibrate_kappa(errors, curvatures) -> tuple[float, float]:
@@ -156,34 +185,58 @@ def calibrate_kappa(errors, curvatures) -> tuple[float, float]:
     return float(np.mean(err**2 * c)), math.sqrt(2.0 / err.size)
 
 
-class FocusVelocityMeasurement:
+class FocusVelocityMeasurement(Measurement):
     """Best-focus along-track velocity fixes of R runs as an error-state measurement (module docstring).
+
+    One model of the measurement contract (:class:`~sarnav.measurements.base.Measurement`, checked by
+    tests/measurements/test_contract.py); its Hessians are returned as zero (linear in v; the attitude enters through
+    the rotation of the specific force, whose second-order term is negligible at these tilts).
+
+    The azimuth FM rate of a scatterer at range R is (2 / lambda) (V_perp^2 / R - u . a) with u the unit line of
+    sight from the antenna to it and a the antenna's acceleration (notes/seed-004 §2.1; Cumming & Wong eq. 4.37 with
+    acceleration), so the track that focuses best has along-track speed V_true + (R / 2V) u . (a_INS - a_true): a
+    line-of-sight acceleration error of the INS (its tilt and accelerometer bias) looks like a velocity error
+    R / 2V (17 s here) times larger. With ``los``, ``lever`` = R / 2V [s] and the INS's specific force, the model is
+
+        h(x) = e . v - lever u . (f(x) - f_ref),   f(x) = C_b^n(q) (f_body - b_a),   f_ref = f(x_hat)
+
+    H = [0, e^T, -lever (u x f)^T, lever u^T C_b^n, 0 ...] (dx = truth - estimate; eq. 3.7: d(dv)/dt = f x dth -
+    C db_a); without them h = e . v.
 
     Parameters
     ----------
     layout : the filter's :class:`~sarnav.filters.layout.ErrorStateLayout` (needs the ``v`` block).
-    directions : (R, 3) or (3,) unit along-track directions e of the fixes.
+    directions : (R, 3) or (3,) unit along-track directions e of the fixes (normalised here; must not be zero).
     sigma : (R,) or scalar 1-sigma noise of each fix [m/s] (from ``kappa / curvature``, or a constant).
+    los : (R, 3) or (3,) unit line of sight antenna -> scene centre at t_c (optional, with the next three).
+    lever : (R,) or scalar R / (2 V) [s]; f_body : (R, 3) the IMU's specific force in the body frame (bias not
+        removed) [m/s^2]; f_ref : (R, 3) the INS's nav-frame specific force at t_c, C_b^n (f_body - b_a_hat).
     """
 
     names = ("v_focus",)
     units = ("m/s",)
 
-    @property
-    def dim(self) -> int:
-        return len(self.names)
-
-    def __init__(self, layout: ErrorStateLayout, directions, sigma):
+    def __init__(self, layout: ErrorStateLayout, directions, sigma, los=None, lever=None, f_body=None, f_ref=None):
         if not layout.has("v"):
             raise ConfigError("layout.blocks", "the focus velocity needs the 'v' block")
         self.layout = layout
-        self.directions = np.atleast_2d(np.asarray(directions, dtype=np.float64))
+        self.directions = _unit_rows(directions, "directions")
         s = np.atleast_1d(np.asarray(sigma, dtype=np.float64))
-        if self.directions.shape[-1] != 3 or not np.all(np.isfinite(self.directions)):
-            raise InputDataError("directions", f"must be (R, 3) or (3,), got {np.shape(directions)}")
-        if not np.all(np.isfinite(s)) or np.any(s <= 0):
+        if s.ndim != 1 or not np.all(np.isfinite(s)) or np.any(s <= 0):
             raise ConfigError("focus.sigma", f"must be finite and > 0 m/s, got {sigma!r}")
         self.sigma = s
+        given = [x is not None for x in (los, lever, f_body, f_ref)]
+        if any(given) and not all(given):
+            raise InputDataError("los", "the acceleration coupling needs los, lever, f_body and f_ref together")
+        self.coupled = all(given)
+        if self.coupled:
+            self.los = _unit_rows(los, "los")
+            self.lever = np.atleast_1d(np.asarray(lever, dtype=np.float64))
+            self.f_body = np.atleast_2d(np.asarray(f_body, dtype=np.float64))
+            self.f_ref = np.atleast_2d(np.asarray(f_ref, dtype=np.float64))
+            if not (np.all(np.isfinite(self.lever)) and np.all(np.isfinite(self.f_body))
+                    and np.all(np.isfinite(self.f_ref))):
+                raise InputDataError("lever", "lever, f_body and f_ref must be finite")
 
     @classmethod
     def from_fixes(cls, layout: ErrorStateLayout, fixes, kappa: float) -> tuple["FocusVelocityMeasurement", np.ndarray]:
@@ -203,27 +256,44 @@ class FocusVelocityMeasurement:
                                  f"directions and {self.sigma.shape[0]} sigmas")
         return e, s
 
-    def predict(self, state) -> Prediction:
-        """Expected fix e . v_hat, H = e^T on the velocity block, R = sigma^2 (batched over runs)."""
-        v = np.asarray(state.v, dtype=np.float64)
+    def _coupling(self, nav: NavState, runs: int):
+        """(lever u . (f(x) - f_ref) (R,), H row of th (R, 3), H row of ba (R, 3)) at ``nav``."""
+        b = lambda a, k: np.broadcast_to(a, (runs,) + a.shape[1:]) if a.shape[0] in (1, runs) else None  # noqa: E731
+        u, lev, fb, fr = b(self.los, 0), b(self.lever, 0), b(self.f_body, 0), b(self.f_ref, 0)
+        if any(x is None for x in (u, lev, fb, fr)):
+            raise InputDataError("state", f"has {runs} runs; the coupling arrays do not match")
+        C = quat_to_dcm(np.asarray(nav.q, dtype=np.float64))
+        f = np.einsum("rij,rj->ri", C, fb - np.asarray(nav.ba, dtype=np.float64))
+        return (lev * np.sum(u * (f - fr), axis=1), -lev[:, None] * np.cross(u, f),
+                lev[:, None] * np.einsum("ri,rij->rj", u, C))
+
+    def predict(self, nav: NavState) -> Prediction:
+        """Expected fix h(x_hat), H, R = sigma^2, zero Hessians (batched over runs; class docstring)."""
+        v = np.asarray(nav.v, dtype=np.float64)
         runs = v.shape[0]
         e, s = self._per_run(runs)
-        H = np.zeros((runs, 1, self.layout.n))
+        n = self.layout.n
+        H = np.zeros((runs, 1, n))
         H[:, 0, self.layout.slice("v")] = e
-        return Prediction(np.einsum("ri,ri->r", e, v)[:, None], H, (s**2)[:, None, None], names=self.names)
+        z = np.sum(e * v, axis=1)
+        if self.coupled:
+            dz, h_th, h_ba = self._coupling(nav, runs)
+            z = z - dz
+            H[:, 0, self.layout.slice("th")] = h_th
+            if self.layout.has("ba"):
+                H[:, 0, self.layout.slice("ba")] = h_ba
+        return Prediction(z[:, None], H, (s**2)[:, None, None], hessians=np.zeros((runs, 1, n, n)), names=self.names)
 
-    def simulate(self, truth, rngs=None, noise=None) -> np.ndarray:
-        """Oracle fixes from the true velocity: e . v + sigma x unit normal, (R, 1); ``noise`` (R, 1) unit normals,
+    def simulate(self, truth: NavState, rngs=None, noise=None) -> np.ndarray:
+        """Oracle fixes h(truth) + sigma x unit normal, (R, 1); ``noise`` (R, 1) unit normals,
         else one draw from each run's Generator in ``rngs`` (the contract of measurements.base)."""
         v = np.asarray(truth.v, dtype=np.float64)
         runs = v.shape[0]
         e, s = self._per_run(runs)
         if noise is not None:
-            noise = np.asarray(noise, dtype=np.float64).reshape(-1)
-            if noise.shape != (runs,) or not np.all(np.isfinite(noise)):
-                raise InputDataError("noise", f"must be finite unit normals of shape ({runs}, 1)")
-        else:
-            if rngs is None or len(rngs) != runs:
-                raise InputDataError("rngs", f"need one Generator per run ({runs}) or the noise itself")
-            noise = np.array([g.standard_normal() for g in rngs])
-        return (np.einsum("ri,ri->r", e, v) + s * noise)[:, None]
+            noise = np.asarray(noise, dtype=np.float64).reshape(runs, -1) if np.size(noise) == runs else noise
+        n = unit_noise(runs, 1, rngs, noise)[:, 0]
+        z = np.sum(e * v, axis=1)
+        if self.coupled:
+            z = z - self._coupling(truth, runs)[0]
+        return (z + s * n)[:, None]

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from sarnav.errors import ConfigError, InputDataError
+from sarnav.errors import ConfigError, InputDataError, SarnavError
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.range_compression import range_compress
@@ -53,8 +53,8 @@ from sarnav.radar.quality_scenes import simulate_pulses
 
 __all__ = ["METHODS", "CONTROL_SCORERS", "ROW_COLUMNS", "DIAGNOSTIC_COLUMNS", "SearchProblem", "SearchResult",
            "SearchRun", "search_problem", "table41_rows", "failure_analysis", "linearise", "block_knots",
-           "inject_velocity_noise", "candidate_offsets", "variance_ratio", "coverage", "run_search",
-           "table41_sigmas", "table41_spacings"]
+           "inject_velocity_noise", "candidate_offsets", "variance_ratio", "coverage", "run_search", "reach_bound",
+           "table41_sigmas", "table41_spacings", "noise_drift"]
 
 METHODS = ("source", "grid", "brent")
 CONTROL_SCORERS = ("oracle", "random")
@@ -186,10 +186,12 @@ class SearchProblem:
             quality_measure(self.measure, "search.measure")
 
     def image0(self) -> np.ndarray:
-        """The initial image (Alg. 3.3 step 7)."""
+        """The initial image (Alg. 3.3 step 7), back-projected with linear range interpolation like the block images
+        of ``imaging.offset_bpa`` that are added to it (BPA's default "auto" would upsample: a different image)."""
         if self.initial_image is None:
             s0 = self.initial_pulses
-            self.initial_image = backproject(_pulses(self.rc, 0, s0), self.grid, positions=self.truth[:s0]).data
+            self.initial_image = backproject(_pulses(self.rc, 0, s0), self.grid, positions=self.truth[:s0],
+                                             interpolation="linear").data
         return self.initial_image
 
     def g_max(self) -> float:
@@ -221,13 +223,15 @@ class SearchRun:
 @dataclass
 class SearchResult:
     """Outcome of one run: corrected track (P, 3), chosen offset per block [m/sample], rho, final image
-    (``keep_image``), per-block diagnostics."""
+    (``keep_image``), per-block diagnostics, and ``reach``: the bound B of :func:`reach_bound` for this run's
+    largest possible correction slope."""
 
     corrected: np.ndarray
     offsets: np.ndarray
     rho: float
     image: np.ndarray | None = None
     run: SearchRun | None = None
+    reach: float = float("nan")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -349,7 +353,7 @@ def _check_run(problem: SearchProblem, noisy, method, candidates, spacing, span,
 
 def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: str = "source", candidates: int = 11,
                spacing: float = 0.0, span: float = 0.0, scorer: str | None = None,
-               rng: np.random.Generator | None = None, keep_image: bool = False) -> SearchResult:
+               rng: np.random.Generator | None = None, keep_image: bool = False, carry: bool = False) -> SearchResult:
     """One run of Alg. 3.3 (module docstring) on the noisy track ``noisy`` (P, 3).
 
     Parameters
@@ -357,6 +361,8 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
     block_pulses : S_i; method : "source", "grid" or "brent"; candidates : L >= 1;
     spacing : Delta of the "source" grid [m/sample]; span : half-width of the "grid"/"brent" candidates [m/sample];
     scorer : quality measure name or "oracle"/"random" (default ``problem.measure``); rng : for "random".
+    carry : keep the chosen offsets for the next blocks (gap 10's other reading; the thesis restarts every block
+        from the noisy velocity, L443).
 
     Returns
     -------
@@ -374,22 +380,55 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
     acc = None
     if candidates > 1 or method != "source":
         acc = problem.image0().copy() if scorer not in CONTROL_SCORERS else None
-        corr = np.zeros(3)
-        for a, b in zip(knots[:-1], knots[1:]):
-            if a < s0 - 1:
-                continue
-            tau = np.arange(1.0, b - a + 1.0)
-            block = _Block(a + 1, b + 1, tau, noisy_lin[a + 1:b + 1] + corr, truth_lin[a + 1:b + 1])
-            d, img, oi = _choose(problem, block, acc, deltas, method, scorer, rng, span)
-            corrected[a + 1:b + 1] = block.base + (d * tau)[:, None] * e[None, :]
-            if img is not None:
-                acc += img
-            corr = corr + d * (b - a) * e
-            diag.offsets.append(d)
-            diag.chosen_index.append(int(np.argmin(np.abs(deltas - d))))
-            diag.oracle_index.append(oi)
+        _search_blocks(problem, knots, noisy_lin, truth_lin, deltas, method, scorer, rng, span, carry, acc,
+                       corrected, diag)
     rho = variance_ratio(corrected, noisy_lin, truth_lin, e, s0)
-    return SearchResult(corrected, np.array(diag.offsets), rho, acc if keep_image else None, diag)
+    slope = float(np.max(np.abs(deltas))) * (max(len(diag.offsets), 1) if carry else 1) if diag.offsets else 0.0
+    reach = reach_bound(noisy_lin, truth_lin, e, s0, slope)
+    return SearchResult(corrected, np.array(diag.offsets), rho, acc if keep_image else None, diag, reach)
+
+
+def _search_blocks(problem, knots, noisy_lin, truth_lin, deltas, method, scorer, rng, span, carry, acc, corrected,
+                   diag) -> None:
+    """The block loop of Alg. 3.3 step 8 (greedy): fills ``corrected``, adds the kept block images to ``acc``.
+
+    Each block starts from the last accepted sample (position continuity, L443) with the noisy linearised velocity
+    plus, with ``carry``, the sum of the offsets chosen so far (the other reading of gap 10)."""
+    s0, e = problem.initial_pulses, problem.direction
+    corr, kept = np.zeros(3), 0.0
+    for a, b in zip(knots[:-1], knots[1:]):
+        if a < s0 - 1:
+            continue
+        tau = np.arange(1.0, b - a + 1.0)
+        base = noisy_lin[a + 1:b + 1] + corr + (kept * tau)[:, None] * e[None, :]
+        block = _Block(a + 1, b + 1, tau, base, truth_lin[a + 1:b + 1])
+        d, img, oi = _choose(problem, block, acc, deltas, method, scorer, rng, span)
+        corrected[a + 1:b + 1] = block.base + (d * tau)[:, None] * e[None, :]
+        if img is not None:
+            acc += img
+        corr = corr + (kept + d) * (b - a) * e
+        if carry:
+            kept += d
+        diag.offsets.append(d)
+        diag.chosen_index.append(int(np.argmin(np.abs(deltas - d))))
+        diag.oracle_index.append(oi)
+
+
+def reach_bound(noisy, truth, direction, initial_pulses: int, max_slope: float) -> float:
+    """B such that every correction the search can make gives (1 - B)^2 <= rho <= (1 + B)^2 (docs/quality.md §5).
+
+    The correction c[t] = e.(p_corr - p~_lin)[t] starts at 0 at S_0 - 1 and changes by at most ``max_slope`` per
+    sample (the largest |offset| the search can choose), so var(c) <= max_slope^2 var(t) (|c[t] - c[t']| <=
+    max_slope |t - t'|, the ramp is the extreme); with a = e.(p~_lin - p_lin), the triangle inequality of the standard
+    deviation gives |std(a + c) - std(a)| <= std(c), i.e. |sqrt(rho) - 1| <= B = max_slope std(t) / std(a).
+    """
+    e = np.asarray(direction, dtype=np.float64)
+    a = (np.asarray(noisy)[initial_pulses:] - np.asarray(truth)[initial_pulses:]) @ e
+    t = np.arange(a.size, dtype=np.float64)
+    den = np.std(a, ddof=1)
+    if den == 0:
+        raise InputDataError("noisy", "has no along-track error after the initial pulses; rho undefined")
+    return float(abs(max_slope) * np.std(t, ddof=1) / den)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -397,7 +436,7 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
 
 #: columns of rho.csv (issue 13); DIAGNOSTIC_COLUMNS are added to every row as well
 ROW_COLUMNS = ("method", "block_pulses", "candidates", "sigma", "spacing", "realisation", "rho")
-DIAGNOSTIC_COLUMNS = ("scorer", "coverage", "agreement")
+DIAGNOSTIC_COLUMNS = ("scorer", "coverage", "agreement", "reach", "error")
 
 
 def _noise(seed: int, realisation: int, sigma_index: int, n_sigmas: int, n_pulses: int):
@@ -407,17 +446,30 @@ def _noise(seed: int, realisation: int, sigma_index: int, n_sigmas: int, n_pulse
     return np.random.default_rng(w_ss).standard_normal(n_pulses), np.random.default_rng(r_ss)
 
 
+def noise_drift(seed: int, realisation: int, sigma_index: int, n_sigmas: int, n_pulses: int, initial_pulses: int,
+                bias: float, sigma: float) -> np.ndarray:
+    """(P,) along-track position error [m] that the noise of one realisation and sigma of ``table41_rows`` makes:
+    0 before S_0, then sum (b + sigma w) (Alg. 3.3 steps 2-4; Fig. 4.25b)."""
+    w = _noise(seed, realisation, sigma_index, n_sigmas, n_pulses)[0]
+    out = np.zeros(n_pulses)
+    out[initial_pulses:] = np.cumsum(bias + sigma * w[initial_pulses:])
+    return out
+
+
 def _row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, res, cov):
     agree = (float(np.mean(np.array(res.run.chosen_index) == np.array(res.run.oracle_index)))
-             if res.run is not None and res.run.chosen_index else float("nan"))
+             if res is not None and res.run is not None and res.run.chosen_index else float("nan"))
+    nan = float("nan")
     return {"method": label, "block_pulses": int(block_pulses), "candidates": int(candidates), "sigma": float(sigma),
-            "spacing": float(spacing), "realisation": int(realisation), "rho": float(res.rho), "scorer": scorer,
-            "coverage": float(cov), "agreement": agree}
+            "spacing": float(spacing), "realisation": int(realisation), "rho": nan if res is None else float(res.rho),
+            "scorer": scorer, "coverage": float(cov), "agreement": agree, "reach": nan if res is None else res.reach,
+            "error": ""}
 
 
 def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, realisations=(0,), seed: int = 0,
                  sigmas=None, n_spacings: int = 30, bias: float = TABLE41_BIAS,
-                 scorers=None, improved=("grid", "brent"), span_sigmas: float = 3.0):
+                 scorers=None, improved=("grid", "brent"), span_sigmas: float = 3.0, carry: bool = False,
+                 single: bool = False):
     """Rows of the Table 4.1 sweep for one (S_i, L) (L656-670): yields one dict per run (``ROW_COLUMNS`` +
     ``DIAGNOSTIC_COLUMNS``).
 
@@ -427,11 +479,14 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
     * the thesis' search (``method="source"``) for each of the ``n_spacings`` spacings and each scorer in
       ``scorers`` (kurtosis = the thesis; "oracle", "random": the controls; label ``source`` for
       ``problem.measure``, ``source-<scorer>`` for any other scorer, e.g. ``source-oracle``);
+    * with ``carry``, the thesis' grid with the chosen offsets kept for the next blocks (label ``source-carry``);
+    * with ``single``, the L = 1 control once (label ``source``, ``candidates`` 1, ``spacing`` 0: rho = 1 exactly);
     * each improved method once, candidates spanning +- (|b| + span_sigmas sigma / sqrt(S_i)) (the bias bound and
       the block noise an IMU specification gives), scored by ``problem.measure``; ``spacing`` is its grid step.
 
-    ``realisations`` are indices (``range(10)`` for Figs. 4.22-4.24); rows depend only on (seed, r, sigma,
-    spacing), not on which other rows are computed.
+    ``realisations`` are indices (``range(10)`` for Figs. 4.22-4.24); the noise of a row depends only on (seed, r,
+    sigma index, number of sigmas). A run that fails (``SarnavError``, e.g. an offset beyond the candidate images'
+    phase tolerance) gives a row with rho NaN and the message in ``error``: the sweep goes on.
     """
     sig = table41_sigmas() if sigmas is None else np.asarray(sigmas, dtype=np.float64)
     scorers = (problem.measure, "oracle", "random") if scorers is None else tuple(scorers)
@@ -441,42 +496,59 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
         for i, s in enumerate(sig):
             w, rand = _noise(seed, int(r), i, sig.size, problem.rc.n_pulses)
             noisy = inject_velocity_noise(problem.truth, problem.direction, problem.initial_pulses, bias, s, w)
+            if single:
+                yield _safe_row("source", problem.measure, block_pulses, 1, s, 0.0, r, 0.0,
+                                lambda: run_search(problem, noisy, block_pulses, "source", 1))
             for spacing in table41_spacings(s, n_spacings):
                 cov = coverage(candidates, spacing, bias, s, block_pulses)
-                for sc in scorers:
-                    res = run_search(problem, noisy, block_pulses, "source", candidates, spacing=spacing, scorer=sc,
-                                     rng=rand)
-                    label = "source" if sc == problem.measure else f"source-{sc}"
-                    yield _row(label, sc, block_pulses, candidates, s, spacing, r, res, cov)
+                runs = [(sc, False) for sc in scorers] + ([(problem.measure, True)] if carry else [])
+                for sc, keep in runs:
+                    label = "source-carry" if keep else ("source" if sc == problem.measure else f"source-{sc}")
+                    yield _safe_row(label, sc, block_pulses, candidates, s, spacing, r, cov, lambda: run_search(
+                        problem, noisy, block_pulses, "source", candidates, spacing=spacing, scorer=sc, rng=rand,
+                        carry=keep))
             span = abs(bias) + span_sigmas * s / math.sqrt(block_pulses)
             step = 2.0 * span / max(candidates - 1, 1)
             for method in improved:
-                res = run_search(problem, noisy, block_pulses, method, candidates, span=span)
-                yield _row(method, problem.measure, block_pulses, candidates, s, step, r, res,
-                           coverage(candidates, step, bias, s, block_pulses))
+                yield _safe_row(method, problem.measure, block_pulses, candidates, s, step, r,
+                                coverage(candidates, step, bias, s, block_pulses),
+                                lambda: run_search(problem, noisy, block_pulses, method, candidates, span=span))
+
+
+def _safe_row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, cov, run) -> dict:
+    """The row of ``run()``; a failed run (SarnavError) is recorded with rho NaN and its message."""
+    try:
+        return _row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, run(), cov)
+    except SarnavError as err:
+        row = _row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, None, cov)
+        row["error"] = str(err)
+        return row
 
 
 def failure_analysis(rows) -> dict:
     """Why the thesis' search fails, from ``table41_rows`` output (docs/quality.md "failure analysis").
 
-    Returns per method label: ``rho`` (all values), ``median_rho``, ``mean_rho``, ``coverage`` (median grid
-    coverage) and ``agreement`` (mean fraction of blocks where the scorer chose the oracle's candidate); and
+    Returns per method label (rows with L = 1 under ``"<method> (L=1)"``; failed runs left out): ``rho`` (all
+    values), ``median_rho``, ``mean_rho``, ``coverage`` (median grid coverage) and ``agreement`` (mean fraction of
+    blocks where the scorer chose the oracle's candidate); and
     ``by_coverage``: for the thesis' grid, median rho of the quality measure and of the oracle in coverage bins
     (grid coverage limits the oracle; the gap between the two is the quality measure's own failure).
     """
     out = {}
-    labels = sorted({r["method"] for r in rows})
-    for lab in labels:
-        sel = [r for r in rows if r["method"] == lab]
+    rows = [r for r in rows if np.isfinite(r["rho"])]
+    key = {id(r): r["method"] if r["candidates"] > 1 else f"{r['method']} (L=1)" for r in rows}
+    for lab in sorted(set(key.values())):
+        sel = [r for r in rows if key[id(r)] == lab]
         rho = np.array([r["rho"] for r in sel])
+        agree = [r["agreement"] for r in sel if np.isfinite(r["agreement"])]
         out[lab] = {"rho": rho, "median_rho": float(np.median(rho)), "mean_rho": float(np.mean(rho)),
                     "min_rho": float(rho.min()), "max_rho": float(rho.max()),
                     "coverage": float(np.median([r["coverage"] for r in sel])),
-                    "agreement": float(np.nanmean([r["agreement"] for r in sel]))}
+                    "agreement": float(np.mean(agree)) if agree else float("nan")}
     edges = np.array([0.0, 0.05, 0.1, 0.2, 0.5, 1.0, np.inf])
     by = {}
     for lab in ("source", "source-oracle", "source-random"):
-        sel = [r for r in rows if r["method"] == lab]
+        sel = [r for r in rows if key[id(r)] == lab]
         if sel:
             cov = np.array([r["coverage"] for r in sel])
             rho = np.array([r["rho"] for r in sel])

@@ -33,7 +33,8 @@ LOCK = ".sarnav.lock"
 #: files sarnav writes at the top of an output folder (removed by ``overwrite``)
 OUTPUT_FILES = ("results.nc", "summary.json", "campaign.json", "INCOMPLETE", "study.json", "sensitivity.csv",
                 "sensitivity.png", "image.npz", "image.png", "metrics.json", "report.html", "compare.html",
-                "compare.csv", "collect.cphd", "image.nitf", IDENTITY)
+                "compare.csv", "collect.cphd", "image.nitf", "rho.csv", "rho.csv.partial", "rho_diagnostics.csv",
+                "rho_diagnostics.csv.partial", "sweep.nc", "sweep.nc.partial", "claims.json", "search.json", IDENTITY)
 OUTPUT_DIRS = ("runs", "figures")
 
 

@@ -55,6 +55,9 @@ KINDS: dict[str, str] = {
     "upf-flight": "sarnav.scenarios.multi_imu:UpfFlightKind",
     "nav-source-focus": "sarnav.scenarios.nav_focus:NavFocusKind",
     "multi-imu-sar": "sarnav.scenarios.multi_imu_sar:MultiImuSarKind",
+    "quality-sweep": "sarnav.scenarios.quality_sweep:QualitySweepKind",
+    "gpsd-search": "sarnav.scenarios.gpsd_search:GpsdSearchKind",
+    "quality-nav": "sarnav.scenarios.quality_nav:QualityNavKind",
 }
 
 # fmt: off
@@ -79,6 +82,10 @@ SCENARIOS: tuple[ScenarioEntry, ...] = (
     ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "kind:"),
     ScenarioEntry("nav-source-focus", "nav-source-focus", "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions (focus.csv)", "kind:"),
     ScenarioEntry("multi-imu-sar-fix", "multi-imu-sar", "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes (rda-nav flight)", "kind:"),
+    ScenarioEntry("quality-sweep", "quality-sweep", "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs along- and cross-track velocity error", "kind:"),
+    ScenarioEntry("gpsd-search", "gpsd-search", "Hathaway 2023 Alg. 3.3: reduced Table 4.1 sweep (rho.csv), controls, searches that span the bias (~2 min)", "kind:"),
+    ScenarioEntry("gpsd-search-table41", "gpsd-search", "Hathaway 2023 Table 4.1: the full velocity-offset search sweep, all six (S_i, L)", "sarnav.scenarios.gpsd_search:table41_config"),
+    ScenarioEntry("quality-nav", "quality-nav", "INS aided by the best-focus along-track velocity of its own BPA images (no map), 100 runs", "kind:"),
 )
 # fmt: on
 

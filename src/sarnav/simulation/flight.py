@@ -6,7 +6,7 @@ error model assume (bias decay in the mechanization, F / Q / P0 of the biases). 
 sets ``[filter.imu]`` (a model-mismatch study).
 
 One batch of runs flies the same analytic truth; per run, from its own Generator and in this order: IMU
-biases (6), measurement biases and initial error (3 + n), the measurement-bias drive (one 3-vector per
+biases (6), measurement biases and initial error (k + n, k = 3 or 0 measurement biases), the measurement-bias drive (one 3-vector per
 covariance step), the kind's extra draws (``extra_draws``), IMU sample 0; then per update interval the IMU
 block. Between updates the strapdown INS (``ins.mechanize``) and the covariance (``ErrorStateModel``, Van
 Loan, F held over one covariance step) advance together; the error, the filter 1-sigma and the NEES are
@@ -61,8 +61,8 @@ class FlightSpec:
     trajectory: Trajectory
     imu_truth: ImuSpec
     imu_rate: float  # [Hz]
-    bias_sigma: np.ndarray  # (3,) steady-state 1-sigma of the scalar measurement biases
-    bias_tau: np.ndarray  # (3,)
+    bias_sigma: np.ndarray  # (k,) steady-state 1-sigma of the scalar measurement biases (k = 3, or 0 for none)
+    bias_tau: np.ndarray  # (k,)
     p0_sigma: np.ndarray  # (n,) initial 1-sigma of the error state
     n_updates: int
     samples_per_update: int  # IMU samples per update interval
@@ -110,10 +110,11 @@ class ErrorStateFlight:
                                      spec.bias_sigma, spec.bias_tau)
         # --- per-run draws, fixed order ---
         ba, bg = imu.initial_biases(self.rngs)
-        w0 = np.stack([r.standard_normal(3 + L.n) for r in self.rngs])
-        bm0 = spec.bias_sigma * w0[:, :3]
-        dx0 = spec.p0_sigma * w0[:, 3:]
-        drive = np.stack([r.standard_normal((n_upd * self.steps, 3)) for r in self.rngs])
+        nb = len(spec.bias_sigma)  # 3 for telemetry and rda-nav; 0 for a filter without measurement biases
+        w0 = np.stack([r.standard_normal(nb + L.n) for r in self.rngs])
+        bm0 = spec.bias_sigma * w0[:, :nb]
+        dx0 = spec.p0_sigma * w0[:, nb:]
+        drive = np.stack([r.standard_normal((n_upd * self.steps, nb)) for r in self.rngs])
         self.extra = None if extra_draws is None else extra_draws(self.rngs)
         bm_path, bm_last = fogm_path(bm0, drive, *fogm_coefficients(spec.bias_sigma, spec.bias_tau, c * self.dt))
         self.bm_truth = np.concatenate([bm_path, bm_last[:, None]], axis=1)  # (R, T, 3)

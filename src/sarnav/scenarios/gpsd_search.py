@@ -1,0 +1,239 @@
+"""Scenario kind ``gpsd-search``: the velocity-offset search of Hathaway (2023) Alg. 3.3, its controls and searches
+that work (docs/quality.md §4-§6).
+
+Configuration and wiring; the search is ``sarnav.measurements.focus_search`` (``table41_rows``: Alg. 3.3 exactly,
+the controls, the spanning grid and Brent), the files and figures ``sarnav.report.quality_figures``. Scenarios:
+
+* ``gpsd-search``: a reduced Table 4.1 sweep (S_i = 500, L = 11, the ten sigma of Table 4.1, 5 spacings, one
+  noise realisation), about two minutes on 2 cores;
+* ``gpsd-search-table41``: the full Table 4.1 sweep (S_i in {100, 500, 1000}, L in {11, 22}, 10 sigma x 30
+  spacings); ``--runs 10`` gives the ten realisations of Figs. 4.22-4.24.
+
+``campaign.runs`` is the number of noise realisations (one noise vector per realisation and sigma, shared by the
+spacings: gap 13), ``campaign.seed`` their seed. Keys of ``[search]``: ``method`` (searches, each scored by
+``search.measure``: ``"source"`` the thesis' algorithm, ``"source-carry"`` the same grid keeping the chosen offsets
+(gap 10's other reading), ``"grid"`` and ``"brent"`` the searches spanning the bias), ``controls`` (``"one"``: L = 1,
+rho = 1 exactly; ``"oracle"``, ``"random"`` scorers on the thesis' grid), ``candidates`` (L, a list),
+``block_pulses`` (S_i, a list), ``initial_pulses`` (S_0), ``sigmas`` and ``spacings`` (how many of Table 4.1's
+linspace values), ``bias`` [m/sample], ``span_sigmas`` (the spanning searches cover +-(|b| + span_sigmas sigma /
+sqrt(S_i))), ``measure``.
+
+Files in ``--out``: ``rho.csv`` (columns exactly ``method, block_pulses, candidates, sigma, spacing, realisation,
+rho``), ``rho_diagnostics.csv`` (the same rows with scorer, coverage, agreement with the oracle, reach bound and the
+error of a failed run), ``search.json`` (per (S_i, L) and method: median, mean, range, per-sigma means; the failure
+analysis; the source's numbers) and ``figures/``.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sarnav.errors import ConfigError, require_finite
+from sarnav.imaging.quality import QUALITY_MEASURES
+from sarnav.measurements import focus_search as fs
+from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
+from sarnav.montecarlo.record import RunRecord
+from sarnav.scenarios.fields import get, table
+from sarnav.scenarios.quality_tables import (default_geometry, default_scene, int_list, integer, make_scene,
+                                             read_geometry, read_scene, str_list)
+
+__all__ = ["GpsdSearchKind", "default_config", "table41_config", "parse", "run_search_scenario", "SEARCH_METHODS",
+           "SEARCH_CONTROLS"]
+
+SEARCH_METHODS = ("source", "source-carry", "grid", "brent")
+SEARCH_CONTROLS = ("one", "oracle", "random")
+#: the thesis' numbers (L712, L722-724)
+SOURCE_RHO = {"min": 0.2735, "max": 2.7707, "per_sigma_mean_min": 0.8110, "per_sigma_mean_max": 1.3918}
+#: search runs that form images (controls need none): about 1 s each for S_i = 500 at 200 x 200 on 2 cores
+MAX_IMAGE_RUNS = 20_000
+
+
+def default_config() -> dict:
+    """``gpsd-search``: the reduced sweep (S_i = 500, L = 11, 10 sigma x 5 spacings, one realisation)."""
+    return {
+        "scenario": {"name": "gpsd-search", "kind": "gpsd-search",
+                     "description": "Hathaway 2023 Alg. 3.3 reduced Table 4.1 sweep, controls and searches that work"},
+        "campaign": {"runs": 1, "seed": 0},
+        "geometry": default_geometry(),
+        "scene": default_scene("point-clutter"),
+        "image": {"size": 200},
+        "search": {"method": ["source", "grid", "brent"], "controls": ["one", "oracle", "random"],
+                   "candidates": [11], "block_pulses": [500], "initial_pulses": 1000, "sigmas": 10, "spacings": 5,
+                   "bias": fs.TABLE41_BIAS, "span_sigmas": 3.0, "measure": "kurtosis"},
+    }
+
+
+def table41_config() -> dict:
+    """``gpsd-search-table41``: every (S_i, L) of Table 4.1, 10 sigma x 30 spacings (L656-666)."""
+    cfg = default_config()
+    cfg["scenario"]["description"] = "Hathaway 2023 Table 4.1: the full sweep (S_i 100/500/1000, L 11/22, 10 x 30)"
+    cfg["search"].update(candidates=[11, 22], block_pulses=[100, 500, 1000], spacings=30)
+    return cfg
+
+
+def _parse_search(cfg: dict, geo) -> dict:
+    table(cfg, "search")
+    s = {"methods": str_list("search.method", get(cfg, "search", "method"), SEARCH_METHODS, allow_empty=True),
+         "controls": str_list("search.controls", get(cfg, "search", "controls"), SEARCH_CONTROLS, allow_empty=True),
+         "candidates": int_list("search.candidates", get(cfg, "search", "candidates"), 1, 200),
+         "block_pulses": int_list("search.block_pulses", get(cfg, "search", "block_pulses"), 1, 100_000),
+         "initial_pulses": integer("search.initial_pulses", get(cfg, "search", "initial_pulses"), 1, 100_000),
+         "sigmas": integer("search.sigmas", get(cfg, "search", "sigmas"), 1, 100),
+         "spacings": integer("search.spacings", get(cfg, "search", "spacings"), 1, 300),
+         "bias": require_finite("search.bias", get(cfg, "search", "bias"), -1e-3, 1e-3, "m/sample"),
+         "span_sigmas": require_finite("search.span_sigmas", get(cfg, "search", "span_sigmas"), 0.0, 100.0),
+         "measure": get(cfg, "search", "measure")}
+    if s["measure"] not in QUALITY_MEASURES:
+        raise ConfigError("search.measure", f"must be one of {sorted(QUALITY_MEASURES)}, got {s['measure']!r}")
+    if not s["methods"] and not s["controls"]:
+        raise ConfigError("search.method", "and search.controls are both empty: nothing to run")
+    if s["initial_pulses"] >= geo.n_pulses:
+        raise ConfigError("search.initial_pulses", f"must be < geometry.n_pulses = {geo.n_pulses}, "
+                          f"got {s['initial_pulses']}")
+    left = geo.n_pulses - s["initial_pulses"]
+    for i, si in enumerate(s["block_pulses"]):
+        if si > left:
+            raise ConfigError(f"search.block_pulses[{i}]", f"a block of {si} pulses is longer than the {left} pulses "
+                              f"after the initial {s['initial_pulses']}; must be <= {left}")
+    if s["bias"] == 0.0 and s["sigmas"] < 1:  # pragma: no cover - sigmas >= 1 above
+        raise ConfigError("search.bias", "no noise to correct")
+    return s
+
+
+def parse(cfg: dict) -> dict:
+    """Checked content of a gpsd-search scenario; ConfigError names the first bad key and its range."""
+    runs, seed = validate_campaign(cfg)
+    geo = read_geometry(cfg)
+    prm = {"runs": runs, "seed": seed, "geometry": geo, "scene": read_scene(cfg, geo),
+           "size": integer("image.size", get(cfg, "image", "size"), 2, 400), "search": _parse_search(cfg, geo)}
+    s = prm["search"]
+    per = s["sigmas"] * (s["spacings"] * sum(m.startswith("source") for m in s["methods"])
+                         + sum(m in ("grid", "brent") for m in s["methods"]))
+    image_runs = runs * len(s["candidates"]) * len(s["block_pulses"]) * per
+    if image_runs > MAX_IMAGE_RUNS:
+        raise ConfigError("campaign.runs", f"{image_runs} search runs that form images; at most {MAX_IMAGE_RUNS} "
+                          "(fewer realisations, spacings, sigmas or configurations)")
+    work = image_runs * geo.n_pulses * prm["size"] ** 2 * 4
+    if work > 1e14:
+        raise ConfigError("image.size", f"{work:.3g} pixel-pulse moment evaluations; at most 1e14")
+    return prm
+
+
+def _rows(prm: dict, problem):
+    """Every row of the scenario, in order: per (S_i, L), the rows of ``focus_search.table41_rows``."""
+    s = prm["search"]
+    scorers = ([s["measure"]] if "source" in s["methods"] else []) + [c for c in ("oracle", "random")
+                                                                       if c in s["controls"]]
+    improved = tuple(m for m in s["methods"] if m in ("grid", "brent"))
+    sigmas = fs.table41_sigmas(s["sigmas"])
+    for si in s["block_pulses"]:
+        for L in s["candidates"]:
+            yield from fs.table41_rows(problem, si, L, realisations=range(prm["runs"]), seed=prm["seed"],
+                                       sigmas=sigmas, n_spacings=s["spacings"], bias=s["bias"], scorers=scorers,
+                                       improved=improved, span_sigmas=s["span_sigmas"],
+                                       carry="source-carry" in s["methods"], single="one" in s["controls"])
+
+
+def _summary(rows: list[dict], prm: dict, seconds: float) -> dict:
+    """Per (S_i, L): the failure analysis of ``focus_search.failure_analysis`` and per-sigma means; the source's
+    numbers; the widest reach bound; failed runs."""
+    out = {"source": SOURCE_RHO, "seconds": seconds, "rows": len(rows),
+           "failed_runs": [r for r in rows if r["error"]][:20], "configurations": {}}
+    for si in prm["search"]["block_pulses"]:
+        for L in prm["search"]["candidates"]:
+            sel = [r for r in rows if r["block_pulses"] == si and r["candidates"] in (L, 1)]
+            fa = fs.failure_analysis(sel)
+            per_sigma = {}
+            for lab in {r["method"] for r in sel if r["candidates"] == L}:
+                sig = sorted({r["sigma"] for r in sel if r["method"] == lab})
+                per_sigma[lab] = [float(np.nanmean([r["rho"] for r in sel if r["method"] == lab and r["sigma"] == x
+                                                    and r["candidates"] == L])) for x in sig]
+            reach = [r["reach"] for r in sel if r["method"] == "source" and np.isfinite(r["reach"])]
+            fa["per_sigma_mean"] = per_sigma
+            fa["source_reach_max"] = float(max(reach)) if reach else float("nan")
+            for lab in list(fa):
+                if isinstance(fa[lab], dict) and "rho" in fa[lab]:
+                    fa[lab].pop("rho")
+            out["configurations"][f"S_i={si},L={L}"] = fa
+    return out
+
+
+def _figures(rows, prm, figdir: Path) -> None:
+    from sarnav.report.quality_figures import (plot_failure, plot_methods, plot_noise_runs, plot_realisations,
+                                               plot_whiskers)
+
+    figdir.mkdir(exist_ok=True)
+    methods = ["source", "source-carry", "source-oracle", "source-random"]
+    s, geo = prm["search"], prm["geometry"]
+    k = min(3, s["sigmas"] - 1)  # Fig. 4.25: the fourth sigma, 3.266e-5 (L694)
+    sigma = float(fs.table41_sigmas(s["sigmas"])[k])
+    drifts = {r: fs.noise_drift(prm["seed"], r, k, s["sigmas"], geo.n_pulses, s["initial_pulses"], s["bias"], sigma)
+              for r in range(min(prm["runs"], 3))}
+    for si in s["block_pulses"]:
+        for L in s["candidates"]:
+            plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
+            plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")
+            plot_noise_runs(rows, si, L, sigma, drifts, figdir / f"fig4_25_Si{si}_L{L}.png")
+    plot_failure(rows, figdir / "failure_analysis.png")
+    plot_methods(rows, figdir / "methods.png")
+
+
+def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = False, quiet: bool = True) -> Path:
+    """Run the sweep into ``out`` (``INCOMPLETE`` until the end; ``rho.csv`` is written, through ``rho.csv.partial``,
+    only when every row is done, so an interrupted sweep never leaves a file that looks complete). Returns the path of
+    ``rho.csv``."""
+    from sarnav.montecarlo.outdir import OutputFolder, identity
+    from sarnav.report.quality_figures import write_rows_csv, write_strict_json
+
+    prm = parse(cfg)
+    out = Path(out)
+    with OutputFolder(out, identity(cfg), overwrite=overwrite):
+        marker = out / "INCOMPLETE"
+        marker.write_text("gpsd-search running\n")
+        t0 = time.perf_counter()
+        geo = prm["geometry"]
+        scene, rng, snr = make_scene(prm["scene"], geo)
+        problem = fs.search_problem(geo, scene, prm["size"], prm["search"]["initial_pulses"],
+                                    prm["search"]["measure"], snr, rng)
+        rows = []
+        for row in _rows(prm, problem):
+            rows.append(row)
+            if not quiet and len(rows) % 50 == 0:
+                print(f"gpsd-search: {len(rows)} runs, {time.perf_counter() - t0:.0f} s", flush=True)
+        path = write_rows_csv(rows, out / "rho.csv", fs.ROW_COLUMNS)
+        write_rows_csv(rows, out / "rho_diagnostics.csv", fs.ROW_COLUMNS + fs.DIAGNOSTIC_COLUMNS)
+        write_strict_json(_summary(rows, prm, time.perf_counter() - t0), out / "search.json")
+        if figures:
+            _figures(rows, prm, out / "figures")
+        marker.unlink()
+    return path
+
+
+class GpsdSearchKind(ScenarioKind):
+    """``gpsd-search``: the search sweep, run by :func:`run_search_scenario` (not through ``simulate``)."""
+
+    kind = "gpsd-search"
+
+    def default_config(self) -> dict:
+        return default_config()
+
+    def validate(self, cfg: dict) -> None:
+        parse(cfg)
+
+    def state_names(self, cfg: dict) -> list[str]:
+        return []
+
+    def meas_names(self, cfg: dict) -> list[str]:
+        return []
+
+    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
+        """``sarnav run gpsd-search``: the realisations run in this process (the compiled kernels use the cores)."""
+        return run_search_scenario(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False),
+                                   quiet=campaign_opts.get("quiet", True))
+
+    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
+        raise ConfigError("scenario.kind", "gpsd-search is a sweep: run it with sarnav run "
+                                           "(sarnav.scenarios.gpsd_search.run_search_scenario)")
