@@ -96,8 +96,10 @@ def test_the_other_old_files_run_with_one_notice_per_renamed_key(tmp_path, capsy
     assert main(argv) == 0
     notices = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("sarnav: notice: ")]
     renamed = [r for r in RENAMED if r.kind == kind]
+    retired = [f"sarnav: notice: {r.key}: the value of this file was the default of sarnav 0.2 and is dropped: {r.why}"
+               for r in RETIRED if r.kind == kind and f"{r.key.split('.')[-1]} =" in (OLD / f"{name}.toml").read_text()]
     assert notices == [f"sarnav: notice: {r.old} is now {r.new} (the old name is accepted until sarnav {UNTIL})"
-                       for r in renamed]
+                       for r in renamed] + retired
     if kind == "study":
         cases = json.loads((out / "study.json").read_text())["cases"]
         assert cases and all((out / c["label"] / "summary.json").exists() for c in cases)

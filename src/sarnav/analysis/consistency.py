@@ -219,8 +219,8 @@ def summarize(ds, confidence: float = 0.95) -> dict:
         res = residual_statistics(ds["residual"].values, ds["residual_sigma"].values)
         out["nis"] = {
             "fraction_in_band": nis["fraction_in_band"],
-            "mean_over_updates": float(np.nanmean(nis["mean"])),
-            "expected_over_updates": float(np.nanmean(nis["expected"])),
+            "mean_over_updates": _finite_mean(nis["mean"]),
+            "expected_over_updates": _finite_mean(nis["expected"]),
             "per_dof": nis["per_dof"],
             "per_dof_band": nis["per_dof_band"],
             "total_dof": nis["total_dof"],
@@ -247,6 +247,13 @@ def summarize(ds, confidence: float = 0.95) -> dict:
         out["focus"] = focus_statistics(ds, confidence)
     out.update(consistency_verdict(error, sigma, out["nees"]))
     return strict(out)
+
+
+def _finite_mean(values) -> float:
+    """Mean of the finite values; NaN (undefined in summary.json) when there are none."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    return float(v.mean()) if v.size else float("nan")
 
 
 #: a campaign whose pooled fraction of error samples inside +-3 sigma is below this is reported inconsistent

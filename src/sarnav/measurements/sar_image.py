@@ -426,7 +426,7 @@ class SubApertureImager:
                     self._measure_bpa(u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, map_targets[k], out)
                 else:
                     self._measure_rda(u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, map_targets[k], out)
-            except (InputDataError, np.linalg.LinAlgError) as err:  # one bad image never aborts the campaign
+            except (InputDataError, ConfigError, np.linalg.LinAlgError) as err:  # one bad image never aborts a campaign
                 out.status[r, k] = 1 if getattr(err, "field", "") in ("rc", "sar", "speed") else 2
                 out.toc[r, k] = out.range[r, k] = np.nan
 

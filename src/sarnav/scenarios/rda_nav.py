@@ -53,7 +53,7 @@ from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, doppler_prf_check, filter_imu_keys,
+from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
@@ -374,8 +374,7 @@ def _parse_radar(cfg: dict, proto) -> RadarParams:
         raise ConfigError("radar.prf_hz", f"a 1-s sub-aperture of {round(radar.prf)} pulses x "
                           f"{radar.n_range_samples} range samples is {size:.3g} samples; at most {MAX_ECHO_SAMPLES:.0e} "
                           "(lower radar.prf_hz or radar.sample_rate_mhz, or narrow the scene's ground-range band)")
-    doppler_prf_check(radar, proto.trajectory.speed)
-    return radar
+    return radar  # the PRF against the Doppler band: scenarios.error_state (only when images are formed)
 
 
 @dataclass(frozen=True)

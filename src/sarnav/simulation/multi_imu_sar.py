@@ -52,7 +52,7 @@ from sarnav.filters.layout import ErrorStateLayout
 from sarnav.filters.pulse_grid import FixStream, ImuStream, NavFrame, uniform_times
 from sarnav.ins.state import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
-from sarnav.measurements.sar_image import SubApertureImager
+from sarnav.measurements.sar_image import AperturePasses, SubApertureImager
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import nav_paper_sim
@@ -143,7 +143,8 @@ def _scene_factory(setup: SarFixSetup, targets):
         rng = np.random.default_rng(np.random.SeedSequence(key))
         clutter = clutter_beside_track(rng, origin, 0.0, setup.speed, u, (0.1, 0.9), setup.ground_range,
                                        setup.clutter)
-        return point_targets(targets[u][None, :], setup.reflector_amplitude) + clutter
+        scene = point_targets(targets[u][None, :], setup.reflector_amplitude) + clutter
+        return AperturePasses(scene, scene)  # the reference pass is the same pass (rda-nav's default)
 
     return scene_for
 
@@ -263,8 +264,10 @@ def _measure_sar(setup, imager, models, u, sensors, truth_traj, noise_rng):
     vel = np.concatenate([np.stack([n[1] for n in now])[:, None, None], vel], axis=2)
     speed_sigma = np.array([_speed_sigma(trial)])
     am = imager.measure(u, ap_t, pos.mean(axis=0), vel.mean(axis=0), speed_sigma)
-    z = np.array([am.range[0], 0.0])  # cross-range: 0 at zero Doppler
-    return z, float(am.toc[0]), (float(am.range[0] - r_true), setup.speed * float(am.toc[0] - eta_true))
+    if am.status[0, 0] != 0:  # a failed image or a refused match: no fix this second
+        return np.full(2, np.nan), float("nan"), (np.nan, np.nan)
+    z = np.array([am.range[0, 0], 0.0])  # cross-range: 0 at zero Doppler
+    return z, float(am.toc[0, 0]), (float(am.range[0, 0] - r_true), setup.speed * float(am.toc[0, 0] - eta_true))
 
 
 def _speed_sigma(filters) -> float:
@@ -344,9 +347,11 @@ def _one_run(setup: SarFixSetup, seed):
     imager = None
     if setup.fix_source == "sar":
         cseed = int(_rngs([seed], 50)[0].integers(2**63))
-        imager = SubApertureImager(setup.radar, traj, setup.speed, targets, _scene_factory(setup, targets),
-                                   setup.reflector_amplitude, setup.snr_db, setup.scene_seed, [cseed],
-                                   [cseed] if setup.clutter_per_run else None)
+        imager = SubApertureImager(radar=setup.radar, truth=traj, targets=targets,
+                                   scene_for=_scene_factory(setup, targets),
+                                   reflector_amplitude=setup.reflector_amplitude, snr_db=setup.snr_db,
+                                   reference_seed=setup.scene_seed, noise_seeds=[cseed],
+                                   clutter_seeds=[cseed] if setup.clutter_per_run else None)
     sigma = np.r_[setup.sar_sigma, setup.alt_sigma]
     idx = np.zeros((1, setup.n_draws, 3), dtype=np.int64)
     idx[:] = (np.arange(setup.n_draws) % len(sensors))[None, :, None]  # equal draws before the first fix
@@ -359,6 +364,11 @@ def _one_run(setup: SarFixSetup, seed):
         else:
             models = _sar_models(targets[u], setup.sar_sigma, setup.alt_sigma)
             z, eta[u], reg[u] = _measure_sar(setup, imager, models, u, sensors, traj, rng_meas)
+            if not np.all(np.isfinite(z)):  # no fix: fly the second on the IMUs alone
+                for s in sensors:
+                    s.pf.run(s.imu, u + 1.0)
+                _record(sensors, traj, u + 1.0, idx, rec, covs)
+                continue
             for s in sensors:
                 if eta[u] > s.pf.t + 1e-9:  # the TOC lies inside the aperture (u, u + 1)
                     s.pf.run(s.imu, eta[u])
