@@ -238,7 +238,10 @@ def summarize(ds, confidence: float = 0.95) -> dict:
         }
     if "registration_error" in ds:
         pred = ds["registration_sigma"].values if "registration_sigma" in ds else None
-        out["registration"] = registration_statistics(ds["registration_error"].values, meas, m_units, pred)
+        reg = ds["registration_error"].values
+        if "update_rejected" in ds:  # the statistics of the images fused (a refused match is recorded, not fused)
+            reg = np.where((ds["update_rejected"].values != 0)[..., None], np.nan, reg)
+        out["registration"] = registration_statistics(reg, meas, m_units, pred)
     if "update_rejected" in ds:
         out["sar_updates"] = rejection_counts(ds["update_rejected"], ds["pairs_fused"] if "pairs_fused" in ds else None)
     if "focus_error" in ds:  # quality-nav: the focus fixes against their sigma and mapdrift (analysis.focus_nav)

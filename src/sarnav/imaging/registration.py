@@ -341,8 +341,9 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     the pixels where the template stands 10 dB above the noise (where ``Re(n exp(-j phi))`` is the magnitude noise and
     its variance is ``(N_image + a^2 N_reference) / 2``) is compared with that expectation: a ratio kappa significantly
     above 1 (beyond three standard errors of a noise-only ratio, ``sqrt(2 / n)`` over n pixels) scales the
-    prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum (docs/scenarios/rda-nav.md
-    §3)."""
+    prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum; and the gradient energy
+    becomes the part the two images share, ``sum g_ref g_image`` (decorrelated texture gives the template gradients
+    the other image does not have: they carry no information on the shift) (docs/scenarios/rda-nav.md §3)."""
     from scipy import ndimage
 
     ref = np.asarray(reference, dtype=np.complex128)
@@ -354,18 +355,29 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     cs = ndimage.shift(np.abs(ref), shift, order=3, mode="nearest")
     A = np.column_stack([cs.ravel(), np.ones(cs.size)])
     (a, b), *_ = np.linalg.lstsq(A, np.abs(img).ravel(), rcond=None)
-    scale = mismatch_ratio(np.abs(img) - a * cs - b, cs, a, noise_reference[0].power, noise_image[0].power) if mismatch \
-        else 1.0
+    if mismatch:  # the residual of the complex-shifted template: the magnitude's own interpolation error is no mismatch
+        cz = np.abs(shifted)
+        (az, bz), *_ = np.linalg.lstsq(np.column_stack([cz.ravel(), np.ones(cz.size)]), np.abs(img).ravel(), rcond=None)
+        scale = mismatch_ratio(np.abs(img) - az * cz - bz, cz, az, noise_reference[0].power, noise_image[0].power)
+    else:
+        scale = 1.0
     out = []
     for axis in (0, 1):
         g = a * _spline_gradient(np.abs(ref), shift, axis)
         num = 0.5 * noise_image[0].quadratic(g * np.exp(1j * np.angle(img)), noise_image[1])
         num += 0.5 * a * a * noise_reference[0].quadratic(g * np.exp(1j * np.angle(shifted)), noise_reference[1])
         energy = float(np.sum(g * g))
+        if scale > 1.0:  # mismatched pair: only the gradient both images share informs the shift
+            energy = min(energy, max(float(np.sum(g * _spline_gradient(np.abs(img), (0.0, 0.0), axis))), 0.0))
         out.append(np.sqrt(max(num * scale, 0.0)) / energy if energy > 0 else np.inf)
     return float(out[0]), float(out[1])
 
 
+
+#: the residual power must exceed the receiver noise's by this factor (a mismatch at least as strong as the noise:
+#: an image pair focused differently, e.g. with the estimated speed against the true one, leaves a residual of the
+#: same order that moves the shift little; measured over the rda-nav variants, docs/scenarios/rda-nav.md §3)
+MISMATCH_KAPPA = 2.0
 #: a pixel counts as bright (first-order magnitude noise) where the template's power is this many times the noise
 BRIGHT_FACTOR = 10.0
 
@@ -373,14 +385,15 @@ BRIGHT_FACTOR = 10.0
 def mismatch_ratio(residual, template, a: float, n_reference: float, n_image: float) -> float:
     """kappa (>= 1) of :func:`magnitude_shift_precision`: the residual power over the bright pixels (template power >
     ``BRIGHT_FACTOR`` x the noise) against the receiver noise's expectation ``(N_image + a^2 N_reference) / 2``
-    there; 1 unless it exceeds 1 by three standard errors ``3 sqrt(2 / n)`` (n bright pixels, at least 8)."""
+    there; 1 unless it exceeds both ``MISMATCH_KAPPA`` and 1 + three standard errors ``3 sqrt(2 / n)`` (n bright
+    pixels, at least 8)."""
     bright = template**2 > BRIGHT_FACTOR * n_reference
     n = int(np.count_nonzero(bright))
     expected = 0.5 * (n_image + a * a * n_reference)
     if n < 8 or not expected > 0:
         return 1.0
     kappa = float(np.mean(residual[bright] ** 2)) / expected
-    return kappa if kappa > 1.0 + 3.0 * math.sqrt(2.0 / n) else 1.0
+    return kappa if kappa > max(MISMATCH_KAPPA, 1.0 + 3.0 * math.sqrt(2.0 / n)) else 1.0
 
 
 def distinctness(surface: np.ndarray, exclude: tuple[int, int]) -> float:
