@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/bench_rda_nav.py                       # 4 runs x 50 s, paper sim
     python benchmarks/bench_rda_nav.py --runs 8 --duration 20 --scenario flexsar
+    python benchmarks/bench_rda_nav.py --runs 2 --duration 20 --scenario terrain   # the terrain scene's cost
 
 Times (wall clock, one process, after a 1-run warm-up that compiles the numba kernels):
 
@@ -32,7 +33,7 @@ from sarnav.scenarios import rda_nav as rn
 
 
 def _cfg(scenario: str, duration: float, mode: str) -> dict:
-    cfg = rn.flexsar_config() if scenario == "flexsar" else rn.default_config()
+    cfg = {"flexsar": rn.flexsar_config, "terrain": rn.terrain_config}.get(scenario, rn.default_config)()
     cfg["trajectory"]["duration"] = float(duration)
     cfg["sar"]["measurement"] = mode
     return cfg
@@ -49,7 +50,7 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=4)
     ap.add_argument("--duration", type=float, default=50.0)
-    ap.add_argument("--scenario", choices=("paper", "flexsar"), default="paper")
+    ap.add_argument("--scenario", choices=("paper", "flexsar", "terrain"), default="paper")
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
 
