@@ -42,7 +42,9 @@ def test_t19_closed_and_open_loop_agree_on_the_same_updates(loops):
         s_img = np.std(np.stack([r.error[k] for r in img]), axis=0, ddof=1)
         s_orc = np.std(np.stack([r.error[k] for r in orc]), axis=0, ddof=1)
         p_img, p_orc = np.mean([r.sigma[k] for r in img], 0), np.mean([r.sigma[k] for r in orc], 0)
-        np.testing.assert_allclose(p_img, p_orc, rtol=1e-6)  # same geometry, R and D: same predicted sigma
+        # same geometry, R and D: the same predicted sigma up to the linearisation point; the two loops' estimates
+        # differ by ~100 m at 861 km of slant range, so H (and P) differ by ~1e-4 relative (measured 1.2e-4)
+        np.testing.assert_allclose(p_img, p_orc, rtol=1e-3)
         assert np.all((s_img / s_orc > 0.5) & (s_img / s_orc < 2.0))
 
 
