@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from typing import Iterator, Sequence
 
 import numpy as np
@@ -110,6 +112,25 @@ def _limit_worker_threads(threads: int) -> None:
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     except ImportError:  # pragma: no cover
         pass
+
+
+@contextmanager
+def _children_start_with_sigint_blocked():
+    """Processes started inside (the pool's workers and multiprocessing's resource tracker, both spawned from this
+    thread by ``submit``) inherit SIGINT blocked: the signal mask survives fork and exec (POSIX). Without it a ^C to
+    the process group that arrives while a child is still importing ``multiprocessing`` (before the worker initializer
+    ignores SIGINT) prints that child's KeyboardInterrupt traceback (seen once on a loaded 2-core machine,
+    tests/cli/test_signals.py). The main process decides what a SIGINT means and terminates the workers; in this thread
+    the signal stays pending while blocked and is delivered when the block ends (or at once to another thread:
+    Python runs its handler in the main thread either way), so none is lost."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
@@ -256,7 +277,8 @@ class ChunkRunner:
         clean = False
         pending = {}
         try:
-            pending = {pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
+            with _children_start_with_sigint_blocked():
+                pending = {pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
