@@ -116,6 +116,9 @@ RUN_TIME_LIMITS = {
     "telemetry": [("initial", "not positive definite")],
     # the measured image peak (not the predicted one validation checks) falls outside the aperture
     "bpa-sensitivity": [("errors.", "outside the")],
+    # a large truth misalignment random walk (truth.misalignment_psd, drawn per run) can swing the boresight off the
+    # Earth during the run
+    "spacecraft": [("antenna.look_angle_deg", "misses the WGS-84 ellipsoid")],
 }
 #: findings of this property waiting for a fix elsewhere: accepted here, counted apart and printed (none now: rda-nav's
 #: receive window follows the geometry and a failed image is a skipped update, issue 10)

@@ -113,7 +113,7 @@ def boresight_intersection(r, T_es):
     """Near intersection of the antenna boresight with the WGS-84 ellipsoid (module docstring) (R, 3) [m].
 
     r : (R, 3) ECEF position; T_es : (R, 3, 3) ECEF -> antenna DCM (the boresight is its third row).
-    Raises ConfigError("antenna.look_angle") when the ray misses the Earth.
+    Raises ConfigError("antenna.look_angle_deg") when the ray misses the Earth.
     """
     r = np.asarray(r, dtype=float)
     u = np.asarray(T_es, dtype=float)[..., 2, :]
@@ -123,11 +123,11 @@ def boresight_intersection(r, T_es):
     C = (r[:, 0] ** 2 + r[:, 1] ** 2) / a2 + r[:, 2] ** 2 / b2 - 1.0
     disc = B * B - A * C
     if np.any(disc < 0) or np.any(C <= 0):
-        raise ConfigError("antenna.look_angle", "the boresight misses the WGS-84 ellipsoid (or the spacecraft is "
+        raise ConfigError("antenna.look_angle_deg", "the boresight misses the WGS-84 ellipsoid (or the spacecraft is "
                           "inside it): reduce the look angle below the Earth's limb (~64 deg from nadir at 700 km)")
     t = (-B - np.sqrt(disc)) / A
     if np.any(t <= 0):
-        raise ConfigError("antenna.look_angle", "the boresight points away from the Earth")
+        raise ConfigError("antenna.look_angle_deg", "the boresight points away from the Earth")
     return r + t[:, None] * u
 
 

@@ -36,6 +36,9 @@ __all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "
 
 #: largest particle count of any filter (memory: runs x particles x 6 floats per filter)
 MAX_PARTICLES = 100_000
+#: smallest particle count: the filters use the cloud's covariance (the Gaussian-PF update and the NEES of the
+#: 6-D [p, v] cloud), which is singular below d + 1 = 7 particles
+MIN_PARTICLES = 7
 
 
 def integer(cfg: dict, name: str, key: str, lo: int, hi: int) -> int:
@@ -212,7 +215,7 @@ class MultiImuPath1Kind(SourceKind):
         if settle > duration - 1.0 / rate:
             raise ConfigError("filter.settle_s", f"must leave at least one epoch before path.duration = {duration} s, "
                               f"got {settle}")
-        return Path1Params(runs, duration, sig, rate, integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
+        return Path1Params(runs, duration, sig, rate, integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                            number(cfg, "filter", "accel_psd", 1e-8, 1e4, "m^2/s^3"), settle,
                            number(cfg, "fusion", "fix_sigma_m", 1e-4, 100.0, "m"),
                            integer(cfg, "fusion", "n_draws", 1, 10_000), _bool(cfg, "fusion", "per_axis"))
@@ -299,7 +302,7 @@ class MultiImuKind(SourceKind):
         bias = bounded_vector(cfg, "fix", "bias_m", -100.0, 100.0)
         return MultiImuParams(runs, duration, number(cfg, "flight", "speed", 5.0, 150.0, "m/s"),
                               integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)), sig, bias,
-                              _bool(cfg, "fix", "shared"), integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
+                              _bool(cfg, "fix", "shared"), integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                               number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6), settle,
                               integer(cfg, "fusion", "n_draws", 1, 10_000), _bool(cfg, "fusion", "per_axis"),
                               _bool(cfg, "fusion", "virtual_imu"), int(stride))
@@ -395,7 +398,7 @@ class UpfFlightKind(SourceKind):
         sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0)
         return UpfParams(runs, duration, number(cfg, "flight", "speed", 5.0, 150.0, "m/s"),
                          number(cfg, "flight", "climb_rate", 0.0, 20.0, "m/s"), choice(cfg, "imu", "preset", IMU_PRESETS),
-                         imu_rate, sig, fix_rate, integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
+                         imu_rate, sig, fix_rate, integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                          number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6),
                          choice(cfg, "filter", "noise_at", ("fix", "imu")), settle, out_rate, rec)
 

@@ -18,7 +18,7 @@ from sarnav.errors import ConfigError, require_finite
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, SOURCE_ATTRS, SourceKind, bounded_vector, choice, integer, number
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SOURCE_ATTRS, SourceKind, bounded_vector, choice, integer, number
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS
 from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_UPDATES, SarFixSetup, run_sar_fix, sensor_names
@@ -105,7 +105,7 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
         gps_sigma=bounded_vector(cfg, "fix", "gps_sigma_m", 1e-3, 100.0),
         gps_rate=number(cfg, "fix", "gps_rate_hz", 1.0, 100.0, "Hz"),
         n_adis=integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)),
-        n_particles=integer(cfg, "filter", "n_particles", 1, MAX_PARTICLES),
+        n_particles=integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
         psd_scale=number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6),
         n_draws=integer(cfg, "fusion", "n_draws", 1, 10_000), per_axis=_bool(cfg, "fusion", "per_axis"),
         p0_sigma=tuple(x / 3.0 for x in p3 + v3), update=choice(cfg, "filter", "sar_update", SAR_UPDATES))

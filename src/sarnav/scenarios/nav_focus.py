@@ -26,8 +26,8 @@ from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, SourceKind, bounded_vector, integer, number, records
-from sarnav.scenarios.vocabulary import make_radar, radar_fields
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind, bounded_vector, integer, number, records
+from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES, source_records
 from sarnav.simulation.multi_imu import NAV_SOURCES
 from sarnav.simulation.nav_focus import FOCUS_METRICS, FocusGeometry, run_focus
@@ -127,6 +127,7 @@ def parse(cfg: dict) -> FocusParams:
     n_pulses = integer(cfg, "aperture", "n_pulses", 16, 30_000)
     reflectors = _reflectors(cfg)
     radar = _radar(cfg, reflectors, height, speed, n_pulses)
+    doppler_prf_check(radar, speed)  # show refuses what the echo simulation would, as radar.prf_hz
     spacing = number(cfg, "image", "spacing_m", 1e-3, 1.0, "m")
     chip = number(cfg, "image", "chip_half_m", 0.05, 20.0, "m")
     if chip / spacing < 8 or chip / spacing > 500:
@@ -136,8 +137,8 @@ def parse(cfg: dict) -> FocusParams:
     tau = number(cfg, "navigation", "fix_correlation_time_s", 1.0, 1e6, "s")
     geo = FocusGeometry(radar=radar, speed=speed, run_in=run_in, n_pulses=n_pulses, reflectors=reflectors,
                         antenna_height=height, chip_half=chip, spacing=spacing)
-    return FocusParams(runs, geo, _sources(cfg), integer(cfg, "navigation", "n_particles", 1, MAX_PARTICLES),
-                       integer(cfg, "navigation", "adis_particles", 1, MAX_PARTICLES), sig, corr, tau)
+    return FocusParams(runs, geo, _sources(cfg), integer(cfg, "navigation", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
+                       integer(cfg, "navigation", "adis_particles", MIN_PARTICLES, MAX_PARTICLES), sig, corr, tau)
 
 
 class NavFocusKind(SourceKind):

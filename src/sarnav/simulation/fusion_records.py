@@ -53,7 +53,19 @@ def filter_nees(errors, covariances) -> np.ndarray:
     P = np.asarray(covariances, dtype=float)
     if P.shape != e.shape + (3,):
         raise InputDataError("covariances", f"need shape {e.shape + (3,)}, got {P.shape}")
-    return np.einsum("frki,frki->frk", e, np.linalg.solve(P, e[..., None])[..., 0])
+    try:
+        return np.einsum("frki,frki->frk", e, np.linalg.solve(P, e[..., None])[..., 0])
+    except np.linalg.LinAlgError:
+        pass
+    # a particle cloud collapsed onto fewer than 4 distinct points (resampling faster than its process noise spreads
+    # it) has a singular covariance: the NEES is undefined there (NaN), the other epochs keep their values
+    out = np.full(e.shape[:-1], np.nan)
+    for idx in np.ndindex(*e.shape[:-1]):
+        try:
+            out[idx] = e[idx] @ np.linalg.solve(P[idx], e[idx])
+        except np.linalg.LinAlgError:
+            pass
+    return out
 
 
 def stacked_nees(errors, covariances) -> np.ndarray:

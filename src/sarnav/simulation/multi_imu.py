@@ -30,7 +30,7 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters.fusion import cloud_mean, draw_sensors, mean_fuse, sensor_log_weights, virtual_imu
 from sarnav.filters.grid_kalman import GridKalmanFilter
 from sarnav.filters.grid_particle import GridParticleFilter
-from sarnav.filters.pulse_grid import FixStream, GridOutput, ImuStream, NavFrame, uniform_times
+from sarnav.filters.pulse_grid import TIME_TOLERANCE, FixStream, GridOutput, ImuStream, NavFrame, uniform_times
 from sarnav.frames.wgs84 import geodetic_difference_ned, ned_offset_to_geodetic
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors import ImuModel, imu_grade
@@ -576,7 +576,14 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
     t_nov = uniform_times(0.0, t_end, 200.0)
     nov = rig_imu(geo, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), _rngs(seqs, 2))
     q_nov = spec_accel_psd("novatel-isa-100c", 200.0) if accel_psd == "spec" else float(accel_psd)
-    both = np.union1d(pulse_times, t_nov[(t_nov >= pulse_times[0] - 0.05) & (t_nov <= pulse_times[-1] + 0.05)])
+    t_win = t_nov[(t_nov >= pulse_times[0] - 0.05) & (t_nov <= pulse_times[-1] + 0.05)]
+    # the filters' grid merges epochs closer than TIME_TOLERANCE (filters.pulse_grid): an IMU sample that close to a
+    # pulse is the pulse's epoch, or the outputs would not line up with these times
+    j = np.clip(np.searchsorted(pulse_times, t_win), 1, pulse_times.size - 1) if pulse_times.size > 1 else None
+    if j is not None:
+        gap = np.minimum(np.abs(t_win - pulse_times[j - 1]), np.abs(t_win - pulse_times[j]))
+        t_win = t_win[gap > TIME_TOLERANCE]
+    both = np.union1d(pulse_times, t_win)
     at_pulse = np.searchsorted(both, pulse_times)
     want = set(sources)
     res = NavSources(out, fixes.times[1:])

@@ -232,9 +232,9 @@ def antenna_dcm(look_angle: float, squint: float = 0.0):
     """T_b^s (3, 3): body -> nominal antenna; boresight z_s at ``look_angle`` [rad] from nadir toward +y_b (right),
     turned by ``squint`` [rad] toward +x_b (gap G3)."""
     if not (math.isfinite(look_angle) and 0.0 <= look_angle < math.pi / 2):
-        raise ConfigError("antenna.look_angle", f"must be in [0, pi/2) rad from nadir, got {look_angle!r}")
+        raise ConfigError("antenna.look_angle_deg", f"must be in [0, 90) deg from nadir, got {math.degrees(look_angle)!r}")
     if not (math.isfinite(squint) and abs(squint) < math.pi / 2):
-        raise ConfigError("antenna.squint", f"must be in (-pi/2, pi/2) rad, got {squint!r}")
+        raise ConfigError("antenna.squint_deg", f"must be in (-90, 90) deg, got {math.degrees(squint)!r}")
     c, s = math.cos(look_angle), math.sin(look_angle)
     look = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
     cq, sq = math.cos(squint), math.sin(squint)
