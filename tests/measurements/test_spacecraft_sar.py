@@ -39,7 +39,7 @@ def test_boresight_hits_houston_on_the_ellipsoid(scene):
 
 def test_look_that_misses_the_earth_is_a_config_error(scene):
     truth, T_eb = scene
-    with pytest.raises(ConfigError, match="antenna.look_angle"):
+    with pytest.raises(ConfigError, match=r"^antenna\.look_angle_deg: "):  # the user's key
         boresight_intersection(truth.r, (antenna_dcm(math.radians(70.0)) @ T_eb)[None])
 
 

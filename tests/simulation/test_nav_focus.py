@@ -166,3 +166,17 @@ def test_navigation_source_focus_ranking_T30_T32(model):
         assert all(m[s][kurt] > 0.8 * m["truth"][kurt] for s in ("upf", "kf-interp")), info  # near-ideal response
         assert m["kf-interp"][off] > 0.1, info  # translated by the correlated fix error
         assert m["sir-3adis"][kurt] < 0.8 * m["novatel"][kurt], info  # T32 not met: the SIR switches sensors
+
+
+def test_a_pulse_within_the_grid_tolerance_of_an_imu_sample_lines_up_with_the_filter_outputs():
+    """The filters' grid merges epochs closer than TIME_TOLERANCE; pulses 1e-10 s off two 200 Hz IMU samples used to
+    give fewer outputs than requested times and an IndexError in spline-kf (found by the reader property)."""
+    from sarnav.simulation.multi_imu import navigation_sources
+
+    pulses = 2.0 + np.arange(40) / 400.0  # every other pulse on a 200 Hz IMU epoch
+    pulses[[4, 10]] += 1e-10
+    res = navigation_sources(pulses, runs=1, seed=5, sources=("truth", "kf-interp", "spline-kf"))
+    for name in ("kf-interp", "spline-kf"):
+        p = res.positions[name]
+        assert p.shape == (1, pulses.size, 3) and np.all(np.isfinite(p))
+        assert np.max(np.abs(p - res.positions["truth"])) < 5.0  # a navigation solution, not garbage
