@@ -67,9 +67,10 @@ DX_123 = np.concatenate([
 ])[None]
 
 
-def _propagate(traj, dx0, horizon, rate=1000.0, sub=10, layout=L18, tau=TAU):
+def _propagate(traj, dx0, horizon, rate=1000.0, sub=10, layout=L18, tau=TAU, earth_rate=None):
     """Nonlinear error (truth vs INS from m(x, dx0), noise-free IMU with truth biases) and the
-    linear prediction Phi dx0 with Phi from F along the estimate (closed-form steps of sub samples)."""
+    linear prediction Phi dx0 with Phi from F along the estimate (closed-form steps of sub samples; with
+    ``earth_rate`` the truth IMU, the INS and F all see the rotating tangent frame)."""
     runs = dx0.shape[0]
     t = np.arange(int(round(horizon * rate)) + 1) / rate
     s = traj.state(t)
@@ -78,15 +79,15 @@ def _propagate(traj, dx0, horizon, rate=1000.0, sub=10, layout=L18, tau=TAU):
                       np.repeat(s.quaternion[:1], runs, 0), b_truth[:, :3], b_truth[:, 3:], np.zeros((runs, 3)))
     nav = corrupt_state(truth0, dx0, layout)
     decay = np.exp(-t / tau)[None, :, None]
-    nu = traj.specific_force(t)[None] + truth0.ba[:, None] * decay
-    om = traj.angular_rate(t)[None] + truth0.bg[:, None] * decay
-    model = ErrorStateModel(layout, 0.0, 0.0, 0.0, 0.0, tau, tau, (0.0,) * 3, (tau,) * 3)
+    nu = traj.specific_force(t, earth_rate)[None] + truth0.ba[:, None] * decay
+    om = traj.angular_rate(t, earth_rate)[None] + truth0.bg[:, None] * decay
+    model = ErrorStateModel(layout, 0.0, 0.0, 0.0, 0.0, tau, tau, (0.0,) * 3, (tau,) * 3, earth_rate=earth_rate)
     Phi = np.broadcast_to(np.eye(layout.n), (runs, layout.n, layout.n)).copy()
     hist = None
     for k0 in range(0, t.size - 1, sub):
         q_start = nav.q
         nav, f_mean, hist = mechanize(nav, t[k0:k0 + sub + 1], nu[:, k0:k0 + sub + 1], om[:, k0:k0 + sub + 1],
-                                      tau, tau, (tau,) * 3, hist)
+                                      tau, tau, (tau,) * 3, hist, earth_rate=earth_rate)
         T = quat_to_dcm(quat_normalize(q_start + nav.q))  # attitude at mid-step
         step, _ = model.discretize(T, f_mean, sub / rate)
         Phi = step @ Phi
@@ -115,8 +116,14 @@ def test_table_a5_linear_vs_nonlinear_propagation():
     np.testing.assert_allclose(lin[:9], table_lin, atol=0.03)
 
 
-@pytest.mark.parametrize("kind", ["straight", "maneuver"])
-def test_F_matches_finite_differences_of_nonlinear_propagation(kind):
+#: a planet spinning 100x faster than the Earth (at 40 deg latitude): its terms in Phi over 0.2 s (~1e-3) stand far
+#: above the finite-difference tolerance, so a wrong sign or a missing factor 2 fails; the real Earth's would not
+FAST_SPIN = 100.0 * 7.292115e-5 * np.array([np.cos(0.7), 0.0, -np.sin(0.7)])
+
+
+@pytest.mark.parametrize("kind,earth", [("straight", None), ("maneuver", None), ("straight", FAST_SPIN),
+                                        ("maneuver", FAST_SPIN)])
+def test_F_matches_finite_differences_of_nonlinear_propagation(kind, earth):
     if kind == "straight":
         traj = StraightLevel([1000.0, 0.0, -500.0], 50.0, 0.4, 3.0)
     else:
@@ -136,14 +143,14 @@ def test_F_matches_finite_differences_of_nonlinear_propagation(kind):
             def state(self, t):
                 return offset.state(np.asarray(t) + 11.0)
 
-            def specific_force(self, t):
-                return offset.specific_force(np.asarray(t) + 11.0)
+            def specific_force(self, t, earth_rate=None):
+                return offset.specific_force(np.asarray(t) + 11.0, earth_rate)
 
-            def angular_rate(self, t):
-                return offset.angular_rate(np.asarray(t) + 11.0)
+            def angular_rate(self, t, earth_rate=None):
+                return offset.angular_rate(np.asarray(t) + 11.0, earth_rate)
 
         traj = Shifted()
-    lin, nl, Phi = _propagate(traj, dx, horizon, rate=1000.0, sub=1)
+    lin, nl, Phi = _propagate(traj, dx, horizon, rate=1000.0, sub=1, earth_rate=earth)
     J = (nl[:n] - nl[n:2 * n]).T / (2 * steps)
     scale = np.maximum(1.0, np.abs(Phi[-1]))
     np.testing.assert_allclose(J / scale, Phi[-1] / scale, atol=2e-6)

@@ -7,6 +7,12 @@ Error state (truth minus estimate; attitude per eq. 4.8) in an :class:`ErrorStat
     d(dth)/dt = T db_g + T n_omega                                                  (eq. 3.8, B.17)
     d(db)/dt  = -db/tau + w_b    for every FOGM bias                                (eq. 3.9)
 
+On an Earth-fixed tangent frame that turns at ``omega_ie^t`` (``earth_rate``; ``frames.ned``, Groves 2008 §5.3 /
+§14.2.3 in a local tangent frame) two terms join: ``d(dv)/dt += -2 [omega_ie x] dv`` (Coriolis) and
+``d(dth)/dt += -[omega_ie x] dth`` (the frame's turn; nav-frame attitude error). The closed form below does not
+cover them; :meth:`ErrorStateModel.discretize` then uses Van Loan (on sub-steps no longer than the shortest
+correlation time, where its exp(+s/tau) blocks stay well conditioned).
+
 ``Q = diag(vrw^2 I3, arw^2 I3, 2 sigma_a^2/tau_a I3, 2 sigma_g^2/tau_g I3, 2 sigma_i^2/tau_i)``
 (eq. 3.19). :meth:`ErrorStateModel.discretize` gives ``Phi = expm(F dt)`` and the Van Loan
 ``Q_d`` in closed form for F held constant over dt; it equals
@@ -32,7 +38,9 @@ import math
 
 import numpy as np
 from sarnav.errors import ConfigError, require_finite, require_positive
+from sarnav.filters.discretization import van_loan
 from sarnav.filters.layout import ErrorStateLayout
+from sarnav.frames import earth_rate_or_zero
 from sarnav.rotations import skew
 
 
@@ -100,11 +108,13 @@ class ErrorStateModel:
         has ``ba`` / ``bg``).
     tau_accel, tau_gyro : their correlation times [s], > 0.
     scalar_sigma, scalar_tau : steady-state sigma and tau of each scalar bias, layout order.
+    earth_rate : omega_ie^t (3,) [rad/s] of a rotating Earth-fixed tangent frame, or None (the sources' frame).
     """
 
     def __init__(self, layout: ErrorStateLayout, vrw, arw, accel_bias_sigma=0.0, gyro_bias_sigma=0.0,
-                 tau_accel=1.0, tau_gyro=1.0, scalar_sigma=(), scalar_tau=()):
+                 tau_accel=1.0, tau_gyro=1.0, scalar_sigma=(), scalar_tau=(), earth_rate=None):
         self.layout = layout
+        self.earth_rate = None if earth_rate is None else earth_rate_or_zero(earth_rate)
         self.vrw = require_finite("vrw", vrw, lo=0.0)
         self.arw = require_finite("arw", arw, lo=0.0)
         self.accel_bias_sigma = require_finite("accel_bias_sigma", accel_bias_sigma, lo=0.0)
@@ -152,6 +162,10 @@ class ErrorStateModel:
             F[..., L.slice("bg"), L.slice("bg")] = -np.eye(3) / self.tau_gyro
         s = L.scalar_slice
         F[..., s, s] = np.diag(-1.0 / self.scalar_tau)
+        if self.earth_rate is not None:
+            W = skew(self.earth_rate)
+            F[..., v, v] = -2.0 * W  # Coriolis
+            F[..., th, th] = -W  # the tangent frame turns under the attitude
         return F
 
     def B(self, T) -> np.ndarray:
@@ -179,6 +193,8 @@ class ErrorStateModel:
         ----------
         T : (R, 3, 3) T_b^n of the estimate; f_n : (R, 3) nav-frame specific force; dt : step [s].
         """
+        if self.earth_rate is not None:
+            return self._discretize_van_loan(T, f_n, dt)
         L = self.layout
         T = np.asarray(T, dtype=float)
         f_n = np.asarray(f_n, dtype=float)
@@ -252,6 +268,22 @@ class ErrorStateModel:
             Phi[:, i, i] = k[0]
             Qd[:, i, i] += 2 * self.scalar_sigma[j] ** 2 / self.scalar_tau[j] * G[0, 0]
         return Phi, Qd
+
+
+    def _discretize_van_loan(self, T, f_n, dt: float):
+        """(Phi, Q_d) by Van Loan on n equal sub-steps h <= the shortest correlation time, composed."""
+        T = np.asarray(T, dtype=float)
+        F = self.F(T, np.asarray(f_n, dtype=float))
+        B = self.B(T)
+        BQBt = B @ self.Q() @ np.swapaxes(B, -1, -2)
+        taus = [self.tau_accel if self.layout.has("ba") else np.inf, self.tau_gyro if self.layout.has("bg") else np.inf,
+                *self.scalar_tau]
+        n = max(1, int(math.ceil(dt / min(taus))))
+        Phi_h, Qd_h = van_loan(F, BQBt, dt / n)
+        Phi, Qd = Phi_h, Qd_h
+        for _ in range(n - 1):
+            Phi, Qd = Phi_h @ Phi, Phi_h @ Qd @ np.swapaxes(Phi_h, -1, -2) + Qd_h
+        return Phi, 0.5 * (Qd + np.swapaxes(Qd, -1, -2))
 
 
 def _aat(f):

@@ -47,6 +47,9 @@ from sarnav.rotations import quat_to_dcm
 from sarnav.ins.geodetic import attitude_step_inplace, navigation_rate_inplace, rotate_to_nav, translational_step_cloud
 
 MOTION_MODELS = ("linear", "geodetic")
+#: a fix whose one SIR step leaves N_eff below this is applied by tempering: the 6-D [p, v] cloud needs >= 7
+#: distinct particles for a non-singular covariance (the same bound as ``scenarios.multi_imu.MIN_PARTICLES``)
+DEGENERATE_ESS = 7.0
 
 
 @numba.njit(cache=True)
@@ -220,12 +223,29 @@ class GridParticleFilter(GridFilter):
             return geodetic_difference_ned(p[..., 0], p[..., 1], p[..., 2], z[:, None, 0], z[:, None, 1], z[:, None, 2])
         return self.parts[..., :3] - self.frame.to_local(z)[:, None, :]
 
-    def _update(self, z, sigma):
+    def _fix_log_likelihood(self, z, sigma):
         off = self._offsets_from(np.asarray(z, dtype=float))
         if np.any(self.fix_lever_arm):  # the fix is taken at particle + C_b^n r (lever arm IMU -> antenna)
             off = off + np.einsum("rij,j->ri", quat_to_dcm(self.q), self.fix_lever_arm)[:, None, :]
-        ll = gaussian_log_likelihood(off, np.zeros((off.shape[0], 3)), np.diag(np.asarray(sigma, dtype=float) ** 2))
-        self.update_log_likelihood(ll)
+        return gaussian_log_likelihood(off, np.zeros((off.shape[0], 3)), np.diag(np.asarray(sigma, dtype=float) ** 2))
+
+    def _update(self, z, sigma):
+        """A position fix. Runs whose one SIR step would leave fewer than :data:`DEGENERATE_ESS` effective particles
+        (a fix far sharper than the cloud: a low fix rate, few particles) are updated by tempering instead
+        (:meth:`update_tempered`): after one such step the resampled cloud has fewer distinct particles than the
+        state has dimensions + 1, its covariance is singular, and the Liu-West move cannot restore it (the cloud
+        collapses for good: multi-imu-path1 at 1-2 Hz with 50 particles, NEES 1e12). Other runs are updated as
+        before (per run, so a run's numbers do not depend on the batch)."""
+        ll = self._fix_log_likelihood(z, sigma)
+        post, lse = normalize_log_weights(self.logw + ll)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ess = np.where(np.isfinite(lse), effective_sample_size(post), 0.0)
+        degenerate = (ess < DEGENERATE_ESS) & np.isfinite(lse)
+        if not degenerate.any():
+            self.update_log_likelihood(ll)
+            return
+        self.update_log_likelihood(np.where(degenerate[:, None], 0.0, ll))
+        self.update_tempered(lambda *_: self._fix_log_likelihood(z, sigma), runs=degenerate)
 
     def particle_states(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions (R, N, 3) in the frame's local metres, NED velocities (R, N, 3)) of the particles (the point
@@ -263,16 +283,17 @@ class GridParticleFilter(GridFilter):
     def _current(self):
         return self._native(self.mean[:, :3]), self.mean[:, 3:].copy(), self.q.copy()
 
-    def update_tempered(self, log_likelihood_fn, target_ess: float = 0.5, max_stages: int = 200) -> int:
+    def update_tempered(self, log_likelihood_fn, target_ess: float = 0.5, max_stages: int = 200, runs=None) -> int:
         """Bayes update with a likelihood too informative for one SIR step (a SAR range of 1 mm against a cloud of
         centimetres): adaptive tempering / progressive correction (``particles.tempering_exponent``). The
         likelihood is applied in stages L^lambda_1, L^lambda_2, ... with sum lambda = 1, each the largest that
         keeps N_eff >= ``target_ess`` N, every stage followed by resampling and the Liu-West move
         (``kernel_h``, 0.3 when the filter has none), which restores distinct particles with the cloud's mean and
         covariance; ``log_likelihood_fn(positions (R, N, 3) local, velocities (R, N, 3)) -> (R, N)`` is
-        evaluated again at every stage. After ``max_stages`` the rest is applied at once. Returns the number of
-        stages (a plain SIR update is one stage)."""
-        remaining = np.ones(self.parts.shape[0])
+        evaluated again at every stage. After ``max_stages`` the rest is applied at once. ``runs`` (R,) bool
+        selects the runs updated (default all; the others keep their cloud). Returns the number of stages (a plain
+        SIR update is one stage)."""
+        remaining = np.ones(self.parts.shape[0]) if runs is None else np.asarray(runs, dtype=bool).astype(float)
         h = self.kernel_h if self.kernel_h > 0 else 0.3
         stages = 0
         while np.any(remaining > 1e-9):

@@ -1,10 +1,11 @@
 """Frames and the Earth (ground floor: imports only ``units`` and ``errors``).
 
-- ``ned``: the sources' flat, non-rotating Earth with a North-East-Down tangent frame and constant gravity
-  (aircraft scenarios); :data:`GRAVITY_NED`, the :data:`EARTH_ROTATION` switch
+- ``ned``: the Earth-fixed NED tangent frame with constant gravity (aircraft scenarios): :data:`GRAVITY_NED`,
+  :func:`earth_rate_tangent` (the frame's rate when a scenario turns ``earth.rotation`` on; off by default, the
+  sources' non-rotating Earth)
 - ``earth``: WGS-84 constants (and, for orbiting vehicles, ECEF / ECI / geodetic frames)
 """
 
-from sarnav.frames.ned import EARTH_ROTATION, GRAVITY_NED, gravity_ned, require_flat_earth
+from sarnav.frames.ned import GRAVITY_NED, earth_rate_or_zero, earth_rate_tangent, gravity_ned
 
-__all__ = ["GRAVITY_NED", "EARTH_ROTATION", "gravity_ned", "require_flat_earth"]
+__all__ = ["GRAVITY_NED", "earth_rate_or_zero", "earth_rate_tangent", "gravity_ned"]

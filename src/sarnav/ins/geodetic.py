@@ -17,9 +17,10 @@ body rate ``w_ib^b`` and specific force ``f^b`` held (or averaged) over the step
 Steps 4-7 (the translational part, what a particle carries) are one numba function,
 :func:`translational_step_inplace`, used by the particle filters for every particle; steps 1-7 are
 :func:`strapdown_step_inplace`. The numpy front ends :func:`translational_step`, :func:`attitude_step` and
-:func:`mechanize_geodetic` work on any number of runs. The flat, non-rotating mechanization of
-``sarnav.ins.strapdown`` is untouched; this module is the Earth-rate / Coriolis variant the flat-Earth switch
-(``sarnav.frames.EARTH_ROTATION``) was waiting for.
+:func:`mechanize_geodetic` work on any number of runs. The local-level mechanization of
+``sarnav.ins.strapdown`` works in an Earth-fixed tangent frame (flat, optionally rotating: ``earth_rate``); this
+module adds what that frame leaves out, the curvature of the ellipsoid (transport rate, latitude-dependent gravity).
+tests/ins/test_earth_rotation.py checks that both give the same Earth-rate effect.
 """
 
 from __future__ import annotations

@@ -5,6 +5,13 @@ Navigation model (thesis eq. 3.2 / 5.10), flat non-rotating Earth (``sarnav.fram
     p_dot = v,   v_dot = T(q) (nu_meas - b_a) + g^n,   q_dot = 1/2 q (x) [0; omega_meas - b_g],
     b_dot = -b/tau   (every bias estimate; no process noise)
 
+With ``earth_rate = omega_ie^t`` (an Earth-fixed tangent frame turning with the Earth, ``frames.ned``) the local
+tangent-plane mechanization of Groves (2008) §5.3 adds ``-2 omega_ie^t x v`` to v_dot and ``-[omega_ie^t x] T`` to
+T_dot. The attitude step becomes ``q[k+1] = q_e (x) q[k] (x) rotvec_to_quat(phi)`` with ``q_e = rotvec_to_quat(
+-omega_ie^t dt)``, exact for the constant frame rate; the Coriolis term is linear in v and enters the same
+three-point (or trapezoid) rule implicitly, ``(I + 2 a [omega_ie x]) v[k+1] = rhs`` with a = 5 dt/12 (dt/2), solved
+in closed form.
+
 The IMU gives *samples* of rate and specific force (not increments). Over one interval dt
 (samples k-1, k, k+1 of compensated rate w and nav-frame specific force f = T f_b) the integrals use
 the three-point rule that is exact for quadratics (local error O(dt^4)),
@@ -27,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sarnav.errors import InputDataError
-from sarnav.frames import GRAVITY_NED, require_flat_earth
+from sarnav.frames import GRAVITY_NED, earth_rate_or_zero
 from sarnav.ins.state import NavState
 
 
@@ -67,6 +74,27 @@ def _rotate_body(q, phi):
     return out / np.sqrt(np.sum(out * out, axis=1, keepdims=True))
 
 
+def _rotvec_quat(phi):
+    """rotvec_to_quat for one rotation vector (3,)."""
+    ang = float(np.sqrt(phi @ phi))
+    k = np.sin(0.5 * ang) / ang if ang > 1e-8 else 0.5 - ang * ang / 48.0
+    return np.concatenate([[np.cos(0.5 * ang)], k * phi])
+
+
+def _rotate_nav(q_e, q):
+    """q_e (x) q for one quaternion q_e (4,) and (R, 4) (Hamilton, scalar first): a turn of the navigation frame."""
+    a, b = q_e[0], q_e[1:]
+    out = np.empty_like(q)
+    out[:, :1] = a * q[:, :1] - q[:, 1:] @ b[:, None]
+    out[:, 1:] = a * q[:, 1:] + q[:, :1] * b + np.cross(b, q[:, 1:])
+    return out
+
+
+def _solve_coriolis(rhs, w2, a):
+    """x with (I + a [w2 x]) x = rhs for (R, 3) rhs: (rhs - a w2 x rhs + a^2 (w2 . rhs) w2) / (1 + a^2 |w2|^2)."""
+    return (rhs - a * np.cross(w2, rhs) + (a * a) * (rhs @ w2)[:, None] * w2) / (1.0 + a * a * (w2 @ w2))
+
+
 @dataclass
 class MechanizationHistory:
     """Values at the sample before the current one, for the three-point rule."""
@@ -102,7 +130,8 @@ def check_sample_times(times, dt=None, field: str = "imu.time") -> np.ndarray:
     return times
 
 
-def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float, tau_scalar=(), history=None):
+def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float, tau_scalar=(), history=None,
+              earth_rate=None):
     """Propagate the navigation state through consecutive IMU samples.
 
     Parameters
@@ -114,14 +143,15 @@ def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float
     tau_scalar : (K,) correlation times of the scalar measurement biases ``nav.bm``.
     history : the :class:`MechanizationHistory` returned by the previous call, or None after a
         start or a filter correction (then the first interval uses the trapezoid rule).
+    earth_rate : omega_ie^t (3,) [rad/s] of an Earth-fixed tangent frame (``frames.earth_rate_tangent``), or None
+        for the sources' non-rotating frame (module docstring).
 
     Returns
     -------
     nav : state at ``times[-1]``.
-    f_mean : (R, 3) mean nav-frame specific force over the interval, (delta v - g dt)/span.
+    f_mean : (R, 3) mean nav-frame specific force over the interval, (delta v - g dt + int 2 omega_ie x v dt)/span.
     history : values at sample N-1 for the next call.
     """
-    require_flat_earth()
     times = check_sample_times(times)
     n = times.size
     dt = (times[-1] - times[0]) / (n - 1)
@@ -140,6 +170,11 @@ def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float
     v_start = v.copy()
     c5, c8, c1 = 5.0 * dt / 12.0, 8.0 * dt / 12.0, dt / 12.0
     g_dt = GRAVITY_NED * dt
+    rotating = earth_rate is not None
+    if rotating:
+        w2 = 2.0 * earth_rate_or_zero(earth_rate)
+        q_e = _rotvec_quat(-0.5 * w2 * dt)
+        coriolis = np.zeros_like(v)  # int 2 omega_ie x v dt over the call
     prev = history
     for k in range(n - 1):
         w0, w1 = w_b[:, k], w_b[:, k + 1]
@@ -149,17 +184,25 @@ def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float
         else:
             phi = c5 * w1 + c8 * w0 - c1 * prev.w_b + coning
         q_new = _rotate_body(q, phi)
+        if rotating:
+            q_new = _rotate_nav(q_e, q_new)
         f_n1 = _matvec(_dcm(q_new), f_b[:, k + 1])
         if prev is None:
             v_new = v + 0.5 * dt * (f_n + f_n1) + g_dt
+            if rotating:
+                v_new = _solve_coriolis(v_new - 0.5 * dt * np.cross(w2, v), w2, 0.5 * dt)
+                coriolis += 0.5 * dt * np.cross(w2, v + v_new)
             p = p + 0.5 * dt * (v + v_new)
         else:
             v_new = v + (c5 * f_n1 + c8 * f_n - c1 * prev.f_n) + g_dt
+            if rotating:
+                v_new = _solve_coriolis(v_new - np.cross(w2, c8 * v - c1 * prev.v), w2, c5)
+                coriolis += np.cross(w2, c5 * v_new + c8 * v - c1 * prev.v)
             p = p + (c5 * v_new + c8 * v - c1 * prev.v)
         prev = MechanizationHistory(w_b=w0, f_n=f_n, v=v)
         q, v, f_n = q_new, v_new, f_n1
     span = times[-1] - times[0]
-    f_mean = (v - v_start) / span - GRAVITY_NED
+    f_mean = ((v - v_start + coriolis) if rotating else (v - v_start)) / span - GRAVITY_NED
     tau_scalar = np.asarray(tau_scalar, dtype=float)
     bm = nav.bm * np.exp(-span / tau_scalar) if tau_scalar.size else np.array(nav.bm, dtype=float)
     out = NavState(p=p, v=v, q=q, ba=ba[:, -1].copy(), bg=bg[:, -1].copy(), bm=bm)

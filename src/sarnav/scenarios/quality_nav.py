@@ -45,7 +45,8 @@ from sarnav.rotations import quat_to_dcm
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import boolean, get, table
 from sarnav.scenarios.quality_tables import integer
-from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, doppler_prf_check, filter_imu_keys,
+from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, doppler_prf_check, filter_imu_keys,
+                                         read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
@@ -87,6 +88,7 @@ def default_config() -> dict:
                      "description": "INS aided by the best-focus along-track velocity of its own BPA images (no map)"},
         "campaign": {"runs": 100, "seed": 2023},
         "trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 60.0, "heading_deg": 0.0, "duration": 20.0},
+        "earth": dict(EARTH_DEFAULT),  # the sources' non-rotating Earth; docs/navigation.md "Frame"
         "imu": {"grade": "nav-paper-tactical", "rate_hz": 100.0, "tau_accel": 3600.0, "tau_gyro": 3600.0},
         "initial": {"p_3sigma": [1.9, 1.9, 4.4], "v_3sigma": [0.3, 0.3, 0.5], "theta_3sigma": [0.002, 0.002, 0.006]},
         "radar": {"preset": "flexsar", "pulse_length_us": 0.2, "snr_db": 0.0, "range_margin_m": 20.0},
@@ -131,6 +133,8 @@ class QualityNavParams:
     calibration_apertures: int
     calibration_seed: int
     calibration_key: str  # the scenario text kappa depends on (its cache key)
+    earth_rate: np.ndarray | None = None  # [earth]: omega_ie^t when earth.rotation, else None
+    filter_earth_rate: np.ndarray | None = None  # what the INS / filter assume (None unless earth.modelled)
 
     @property
     def n_updates(self) -> int:
@@ -242,7 +246,7 @@ def parse(cfg: dict) -> QualityNavParams:
         calibration_apertures=integer("focus.calibration_apertures", get(cfg, "focus", "calibration_apertures"), 2,
                                       1000),
         calibration_seed=integer("focus.calibration_seed", get(cfg, "focus", "calibration_seed"), 0, 2**63 - 1),
-        calibration_key=_calibration_key(cfg))
+        calibration_key=_calibration_key(cfg), **read_earth(cfg))
 
 
 _KAPPA: dict[str, dict] = {}
@@ -351,7 +355,8 @@ def _update(prm: QualityNavParams, fl: ErrorStateFlight, iv: dict, z, model, ok,
 def simulate_runs(prm: QualityNavParams, run_ids, seeds) -> list[RunRecord]:
     """The batched Monte Carlo of :class:`QualityNavKind` (module docstring)."""
     spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, np.zeros(0), np.zeros(0), prm.p0_sigma, prm.n_updates,
-                      prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter)
+                      prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter,
+                      earth_rate=prm.earth_rate, filter_earth_rate=prm.filter_earth_rate)
     fl = ErrorStateFlight(spec, LAYOUT, seeds, extra_draws=lambda rngs: [int(g.integers(2**63)) for g in rngs],
                           covariance_attitude="start")
     R, U = fl.R, prm.n_updates

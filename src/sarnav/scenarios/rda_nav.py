@@ -53,7 +53,7 @@ from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys,
+from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
@@ -122,6 +122,7 @@ def default_config() -> dict:
             "heading_deg": 0.0,  # northbound (L1289)
             "duration": 50.0,  # 50 x 1-s sub-apertures (G17)
         },
+        "earth": dict(EARTH_DEFAULT),  # the sources' non-rotating Earth (NAVIGATION L1481-L1488); docs/navigation.md
         "imu": {
             "grade": "nav-paper-tactical",  # Tables 1-2 (biases = Table 1 initial 3-sigma, G2)
             "rate_hz": 100.0,  # not given (G13)
@@ -247,6 +248,8 @@ class RdaNavParams:
     snr_db: float  # receiver noise: per-sample SNR of the reflector [dB]
     scene: dict
     p0_sigma: np.ndarray  # (18,)
+    earth_rate: np.ndarray | None = None  # [earth]: omega_ie^t when earth.rotation, else None
+    filter_earth_rate: np.ndarray | None = None  # what the INS / filter assume (None unless earth.modelled)
 
     @property
     def n_updates(self) -> int:
@@ -416,7 +419,7 @@ def parse(cfg: dict) -> RdaNavParams:
     p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"], three(bias3)])
     return RdaNavParams(runs=runs, trajectory=traj, altitude=float(-traj.start[2]), imu=imu, imu_filter=filt,
                         imu_rate=imu_rate, alt_sigma=float(alt_sigma), bias_sigma=three(bias3), bias_tau=bias_tau,
-                        radar=radar, snr_db=float(snr), scene=scene, p0_sigma=p0, **sar)
+                        radar=radar, snr_db=float(snr), scene=scene, p0_sigma=p0, **read_earth(cfg), **sar)
 
 
 def measurement_sigma(prm: RdaNavParams, image: bool):
@@ -605,7 +608,8 @@ def _new_record(R: int, n_upd: int, M: int) -> dict:
 def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
     L = STATE_LAYOUT
     spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma,
-                      prm.n_updates, prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter)
+                      prm.n_updates, prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter,
+                      earth_rate=prm.earth_rate, filter_earth_rate=prm.filter_earth_rate)
     # the clutter seed is drawn after the bias drive, before IMU sample 0; F at the step's start attitude
     fl = ErrorStateFlight(spec, L, seeds, extra_draws=lambda rngs: [int(g.integers(2**63)) for g in rngs],
                           covariance_attitude="start")

@@ -37,7 +37,8 @@ from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import bounded_positive, get
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.vocabulary import (flight_size_check, IMU_OVERRIDES, TRAJECTORY_TYPES, filter_imu_keys, read_filter_imu,
+from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, read_earth, flight_size_check, IMU_OVERRIDES, TRAJECTORY_TYPES,
+                                         filter_imu_keys, read_filter_imu,
                                          read_imu, read_initial, read_trajectory, result_bytes_check)
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.trajectory.sampled import min_distance
@@ -86,6 +87,8 @@ class TelemetryParams:
     strategy: str = "gaussian-sum"  # update.strategy
     split_threshold: float = 0.1  # update.split_threshold
     max_components: int = 27  # update.max_components
+    earth_rate: np.ndarray | None = None  # [earth]: omega_ie^t when earth.rotation, else None
+    filter_earth_rate: np.ndarray | None = None  # what the INS / filter assume (None unless earth.modelled)
 
     @property
     def samples_per_update(self) -> int:
@@ -141,7 +144,7 @@ def parse(cfg: dict) -> TelemetryParams:
     return TelemetryParams(
         runs=runs, trajectory=traj, imu=imu, imu_filter=filt, imu_rate=imu_rate,
         meas_rate=meas_rate, meas_sigma=meas_sigma, bias_sigma=three(bias3), bias_tau=bias_tau,
-        target=target, p0_sigma=p0, **_read_update(cfg),
+        target=target, p0_sigma=p0, **read_earth(cfg), **_read_update(cfg),
     )
 
 
@@ -180,6 +183,7 @@ class TelemetryKind(ErrorStateKind):
                 "heading_deg": 0.0,  # due north (L701)
                 "duration": 20.0,  # not given [GAP §16 item 6]: ends abeam the target (N = 1000 m), see docs
             },
+            "earth": dict(EARTH_DEFAULT),  # the thesis's non-rotating Earth (L486-L488); docs/navigation.md "Frame"
             "imu": {
                 "grade": "tactical",  # Table A.8 = tactical row of Table 3.2
                 "rate_hz": 100.0,  # not given [GAP §16 item 5]; extraction §18 suggests 100 Hz
@@ -235,7 +239,8 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     """The batched Monte Carlo of :class:`TelemetryKind` (see the module docstring)."""
     L = STATE_LAYOUT
     spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma, prm.updates,
-                      prm.samples_per_update, prm.samples_per_cov_step, imu_filter=prm.imu_filter)
+                      prm.samples_per_update, prm.samples_per_cov_step, imu_filter=prm.imu_filter,
+                      earth_rate=prm.earth_rate, filter_earth_rate=prm.filter_earth_rate)
     mixture = prm.strategy != "ekf"
     # F at the mid-step attitude, mean f^n; a Gaussian sum also needs each interval's transition
     fl = ErrorStateFlight(spec, L, seeds, covariance_attitude="mid", interval_transition=mixture)

@@ -9,6 +9,11 @@
                           ``gyro_bias_3sigma`` [deg/hr] (required with "custom")
 ``[filter.imu]``          the filter's model of that sensor: the same keys (no ``rate_hz``), each defaulting to
                           ``[imu]``'s; a ``grade`` given here drops ``[imu]``'s 3-sigma overrides
+``[earth]``               ``rotation`` (false: the sources' non-rotating Earth; true: the Earth-fixed NED frame turns
+                          with the Earth, ``frames.ned``), ``latitude_deg`` (of the NED origin, [-90, 90]; used when
+                          ``rotation`` is true), ``modelled`` (true: the INS and the filter model the turn; false:
+                          they keep the flat-Earth model while the truth IMU senses it) — telemetry, rda-nav,
+                          quality-nav
 ``[initial]``             3-sigma initial uncertainty: ``p_3sigma`` [m], ``v_3sigma`` [m/s], ``theta_3sigma``
                           [rad] (each 3 numbers); optional ``accel_bias_3sigma`` [g], ``gyro_bias_3sigma``
                           [deg/hr] (default: the filter's IMU figures)
@@ -31,6 +36,7 @@ import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_finite
+from sarnav.frames import earth_rate_tangent
 from sarnav.radar import presets
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import bounded_positive, get, positive, table, vector
@@ -40,7 +46,7 @@ from sarnav.trajectory import Maneuvering, StraightLevel
 
 __all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "read_filter_imu", "read_initial",
            "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys", "flight_size_check", "MAX_IMU_SAMPLES",
-           "INITIAL_RANGES", "echo_block_check", "MAX_BLOCK_SAMPLES"]
+           "INITIAL_RANGES", "echo_block_check", "MAX_BLOCK_SAMPLES", "EARTH_DEFAULT", "read_earth"]
 
 #: optional 3-sigma overrides of an IMU grade, in source units (``sensors.imu.ImuGrade.from_three_sigma``)
 IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
@@ -99,6 +105,25 @@ def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None =
                               lo=0.0, hi=30.0, unit="deg/s")
         return Maneuvering.s_turn(start, speed, heading, duration, rate)
     return StraightLevel(start, speed, heading, duration)
+
+
+# ----------------------------------------------------------------------------- Earth
+#: the ``[earth]`` table of the kinds on the flight spine: the sources' non-rotating Earth; the latitude (not given by
+#: the sources, a mid-latitude value) is used only with ``rotation = true``
+EARTH_DEFAULT = {"rotation": False, "latitude_deg": 40.0, "modelled": True}
+
+
+def read_earth(cfg: dict) -> dict:
+    """``[earth]`` as FlightSpec fields: ``earth_rate`` (omega_ie^t (3,) [rad/s] when ``rotation`` is true, else None)
+    and ``filter_earth_rate`` (the same when ``modelled``, else None: a flat-Earth filter)."""
+    flags = {}
+    for key in ("rotation", "modelled"):
+        flags[key] = get(cfg, "earth", key)
+        if not isinstance(flags[key], bool):
+            raise ConfigError(f"earth.{key}", f"must be a boolean (true or false), got {flags[key]!r}")
+    lat = require_finite("earth.latitude_deg", get(cfg, "earth", "latitude_deg"), lo=-90.0, hi=90.0, unit="deg")
+    rate = earth_rate_tangent(units.deg_to_rad(lat)) if flags["rotation"] else None
+    return {"earth_rate": rate, "filter_earth_rate": rate if flags["modelled"] else None}
 
 
 # ----------------------------------------------------------------------------- IMU

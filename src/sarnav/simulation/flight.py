@@ -68,6 +68,15 @@ class FlightSpec:
     samples_per_update: int  # IMU samples per update interval
     samples_per_step: int  # IMU samples per covariance step (divides samples_per_update)
     imu_filter: ImuSpec | None = None
+    earth_rate: np.ndarray | None = None  # omega_ie^t (3,) [rad/s] of a rotating tangent frame (earth.rotation); None: off
+    filter_earth_rate: object = "truth"  # what the INS and F assume: "truth" (= earth_rate), None or a vector
+
+    @property
+    def filter_earth(self) -> np.ndarray | None:
+        """The Earth rate the INS and the error model assume (``filter_earth_rate``; "truth": ``earth_rate``)."""
+        if isinstance(self.filter_earth_rate, str) and self.filter_earth_rate == "truth":
+            return self.earth_rate
+        return self.filter_earth_rate
 
     @property
     def filter_imu(self) -> ImuSpec:
@@ -99,15 +108,15 @@ class ErrorStateFlight:
         n_upd = int(spec.n_updates)
         traj = spec.trajectory
         self.t_imu = np.arange(n_upd * m + 1) * self.dt
-        nu_true = traj.specific_force(self.t_imu)
-        om_true = traj.angular_rate(self.t_imu)
+        nu_true = traj.specific_force(self.t_imu, spec.earth_rate)  # the truth IMU senses the Earth's turn when on
+        om_true = traj.angular_rate(self.t_imu, spec.earth_rate)
         self.t_out = np.arange(n_upd * self.steps + 1) * (c * self.dt)
         self.truth_out = traj.state(self.t_out)
         tr, fi = spec.imu_truth, spec.filter_imu
         imu = ImuModel(tr.grade, spec.imu_rate, tr.tau_accel, tr.tau_gyro)
         g = fi.grade
         self.model = ErrorStateModel(L, g.vrw, g.arw, g.accel_bias, g.gyro_bias, fi.tau_accel, fi.tau_gyro,
-                                     spec.bias_sigma, spec.bias_tau)
+                                     spec.bias_sigma, spec.bias_tau, earth_rate=spec.filter_earth)
         # --- per-run draws, fixed order ---
         ba, bg = imu.initial_biases(self.rngs)
         nb = len(spec.bias_sigma)  # 3 for telemetry and rda-nav; 0 for a filter without measurement biases
@@ -165,7 +174,8 @@ class ErrorStateFlight:
             q_start = self.nav.q
             self.nav, f_mean, self._history = mechanize(
                 self.nav, self.t_imu[k0 + a:k0 + b + 1], nu_blk[:, a:b + 1], om_blk[:, a:b + 1],
-                self.spec.filter_imu.tau_accel, self.spec.filter_imu.tau_gyro, self.spec.bias_tau, self._history)
+                self.spec.filter_imu.tau_accel, self.spec.filter_imu.tau_gyro, self.spec.bias_tau, self._history,
+                earth_rate=self.spec.filter_earth)
             q_cov = q_start if self.attitude == "start" else quat_normalize(q_start + self.nav.q)
             Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, c * self.dt)
             self.P = propagate_covariance(self.P, Phi, Qd)

@@ -8,7 +8,12 @@ vectorised over ``t`` (any shape ``(...)``):
 * :meth:`Trajectory.specific_force` -> ``nu^b = T^T (a^n - g^n)`` (..., 3) [m/s^2] (thesis eq. 3.1);
 * :meth:`Trajectory.angular_rate` -> ``omega^b`` (..., 3) [rad/s] with ``q_dot = 1/2 q (x) [0; omega^b]``.
 
-The three are mutually consistent: they are what an ideal IMU on the vehicle would measure.
+The three are mutually consistent: they are what an ideal IMU on the vehicle would measure over the sources'
+non-rotating Earth. With ``earth_rate = omega_ie^t`` (``frames.earth_rate_tangent``) the motion is read as relative
+to an Earth-fixed tangent frame that turns at ``omega_ie^t``, and the ideal IMU senses the Earth's rotation too
+(Groves 2008 eqs. 5.24/5.28 in a local tangent frame)::
+
+    nu^b = T^T (a^t + 2 omega_ie^t x v^t - g^t),   omega_ib^b = omega^b + T^T omega_ie^t
 """
 
 from __future__ import annotations
@@ -19,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from sarnav.errors import InputDataError
+from sarnav.frames import earth_rate_or_zero
+from sarnav.rotations import quat_to_dcm
 
 
 @dataclass(frozen=True)
@@ -63,10 +70,25 @@ class Trajectory(ABC):
         """Kinematic acceleration a^n = dv^n/dt (..., 3) [m/s^2]."""
         return self._kin(self._times(t))[2]
 
-    def specific_force(self, t) -> np.ndarray:
-        """Specific force in the body frame nu^b = T^T (a^n - g^n) (..., 3) [m/s^2]."""
-        return self._kin(self._times(t))[3]
+    def specific_force(self, t, earth_rate=None) -> np.ndarray:
+        """Specific force in the body frame nu^b = T^T (a^n - g^n) (..., 3) [m/s^2]; with ``earth_rate``
+        (omega_ie^t, (3,) rad/s) plus the Coriolis term T^T (2 omega_ie^t x v^t) (module docstring)."""
+        v, q, _, nu, _ = self._kin(self._times(t))
+        if earth_rate is None:
+            return nu
+        w = earth_rate_or_zero(earth_rate)
+        return nu + _to_body(q, np.cross(2.0 * w, v))
 
-    def angular_rate(self, t) -> np.ndarray:
-        """Body angular rate omega^b (..., 3) [rad/s] (q_dot = 1/2 q (x) [0; omega^b])."""
-        return self._kin(self._times(t))[4]
+    def angular_rate(self, t, earth_rate=None) -> np.ndarray:
+        """Body angular rate omega^b (..., 3) [rad/s] (q_dot = 1/2 q (x) [0; omega^b]); with ``earth_rate``
+        the inertial rate omega_ib^b = omega^b + T^T omega_ie^t (module docstring)."""
+        _, q, _, _, om = self._kin(self._times(t))
+        if earth_rate is None:
+            return om
+        return om + _to_body(q, np.broadcast_to(earth_rate_or_zero(earth_rate), om.shape))
+
+
+def _to_body(q, x_n):
+    """T^T x for attitudes q_b^n (..., 4) and nav-frame vectors x_n (..., 3)."""
+    T = quat_to_dcm(q)
+    return np.einsum("...ji,...j->...i", T, x_n)
