@@ -9,8 +9,9 @@ Algorithm (Ulander, Hellsten & Stenstrom, IEEE TAES 39(3) 2003, "fast factorized
    ``q(r, u) = c_J + r (u v + sqrt(1 - u^2) w_J)`` (w_J: unit vector perpendicular to v towards the
    scene centre). For a straight subaperture every point with the same (r, u) has the same range to
    every pulse of J, so the polar image holds the subaperture's whole contribution to any pixel.
-2. Level 0: each polar image is formed by exact back-projection of its pulses onto its grid points
-   (``backprojection.backproject_points``), *demodulated*: ``I_J(r, u) = sum_k s_k(R_k) e^{j4pi(R_k - r)/lambda}``,
+2. Level 0: each polar image is formed by exact back-projection of its pulses onto its grid points,
+   line by line of constant u (``backprojection.backproject_fan``: the range is quadratic along a line), and
+   *demodulated*: ``I_J(r, u) = sum_k s_k(R_k) e^{j4pi(R_k - r)/lambda}``,
    a band-limited function of (r, u): |f_r| <= B/c, |f_u| <= l_J (1 + B / 2 f_c) / lambda (l_J the
    subaperture length along v).
 3. Each merge groups ``merge`` consecutive subapertures into a parent with a ``merge`` times finer u
@@ -46,7 +47,8 @@ import numpy as np
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _S0, _S1, _S2, _S3, _S4, _S5,
-                                           _check_pulses, _cis, _image, _points, _wavelength, backproject_points)
+                                           _check_pulses, _cis, _image, _points, _wavelength, backproject_fan,
+                                           backproject_points, plane_of)
 from sarnav.imaging.interpolation_error import interpolation_error, interpolation_error_2d
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan"]
@@ -181,6 +183,28 @@ def _taps(img, nu, n, base, tab, out_re, out_im, o0):  # pragma: no cover - comp
         out_im[o0 + i] += sr * s + si * c
 
 
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _taps_c64(img, nu, n, base, tab, out, o0):  # pragma: no cover - compiled
+    """As ``_taps``, accumulating into a flat complex64 array (a merge's parent image)."""
+    for i in range(n):
+        b = base[i]
+        sr = np.float32(0.0)
+        si = np.float32(0.0)
+        for t in range(4):
+            row = b + np.uint32(t * nu)
+            p0 = img[row]
+            p1 = img[row + np.uint32(1)]
+            p2 = img[row + np.uint32(2)]
+            p3 = img[row + np.uint32(3)]
+            rr = tab[4, i] * p0.real + tab[5, i] * p1.real + tab[6, i] * p2.real + tab[7, i] * p3.real
+            ri = tab[4, i] * p0.imag + tab[5, i] * p1.imag + tab[6, i] * p2.imag + tab[7, i] * p3.imag
+            sr += tab[t, i] * rr
+            si += tab[t, i] * ri
+        c = tab[8, i]
+        s = tab[9, i]
+        out[o0 + i] += np.complex64(complex(sr * c - si * s, sr * s + si * c))
+
+
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda, block,
                 out_re, out_im):  # pragma: no cover - compiled
@@ -207,15 +231,56 @@ def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lam
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
+def _polar_eval_plane(origin, e_row, e_col, ny, nx, tile, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda,
+                      out):  # pragma: no cover - compiled
+    """out (ny * nx) complex64 += polar image ``img`` at the pixels origin + i e_row + j e_col of a plane grid,
+    generated tile by tile (``tile`` x ``tile`` pixels: their polar footprint stays in cache), remodulated by
+    exp(j 4 pi r(q) / lambda); as ``_polar_eval`` without reading pixel coordinates, summed in float32 (a few tens
+    of subimages: rounding ~-140 dB)."""
+    nr, nu = img.shape
+    flat = img.ravel()
+    nty = (ny + tile - 1) // tile
+    ntx = (nx + tile - 1) // tile
+    for t in numba.prange(nty * ntx):
+        iy0 = (t // ntx) * tile
+        ix0 = (t % ntx) * tile
+        my = min(ny, iy0 + tile) - iy0
+        mx = min(nx, ix0 + tile) - ix0
+        n = my * mx
+        base = np.empty(n, np.uint32)
+        wr = np.empty(n, np.float32)
+        wu = np.empty(n, np.float32)
+        f = np.empty(n, np.float32)
+        tab = np.empty((10, n), np.float32)
+        acc_re = np.zeros(n, np.float32)
+        acc_im = np.zeros(n, np.float32)
+        for a in range(my):
+            for b in range(mx):
+                i = a * mx + b
+                qx = origin[0] + (iy0 + a) * e_row[0] + (ix0 + b) * e_col[0]
+                qy = origin[1] + (iy0 + a) * e_row[1] + (ix0 + b) * e_col[1]
+                qz = origin[2] + (iy0 + a) * e_row[2] + (ix0 + b) * e_col[2]
+                base[i], wr[i], wu[i], f[i] = _locate(qx, qy, qz, 0.0, centre, v, r0, inv_dr, u0, inv_du, nr, nu,
+                                                      two_over_lambda)
+        _weights(n, wr, wu, f, tab)
+        _taps(flat, nu, n, base, tab, acc_re, acc_im, 0)
+        for a in range(my):
+            o = (iy0 + a) * nx + ix0
+            for b in range(mx):
+                i = a * mx + b
+                out[o + b] += np.complex64(complex(acc_re[i], acc_im[i]))
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
 def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, two_over_lambda,
-           out_re, out_im):  # pragma: no cover - compiled
-    """out (Nr, Nu) += child image ``img`` (complex64) at the parent's polar grid points q(r, u), generated on the
-    fly row by row (float64), interpolated as in ``_polar_eval``."""
-    nr, nu = out_re.shape
+           out):  # pragma: no cover - compiled
+    """out (Nr, Nu) complex64 += child image ``img`` (complex64) at the parent's polar grid points q(r, u), generated
+    on the fly row by row (float64), interpolated as in ``_polar_eval`` (a parent sums ``merge`` children in float32:
+    rounding ~-140 dB)."""
+    nr, nu = out.shape
     cnr, cnu = img.shape
     flat = img.ravel()
-    ore = out_re.ravel()
-    oim = out_im.ravel()
+    oflat = out.ravel()
     for i in numba.prange(nr):
         r = pr0 + i * pdr
         base = np.empty(nu, np.uint32)
@@ -232,7 +297,7 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
             base[j], wr[j], wu[j], f[j] = _locate(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu,
                                                   two_over_lambda)
         _weights(nu, wr, wu, f, tab)
-        _taps(flat, cnu, nu, base, tab, ore, oim, i * nu)
+        _taps_c64(flat, cnu, nu, base, tab, oflat, i * nu)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -250,11 +315,14 @@ class _Polar:
     nu: int
     img: np.ndarray | None = None          # (nr, nu) complex64, once formed
 
+    def directions(self, v: np.ndarray) -> np.ndarray:
+        """(nu, 3) unit vectors e(u) = u v + sqrt(1 - u^2) w: the grid's points are q(r, u) = centre + r e(u)."""
+        u = self.u0 + np.arange(self.nu) * self.du
+        return u[:, None] * v + np.sqrt(np.clip(1.0 - u * u, 0.0, None))[:, None] * self.w
+
     def points(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r = self.r0 + np.arange(self.nr) * self.dr
-        u = self.u0 + np.arange(self.nu) * self.du
-        e = u[None, :, None] * v + np.sqrt(np.clip(1.0 - u * u, 0.0, None))[None, :, None] * self.w
-        q = self.centre + r[:, None, None] * e                      # (nr, nu, 3)
+        q = self.centre + r[:, None, None] * self.directions(v)[None]   # (nr, nu, 3)
         return q.reshape(-1, 3), np.broadcast_to(r[:, None], (self.nr, self.nu)).reshape(-1)
 
 
@@ -293,9 +361,12 @@ def _tile_order(shape, tile: int = 32) -> np.ndarray:
     if len(shape) != 2:
         return np.arange(int(np.prod(shape)))
     ny, nx = shape
-    iy, ix = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    iy = np.arange(ny)[:, None]
+    ix = np.arange(nx)[None, :]
     key = ((iy // tile) * ((nx + tile - 1) // tile) + ix // tile) * (tile * tile) + (iy % tile) * tile + ix % tile
-    return np.argsort(key.ravel(), kind="stable")
+    slots = np.full(int(key.max()) + 1, -1, dtype=np.int64)          # keys are distinct: a scatter sorts them
+    slots[key.ravel()] = np.arange(ny * nx)
+    return slots[slots >= 0]
 
 
 @numba.njit(fastmath=True, cache=True)
@@ -338,34 +409,31 @@ class _Former:
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
                            self.plan.oversample)
         if level == 0:
-            q, rq = grid.points(self.v)
+            # exact back-projection along the grid's lines of constant u (range quadratic along each line), then
+            # demodulated by exp(-j 4 pi r / lambda), a function of the line's range only
             sub = PulseData(self.rc.data[k0:k1], self.rc.slant_range, self.rc.pulse_times[k0:k1], self.pos[k0:k1],
                             None, compressed=True, wavelength=self.lam)
-            re, im = _demodulate_parts(backproject_points(sub, q, interpolation=self.interpolation,
-                                                          upsample=self.upsample), rq, self.lam)
-            grid.img = _complex64(re, im, grid.nr, grid.nu)
+            e = grid.directions(self.v)
+            vals = backproject_fan(sub, grid.centre + grid.r0 * e, grid.dr * e, grid.nr,
+                                   interpolation=self.interpolation, upsample=self.upsample)       # (nu, nr)
+            r = grid.r0 + np.arange(grid.nr) * grid.dr
+            d_re, d_im = _demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
+            grid.img = np.ascontiguousarray((vals * (d_re + 1j * d_im)[None, :]).T, dtype=np.complex64)
             return grid
-        re = np.zeros((grid.nr, grid.nu))
-        im = np.zeros((grid.nr, grid.nu))
+        acc = np.zeros((grid.nr, grid.nu), np.complex64)
         step = self.plan.base_pulses * self.plan.merge ** (level - 1)
         for j0 in range(k0, k1, step):
             child = self.build(j0, min(k1, j0 + step), level - 1)
             _merge(grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
-                   1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, re, im)
-        grid.img = _complex64(re, im, grid.nr, grid.nu)
+                   1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, acc)
+        grid.img = acc
         return grid
-
-
-def _complex64(re, im, nr, nu) -> np.ndarray:
-    """A formed polar image as (nr, nu) complex64 (its float32 rounding, ~-140 dB, is far below the interpolation's)."""
-    out = np.empty((nr, nu), np.complex64)
-    out.real = re.reshape(nr, nu)
-    out.imag = im.reshape(nr, nu)
-    return out
 
 
 #: points per parallel work item of the final evaluation (a 16 x 16 tile of pixels: their polar footprint is small)
 _EVAL_BLOCK = 256
+#: side of the pixel tiles of the plane-grid final evaluation
+_EVAL_TILE = 16
 
 
 def _evaluate(g: _Polar, q, ref_r, v, lam, out_re, out_im):
@@ -448,17 +516,27 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     dr = _C / (2.0 * bw * plan.oversample)
     rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
     former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample)
-    order = _tile_order(pts.shape[:-1])          # pixels in 32 x 32 tiles: polar footprint stays in cache
-    tiled = np.ascontiguousarray(flat[order])
-    out_re = np.zeros(flat.shape[0])
-    out_im = np.zeros(flat.shape[0])
-    zero = np.zeros(flat.shape[0])
     step = plan.final_pulses
-    for k0 in range(0, p, step):
-        sub = former.build(k0, min(p, k0 + step), plan.levels)
-        _evaluate(sub, tiled, zero, v, lam, out_re, out_im)
-    values = np.empty(flat.shape[0], dtype=np.complex128)
-    values[order] = out_re + 1j * out_im
+    plane = plane_of(g)
+    if plane is not None:                        # pixels generated tile by tile (no coordinates read)
+        origin, e_row, e_col, ny, nx = plane
+        acc = np.zeros(ny * nx, np.complex64)
+        for k0 in range(0, p, step):
+            sb = former.build(k0, min(p, k0 + step), plan.levels)
+            _polar_eval_plane(origin, e_row, e_col, ny, nx, _EVAL_TILE, sb.centre, v, sb.r0, 1.0 / sb.dr, sb.u0,
+                              1.0 / sb.du, sb.img, 2.0 / lam, acc)
+        values = acc.astype(np.complex128)
+    else:
+        order = _tile_order(pts.shape[:-1])      # pixels in 32 x 32 tiles: polar footprint stays in cache
+        tiled = np.ascontiguousarray(flat[order])
+        out_re = np.zeros(flat.shape[0])
+        out_im = np.zeros(flat.shape[0])
+        zero = np.zeros(flat.shape[0])
+        for k0 in range(0, p, step):
+            sub = former.build(k0, min(p, k0 + step), plan.levels)
+            _evaluate(sub, tiled, zero, v, lam, out_re, out_im)
+        values = np.empty(flat.shape[0], dtype=np.complex128)
+        values[order] = out_re + 1j * out_im
     img = _image(g, values.reshape(pts.shape[:-1]), rc, lam, interpolation, upsample, "ffbp")
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
                          "ffbp_oversample": plan.oversample, "ffbp_predicted_error_db": plan.predicted_error_db})
