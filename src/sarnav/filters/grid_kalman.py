@@ -12,7 +12,9 @@ with ``H = [I 0]`` (GPS position only, L644), the update only at fix epochs (L64
 sample (zero-order hold, L750) and the filter's own attitude, propagated with the gyro (eq. 2.51; Earth and
 transport rate from the filter's estimate in a geodetic frame). Gravity: constant in a flat frame, WGS-84
 normal gravity at the estimate in a geodetic one. The linear model has no Coriolis or transport-rate terms:
-that is the source's KF, and what the particle filter's geodetic model adds (claim T11).
+that is the source's KF, and what the particle filter's geodetic model adds (claim T11). ``coriolis=True``
+(geodetic frames) adds them to the control input, ``a -= (2 omega_ie^n + omega_en^n) x v`` at the estimate
+(Groves 2008 eq. 5.54): the same linear F and Q, a consistent KF over the rotating Earth (docs/particles.md).
 
 Q: white acceleration noise of PSD ``accel_psd`` [m^2/s^3] per axis, exact over each sub-step
 ``Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]`` (these compose exactly, so splitting an IMU interval into
@@ -24,6 +26,8 @@ the position set to the fix at each fix epoch (the source's sawtooth).
 
 from __future__ import annotations
 
+
+import math
 
 import numba
 import numpy as np
@@ -38,8 +42,9 @@ from sarnav.ins.geodetic import gravity_scalar, attitude_step_inplace, navigatio
 @numba.njit(cache=True)
 def linear_acceleration(x, q, f_b, w_b, dt, world, a_out):
     """Advance the attitude q over dt and return in a_out the NED acceleration f^n + g^n of the linear model.
-    world = (geodetic, lat0, h0, scale_n, omega_e, g_flat)."""
-    geodetic, lat0, h0, scale_n, omega_e, g_flat = world
+    world = (geodetic, lat0, h0, scale_n, omega_e, g_flat[, coriolis])."""
+    geodetic, lat0, h0, scale_n, omega_e, g_flat = world[0], world[1], world[2], world[3], world[4], world[5]
+    coriolis = world.size > 6 and world[6] > 0.5
     a_out[:] = 0.0
     rotate_to_nav(q, f_b, a_out)
     if geodetic > 0.5:
@@ -57,6 +62,13 @@ def linear_acceleration(x, q, f_b, w_b, dt, world, a_out):
     for i in range(3):
         a_out[i] *= 0.5
     a_out[2] += g
+    if coriolis and geodetic > 0.5:  # (2 omega_ie + omega_en) x v = (omega_in + omega_ie) x v
+        c0 = w_n[0] + omega_e * math.cos(tmp[0])
+        c1 = w_n[1]
+        c2 = w_n[2] - omega_e * math.sin(tmp[0])
+        a_out[0] -= c1 * x[5] - c2 * x[4]
+        a_out[1] -= c2 * x[3] - c0 * x[5]
+        a_out[2] -= c0 * x[4] - c1 * x[3]
 
 
 @numba.njit(cache=True)
@@ -90,11 +102,11 @@ def _linear_block(x, P, q, t, held, f_b, w_b, qa, world, with_cov, out_x, out_q)
             out_q[r, k + 1] = q[r]
 
 
-def world_parameters(frame: NavFrame, earth_rate: bool = True) -> np.ndarray:
-    """Numba-friendly description of ``frame``: (geodetic, lat0, h0, R_N0 + h0, omega_e, g_flat)."""
+def world_parameters(frame: NavFrame, earth_rate: bool = True, coriolis: bool = False) -> np.ndarray:
+    """Numba-friendly description of ``frame``: (geodetic, lat0, h0, R_N0 + h0, omega_e, g_flat, coriolis)."""
     scale_n = frame.scales()[0] if frame.geodetic else 1.0
     return np.array([float(frame.geodetic), frame.origin[0], frame.origin[2], scale_n,
-                     OMEGA_EARTH if (frame.geodetic and earth_rate) else 0.0, frame.gravity])
+                     OMEGA_EARTH if (frame.geodetic and earth_rate) else 0.0, frame.gravity, float(bool(coriolis))])
 
 
 def check_three_nonnegative(field, value):
@@ -112,14 +124,20 @@ class GridKalmanFilter(GridFilter):
     frame : the world (:class:`~sarnav.filters.pulse_grid.NavFrame`).
     accel_psd : white-acceleration PSD per axis [m^2/s^3] (Q of eq. 3.11; gap G7).
     mode : ``"kalman"`` or ``"reset"`` (aided INS without a filter).
+    coriolis : add the Coriolis and transport-rate acceleration to the control input (geodetic frames; module
+        docstring); False is the source's model.
     """
 
-    def __init__(self, frame: NavFrame, accel_psd=1e-2, mode: str = "kalman"):
+    def __init__(self, frame: NavFrame, accel_psd=1e-2, mode: str = "kalman", coriolis: bool = False):
         if mode not in ("kalman", "reset"):
             raise ConfigError("kf.mode", f"must be 'kalman' or 'reset', got {mode!r}")
         self.frame, self.mode = frame, mode
         self.accel_psd = check_three_nonnegative("kf.accel_psd", accel_psd)
-        self._world = world_parameters(frame)
+        if not isinstance(coriolis, bool):
+            raise ConfigError("kf.coriolis", f"must be a boolean, got {coriolis!r}")
+        if coriolis and not frame.geodetic:
+            raise ConfigError("kf.coriolis", "needs a geodetic NavFrame (the flat frame has no Earth rate)")
+        self._world = world_parameters(frame, coriolis=coriolis)
 
     def initialize(self, t0, position, velocity, quaternion, cov=None):
         """State at ``t0``: ``position`` (R, 3) native, ``velocity`` (R, 3) NED, ``quaternion`` (R, 4);

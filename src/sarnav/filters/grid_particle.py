@@ -64,7 +64,9 @@ def _weighted_mean(parts, w, out):
 def _particle_block(parts, w, q, mean, t, held, imu_new, f_b, w_b, noise, chol, geodetic_model, world, out_mean,
                     out_q):
     """Propagate the clouds of all runs over t[0..S]; at the c-th noise epoch (an IMU arrival, or the block's
-    last epoch) the unit normals noise[r, c] (N, 6) are scaled by the per-axis factors chol (3, 3) and added."""
+    last epoch) the unit normals noise[r, c] (N, 6) are scaled by the per-axis factors chol (3, 3) and added.
+    ``world``: ``grid_kalman.world_parameters`` (7 values; numba caches the inlined ``linear_acceleration`` with this
+    file, so a change there needs a change here to refresh the cache)."""
     n = parts.shape[1]
     a = np.empty(3)
     w_n = np.empty(3)

@@ -349,6 +349,7 @@ class UpfParams:
     settle: float
     out_rate: float
     record_rate: float
+    kf_coriolis: bool = False
 
 
 IMU_PRESETS = ("novatel-isa-100c", "adis16465")
@@ -367,7 +368,8 @@ def upf_config() -> dict:
         "filter": {"n_particles": 2000,  # L766, L1283
                    "accel_psd_scale": 1.0,  # x spec_accel_psd of the IMU (G16)
                    "noise_at": "fix",  # process noise once per fix interval (same law at the fixes)
-                   "settle_s": 75.0},  # T13: the UPF converges within 75 s (L1285)
+                   "settle_s": 75.0,  # T13: the UPF converges within 75 s (L1285)
+                   "kf_coriolis": False},  # the source's KF (eq. 3.10: no Coriolis / transport rate); true: consistent
         "output": {"rate_hz": 3000.0,  # PRF (L1313): 15 x the IMU rate
                    "record_rate_hz": 1.0},  # results.nc epochs (the RMS uses every 3 kHz epoch)
     }
@@ -400,7 +402,8 @@ class UpfFlightKind(SourceKind):
                          number(cfg, "flight", "climb_rate", 0.0, 20.0, "m/s"), choice(cfg, "imu", "preset", IMU_PRESETS),
                          imu_rate, sig, fix_rate, integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                          number(cfg, "filter", "accel_psd_scale", 1e-6, 1e6),
-                         choice(cfg, "filter", "noise_at", ("fix", "imu")), settle, out_rate, rec)
+                         choice(cfg, "filter", "noise_at", ("fix", "imu")), settle, out_rate, rec,
+                         _bool(cfg, "filter", "kf_coriolis"))
 
     def filters(self, prm) -> list[str]:
         return ["upf", "kf-interp"]
@@ -429,7 +432,7 @@ class UpfFlightKind(SourceKind):
         u = run_upf_flight(runs=len(seeds), seed=seeds, n_particles=prm.n_particles, out_rate=prm.out_rate,
                            imu=prm.imu, imu_rate=prm.imu_rate, accel_psd=q, fix_sigma=prm.fix_sigma,
                            settle=prm.settle, noise_at=prm.noise_at, record_rate=prm.record_rate, fix_rate=prm.fix_rate,
-                           flight=survey_flight(prm.duration, prm.speed, prm.climb))
+                           flight=survey_flight(prm.duration, prm.speed, prm.climb), kf_coriolis=prm.kf_coriolis)
         e = dict(u.record_errors)
         e["pf"], e["kf"] = e["upf"], e["kf-interp"]
         e["fix"] = u.record_fix_errors

@@ -389,11 +389,12 @@ def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles:
                    out_rate: float = 3000.0, imu: str = "novatel-isa-100c", imu_rate: float = 200.0,
                    accel_psd="spec", fix_sigma=FIX_SIGMA, segment: float = 10.0, settle: float = 75.0,
                    noise_at: str = "fix", flight: Maneuvering | None = None, record_rate: float = 1.0,
-                   fix_rate: float = 20.0) -> UpfFlightResult:
+                   fix_rate: float = 20.0, kf_coriolis: bool = False) -> UpfFlightResult:
     """The UPF (geodetic model, ``n_particles``) and the interpolated KF (eq. 3.10 model) on the pulse grid at
     ``out_rate`` over :func:`survey_flight`, 200 Hz IMU + 20 Hz fixes; processed in ``segment``-second pieces
     so that one hour at 3 kHz fits in memory. Errors accumulate as sums of squares per run; the filters' fix-epoch
-    estimates and covariances are kept at ``record_rate`` (a divisor of ``fix_rate``)."""
+    estimates and covariances are kept at ``record_rate`` (a divisor of ``fix_rate``). ``kf_coriolis`` gives the
+    KF the Coriolis and transport-rate terms (``GridKalmanFilter(coriolis=True)``; False: the source's eq. 3.10)."""
     seqs = _seeds(seed, runs)
     flat = flight if flight is not None else survey_flight(duration)
     geo = GeodeticFlight(flat, *ORIGIN)
@@ -410,7 +411,8 @@ def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles:
     filters = {"upf": GridParticleFilter(frame, n_particles, q, model="geodetic", noise_at=noise_at,
                                          ess_threshold=0.5, kernel_h=0.3).initialize(0.0, fix0, v0, s0.quaternion,
                                                                                      p0, _rngs(seqs, 3)),
-               "kf-interp": GridKalmanFilter(frame, q).initialize(0.0, fix0, v0, s0.quaternion, p0)}
+               "kf-interp": GridKalmanFilter(frame, q, coriolis=kf_coriolis).initialize(0.0, fix0, v0, s0.quaternion,
+                                                                                         p0)}
     acc = _UpfAccumulator(runs, settle, fix_rate, record_rate)
     t0 = 0.0
     while t0 < flat.duration - 1e-9:
