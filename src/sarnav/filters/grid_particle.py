@@ -239,10 +239,12 @@ class GridParticleFilter(GridFilter):
         collapses for good: multi-imu-path1 at 1-2 Hz with 50 particles, NEES 1e12). Other runs are updated as
         before (per run, so a run's numbers do not depend on the batch)."""
         ll = self._fix_log_likelihood(z, sigma)
-        post, lse = normalize_log_weights(self.logw + ll)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ess = np.where(np.isfinite(lse), effective_sample_size(post), 0.0)
-        degenerate = (ess < DEGENERATE_ESS) & np.isfinite(lse)
+        x = self.logw + ll
+        m = np.max(x, axis=1)
+        alive = np.isfinite(m)  # a run whose every particle misses is on_collapse's case, not this one
+        w = np.exp(x - np.where(alive, m, 0.0)[:, None])
+        s1, s2 = np.sum(w, axis=1), np.sum(w * w, axis=1)
+        degenerate = alive & (s1 * s1 < DEGENERATE_ESS * s2)  # N_eff = (sum w)^2 / sum w^2 < DEGENERATE_ESS
         if not degenerate.any():
             self.update_log_likelihood(ll)
             return
