@@ -49,7 +49,7 @@ from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _S0, _S1, _S2, _S3, _S4, _S5,
                                            _check_pulses, _cis, _image, _points, _wavelength, backproject_fan,
                                            backproject_points, plane_of)
-from sarnav.imaging.interpolation_error import interpolation_error, interpolation_error_2d
+from sarnav.imaging.interpolation_error import interpolation_error_2d
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan"]
 
