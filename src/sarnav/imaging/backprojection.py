@@ -314,12 +314,28 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
                 out_im[i0 + i] += acc_i[i]
 
 
+@numba.njit(fastmath=True, cache=True)
+def _row_origins(origin, e_row, ny):  # pragma: no cover - compiled
+    """origin + i e_row (ny, 3): a plane grid's rows as the lines of ``_bpa_fan_kernel`` (compiled like the kernels,
+    so the rows' float64 coordinates round as they did inside the former plane kernel)."""
+    out = np.empty((ny, 3))
+    for i in range(ny):
+        out[i, 0] = origin[0] + i * e_row[0]
+        out[i, 1] = origin[1] + i * e_row[1]
+        out[i, 2] = origin[2] + i * e_row[2]
+    return out
+
+
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def _bpa_fan_kernel(origins, e_cols, nx, ant, data, u_offset, inv_dr, u_max, two_over_lambda, mode, block,
                     pulse_block, out_re, out_im):  # pragma: no cover - compiled
-    """As ``_bpa_plane_kernel`` for rows of points on straight lines, ``origins[i] + j e_cols[i]`` (j < nx): a polar
-    grid's lines of constant direction from a subaperture centre (``imaging.ffbp`` level 0). Along a line the squared
-    range is exactly quadratic in j, so a point costs one multiply-add pair and a square root."""
+    """As ``_bpa_kernel`` for rows of points on straight lines, ``origins[i] + j e_cols[i]`` (j < nx), row-major out.
+
+    Along row i the squared range is exactly quadratic in j: R^2 = |w|^2 + j (2 w.e_col + j |e_col|^2),
+    w = origins[i] - a_k (float64), so a point costs one multiply-add pair and a square root instead of its three
+    coordinates; work items are row segments of ``block`` points (the recurrence starts at j = 0 of the row, so the
+    result does not depend on ``block``). A plane grid's rows (``origins[i] = origin + i e_row``) and a polar grid's
+    lines of constant direction from a subaperture centre (``imaging.ffbp`` level 0) are both such rows."""
     ny = origins.shape[0]
     n_seg = (nx + block - 1) // block
     n_pulses = ant.shape[0]
@@ -343,58 +359,6 @@ def _bpa_fan_kernel(origins, e_cols, nx, ant, data, u_offset, inv_dr, u_max, two
             e_col = e_cols[row]
             e2 = e_col[0] * e_col[0] + e_col[1] * e_col[1] + e_col[2] * e_col[2]
             rx, ry, rz = origins[row, 0], origins[row, 1], origins[row, 2]
-            k = k_start
-            while k < k_stop:
-                _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx,
-                          wgt, cph, sph)
-                if mode != 2 and k + 1 < k_stop:
-                    _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k + 1, u_offset, inv_dr, u_max, shift,
-                              two_over_lambda, idx2, wgt2, cph2, sph2)
-                    _gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
-                                 acc_i)
-                    k += 2
-                else:
-                    _gather(data[k], mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i)
-                    k += 1
-            base = row * nx + j0
-            for i in range(n):
-                out_re[base + i] += acc_r[i]
-                out_im[base + i] += acc_i[i]
-
-
-@numba.njit(parallel=True, fastmath=True, cache=True)
-def _bpa_plane_kernel(origin, e_row, e_col, ny, nx, ant, data, u_offset, inv_dr, u_max, two_over_lambda, mode,
-                      block, pulse_block, out_re, out_im):  # pragma: no cover - compiled
-    """As ``_bpa_kernel`` for the pixels ``origin + i e_row + j e_col`` (i < ny, j < nx) of a plane grid.
-
-    Along row i the squared range is exactly quadratic in j: R^2 = |w|^2 + j (2 w.e_col + j |e_col|^2),
-    w = origin + i e_row - a_k (float64), so a pixel costs one multiply-add pair and a square root instead
-    of its three coordinates; work items are row segments of ``block`` pixels (the recurrence starts at
-    j = 0 of the row, so the result does not depend on ``block``).
-    """
-    n_seg = (nx + block - 1) // block
-    n_pulses = ant.shape[0]
-    e2 = e_col[0] * e_col[0] + e_col[1] * e_col[1] + e_col[2] * e_col[2]
-    shift = 0.5 if mode == 0 else 0.0
-    for k_start in range(0, n_pulses, pulse_block):
-        k_stop = min(n_pulses, k_start + pulse_block)
-        for item in numba.prange(ny * n_seg):
-            row = item // n_seg
-            j0 = (item % n_seg) * block
-            n = min(nx, j0 + block) - j0
-            acc_r = np.zeros(n, np.float32)
-            acc_i = np.zeros(n, np.float32)
-            idx, idx2 = np.empty(n, np.uint32), np.empty(n, np.uint32)
-            wgt, wgt2 = np.empty(n, np.float32), np.empty(n, np.float32)
-            cph, cph2 = np.empty(n, np.float32), np.empty(n, np.float32)
-            sph, sph2 = np.empty(n, np.float32), np.empty(n, np.float32)
-            w4 = np.empty((4, n), np.float32)
-            jf = np.empty(n)
-            for i in range(n):
-                jf[i] = j0 + i
-            rx = origin[0] + row * e_row[0]
-            ry = origin[1] + row * e_row[1]
-            rz = origin[2] + row * e_row[2]
             k = k_start
             while k < k_stop:
                 _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx,
@@ -578,7 +542,7 @@ def backproject_fan(rc: PulseData, origins, steps, n: int, positions=None, inter
     """Back-project onto points on straight lines, ``origins[i] + j steps[i]`` (j < n): (L, n) complex128.
 
     The lines of a polar grid (constant direction from a subaperture centre, ``imaging.ffbp``): the range along a
-    line is exactly quadratic in j, so the cost per point-pulse is that of a plane grid (``_bpa_plane_kernel``).
+    line is exactly quadratic in j, so the cost per point-pulse is that of a plane grid (``_bpa_fan_kernel``).
     The same sums as :func:`backproject_points` at those points (to float32 accumulation order).
     """
     _check_interpolation(interpolation, upsample)
@@ -635,7 +599,8 @@ def _form(rc, positions, interpolation, upsample, wavelength, block, pulse_block
             e_row, e_col, ny, nx = e_col, e_row, nx, ny
         out_re = np.zeros(ny * nx)
         out_im = np.zeros(ny * nx)
-        _bpa_plane_kernel(origin, e_row, e_col, ny, nx, pos, padded, *common, out_re, out_im)
+        _bpa_fan_kernel(_row_origins(origin, e_row, ny), np.ascontiguousarray(np.broadcast_to(e_col, (ny, 3))),
+                        int(nx), pos, padded, *common, out_re, out_im)
         if swap:
             out_re = np.ascontiguousarray(out_re.reshape(ny, nx).T).ravel()
             out_im = np.ascontiguousarray(out_im.reshape(ny, nx).T).ravel()

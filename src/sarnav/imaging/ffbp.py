@@ -183,28 +183,6 @@ def _taps(img, nu, n, base, tab, out_re, out_im, o0):  # pragma: no cover - comp
         out_im[o0 + i] += sr * s + si * c
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
-def _taps_c64(img, nu, n, base, tab, out, o0):  # pragma: no cover - compiled
-    """As ``_taps``, accumulating into a flat complex64 array (a merge's parent image)."""
-    for i in range(n):
-        b = base[i]
-        sr = np.float32(0.0)
-        si = np.float32(0.0)
-        for t in range(4):
-            row = b + np.uint32(t * nu)
-            p0 = img[row]
-            p1 = img[row + np.uint32(1)]
-            p2 = img[row + np.uint32(2)]
-            p3 = img[row + np.uint32(3)]
-            rr = tab[4, i] * p0.real + tab[5, i] * p1.real + tab[6, i] * p2.real + tab[7, i] * p3.real
-            ri = tab[4, i] * p0.imag + tab[5, i] * p1.imag + tab[6, i] * p2.imag + tab[7, i] * p3.imag
-            sr += tab[t, i] * rr
-            si += tab[t, i] * ri
-        c = tab[8, i]
-        s = tab[9, i]
-        out[o0 + i] += np.complex64(complex(sr * c - si * s, sr * s + si * c))
-
-
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda, block,
                 out_re, out_im):  # pragma: no cover - compiled
@@ -297,7 +275,11 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
             base[j], wr[j], wu[j], f[j] = _locate(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu,
                                                   two_over_lambda)
         _weights(nu, wr, wu, f, tab)
-        _taps_c64(flat, cnu, nu, base, tab, oflat, i * nu)
+        acc_re = np.zeros(nu, np.float32)
+        acc_im = np.zeros(nu, np.float32)
+        _taps(flat, cnu, nu, base, tab, acc_re, acc_im, 0)
+        for j in range(nu):
+            oflat[i * nu + j] += np.complex64(complex(acc_re[j], acc_im[j]))
 
 
 # ---------------------------------------------------------------------------------------------
