@@ -258,7 +258,9 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
     nr, nu = out.shape
     cnr, cnu = img.shape
     flat = img.ravel()
-    oflat = out.ravel()
+    pairs = out.ravel().view(np.float32)     # complex64 as interleaved float32 (re, im): _taps adds into both
+    ore = pairs[0::2]
+    oim = pairs[1::2]
     for i in numba.prange(nr):
         r = pr0 + i * pdr
         base = np.empty(nu, np.uint32)
@@ -275,11 +277,7 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
             base[j], wr[j], wu[j], f[j] = _locate(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu,
                                                   two_over_lambda)
         _weights(nu, wr, wu, f, tab)
-        acc_re = np.zeros(nu, np.float32)
-        acc_im = np.zeros(nu, np.float32)
-        _taps(flat, cnu, nu, base, tab, acc_re, acc_im, 0)
-        for j in range(nu):
-            oflat[i * nu + j] += np.complex64(complex(acc_re[j], acc_im[j]))
+        _taps(flat, cnu, nu, base, tab, ore, oim, i * nu)
 
 
 # ---------------------------------------------------------------------------------------------
