@@ -110,6 +110,12 @@ def test_fan_back_projection_equals_the_point_kernel_on_the_same_points():
         ref = backproject_points(rc, pts, interpolation=interp)
         assert fan.shape == (7, n)
         assert 10 * np.log10(np.sum(np.abs(fan - ref) ** 2) / np.sum(np.abs(ref) ** 2) + 1e-300) < -120
+    from sarnav.errors import InputDataError
+
+    with pytest.raises(InputDataError, match="n: must be an integer >= 1"):
+        backproject_fan(rc, origins, steps, 0)
+    with pytest.raises(InputDataError, match="origins: must be finite"):
+        backproject_fan(rc, np.where(origins > 0, np.nan, origins), steps, n)
 
 
 def test_plane_grid_and_point_list_give_the_same_ffbp_image():

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from sarnav.errors import ConfigError
-from sarnav.frames.earth import OMEGA_EARTH
+from sarnav.frames.wgs84 import earth_rate_ned
 from sarnav.units import G0
 
 #: gravity in the NED tangent frame [m/s^2] (thesis eq. 3.1: g^n, down positive)
@@ -42,7 +42,7 @@ def earth_rate_tangent(latitude_rad: float) -> np.ndarray:
     lat = float(latitude_rad)
     if not np.isfinite(lat) or abs(lat) > 0.5 * np.pi + 1e-12:
         raise ConfigError("earth.latitude_deg", f"must be in [-90, 90] deg, got {np.degrees(lat)!r}")
-    return OMEGA_EARTH * np.array([np.cos(lat), 0.0, -np.sin(lat)])
+    return earth_rate_ned(lat)
 
 
 def earth_rate_or_zero(earth_rate) -> np.ndarray:

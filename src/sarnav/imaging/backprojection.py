@@ -554,6 +554,8 @@ def backproject_fan(rc: PulseData, origins, steps, n: int, positions=None, inter
         raise InputDataError("origins", f"origins and steps must both have shape (L, 3), got {origins.shape}, {steps.shape}")
     if not (np.all(np.isfinite(origins)) and np.all(np.isfinite(steps))):
         raise InputDataError("origins", "must be finite (found NaN/inf)")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputDataError("n", f"must be an integer >= 1 (points per line), got {n!r}")
     _check_blocks(block, pulse_block)
     out_re, out_im = _form(rc, positions, interpolation, upsample, wavelength, block, pulse_block,
                            fan=(origins, steps, int(n)))

@@ -36,6 +36,7 @@ import numpy as np
 from sarnav.errors import InputDataError
 from sarnav.frames import GRAVITY_NED, earth_rate_or_zero
 from sarnav.ins.state import NavState
+from sarnav.rotations import quat_multiply, rotvec_to_quat
 
 
 def _matvec(T, x):
@@ -72,22 +73,6 @@ def _rotate_body(q, phi):
     out[:, :1] = a * r[:, None] - np.sum(b * s, axis=1, keepdims=True)
     out[:, 1:] = a * s + r[:, None] * b + np.cross(b, s)
     return out / np.sqrt(np.sum(out * out, axis=1, keepdims=True))
-
-
-def _rotvec_quat(phi):
-    """rotvec_to_quat for one rotation vector (3,)."""
-    ang = float(np.sqrt(phi @ phi))
-    k = np.sin(0.5 * ang) / ang if ang > 1e-8 else 0.5 - ang * ang / 48.0
-    return np.concatenate([[np.cos(0.5 * ang)], k * phi])
-
-
-def _rotate_nav(q_e, q):
-    """q_e (x) q for one quaternion q_e (4,) and (R, 4) (Hamilton, scalar first): a turn of the navigation frame."""
-    a, b = q_e[0], q_e[1:]
-    out = np.empty_like(q)
-    out[:, :1] = a * q[:, :1] - q[:, 1:] @ b[:, None]
-    out[:, 1:] = a * q[:, 1:] + q[:, :1] * b + np.cross(b, q[:, 1:])
-    return out
 
 
 def _solve_coriolis(rhs, w2, a):
@@ -173,7 +158,7 @@ def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float
     rotating = earth_rate is not None
     if rotating:
         w2 = 2.0 * earth_rate_or_zero(earth_rate)
-        q_e = _rotvec_quat(-0.5 * w2 * dt)
+        q_e = rotvec_to_quat(-0.5 * w2 * dt)
         coriolis = np.zeros_like(v)  # int 2 omega_ie x v dt over the call
     prev = history
     for k in range(n - 1):
@@ -185,7 +170,7 @@ def mechanize(nav: NavState, times, nu, omega, tau_accel: float, tau_gyro: float
             phi = c5 * w1 + c8 * w0 - c1 * prev.w_b + coning
         q_new = _rotate_body(q, phi)
         if rotating:
-            q_new = _rotate_nav(q_e, q_new)
+            q_new = quat_multiply(q_e, q_new)  # the frame's turn, exact for a constant rate
         f_n1 = _matvec(_dcm(q_new), f_b[:, k + 1])
         if prev is None:
             v_new = v + 0.5 * dt * (f_n + f_n1) + g_dt
