@@ -199,6 +199,14 @@ def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
     return np.stack([np.interp(times, fine, track[:, i]) for i in range(3)], axis=1)
 
 
+def _along_offset(q, times, track, t) -> float:
+    """Along-track offset [m] of the point ``q`` from the sampled ``track`` (P, 3) at ``times`` at time ``t``:
+    ``(q - p(t)) . v(t) / |v(t)|``, zero at the closest approach."""
+    p = np.array([np.interp(t, times, track[:, i]) for i in range(3)])
+    v = np.array([np.interp(t, times, np.gradient(track[:, i], times)) for i in range(3)])
+    return float(np.dot(np.asarray(q) - p, v) / np.linalg.norm(v))
+
+
 def _crop_range(rc, r_lo, r_hi):
     r = rc.slant_range
     a = max(int(np.searchsorted(r, r_lo)), 0)
@@ -470,8 +478,10 @@ class SubApertureImager:
         out.lever[r, k] = out.toc[r, k] - 0.5 * (times[0] + times[-1])
         if st.focus == "estimate":
             refocus = lambda dv: range_doppler(sub, speed_hat + dv).data  # noqa: E731
-            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, row, i1, j1,
-                                                            lambda d: d / prf * speed_hat)
+            n_p = self.n_pulses
+            slope, offset, spread = self._focus_sensitivity(  # RDA rows are pulse times (circular): a row is a TOC
+                refocus, ch, speed_hat, speed_sigma, row, i1, j1,
+                lambda rc_, dv: ((rc_[0] - row + n_p / 2) % n_p - n_p / 2) / prf * speed_hat)
             out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
             out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
         self._judge(r, k, info["quality"], distinctness(coarse.surface, (ch["chip"].shape[0] // 2,
@@ -507,8 +517,16 @@ class SubApertureImager:
         data = backproject(rc, grid.points(), positions=p_hat).data
         t1 = time.perf_counter()
         coarse, i1, j1 = self._coarse(np.abs(data), np.abs(ch["chip"]), circular=False)
-        row, col, info = self._fine(data, ch, i1, j1, circular=False)
-        q_hat = grid.point(row, col)
+        row, col, _ = self._fine(data, ch, i1, j1, precision=False, circular=False)
+        # formed again on the chip's lattice centred at the match, so that the final registration shift is a small
+        # fraction of a pixel: ground range is sampled near Nyquist (one slant bin), where a spline shift of the
+        # magnitude (or of the complex chip) misplaces a fractional shift and leaves a residual that reads as a
+        # scene mismatch (kappa up to 13 at half a pixel; docs/scenarios/rda-nav.md §6)
+        chip_grid = replace(grid, centre=grid.point(row, col), shape=ch["chip"].shape)
+        hi, hj = ch["chip"].shape[0] // 2, ch["chip"].shape[1] // 2
+        row_c, col_c, info = self._fine(backproject(rc, chip_grid.points(), positions=p_hat).data, ch, hi, hj,
+                                        circular=False)
+        q_hat = chip_grid.point(row_c, col_c)
         eta, rng_ = self._closest(q_hat, times, p_hat)
         out.toc[r, k], out.range[r, k] = eta, rng_
         out.sigma[r, k] = (info["sigma_px"][1] * grid.dg * g0 / r0, info["sigma_px"][0] * grid.da)
@@ -517,11 +535,17 @@ class SubApertureImager:
             m, n = ch["chip"].shape[0] + 20, ch["chip"].shape[1] + 10
             local = replace(grid, centre=grid.point(i1, j1), shape=(m, n))
             centre = p_hat[i_c]
-            refocus = lambda dv: backproject(rc, local.points(),  # noqa: E731
-                                             positions=centre + (1.0 + dv / speed_hat) * (p_hat - centre)).data
-            row_l = row - i1 + (m - 1) / 2
-            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, row_l, (m - 1) // 2,
-                                                            (n - 1) // 2, lambda d: d * grid.da, circular=False)
+            # the measurement is the TOC on the focusing track (the along-track offset of the match from the track
+            # is zero then), and a stretched track is elsewhere at that time: an image point moved by -eps x0
+            # (eps = dv / V, x0 the target's offset from the aperture centre) has an along-track offset of
+            # -2 eps x0 at the TOC (docs/scenarios/rda-nav.md §6). So each refocused match is taken to its offset
+            # from its own track at the TOC eta0 (on a turn that is also the rate of the offset, rda_nav.along_rate)
+            stretched = lambda dv: centre + (1.0 + dv / speed_hat) * (p_hat - centre)  # noqa: E731
+            eta0 = self._closest(local.point(row - i1 + (m - 1) / 2, col - j1 + (n - 1) / 2), times, p_hat)[0]
+            along = lambda rc_, dv: _along_offset(local.point(*rc_), times, stretched(dv), eta0)  # noqa: E731
+            refocus = lambda dv: backproject(rc, local.points(), positions=stretched(dv)).data  # noqa: E731
+            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, None, (m - 1) // 2,
+                                                            (n - 1) // 2, along, circular=False)
             out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
             out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
         self._judge(r, k, info["quality"], distinctness(coarse.surface, (ch["chip"].shape[0] // 2,
@@ -586,19 +610,17 @@ class SubApertureImager:
 
         The same data are focused at ``V_i = speed_hat + x_i`` with x in (-h, 0, +h), h = sqrt(3) sigma_V (at least
         ``FOCUS_STEP`` speed_hat) (``refocus(x)``: RDA with that speed; BPA with the estimated positions stretched
-        along track by 1 + x / speed_hat) and registered at the same place: g_i (``along_m(row)``: the along-track
-        metres of a row). The unscented weights (1/6, 2/3, 1/6) of V ~ N(speed_hat, sigma_V^2) give the regression
+        along track by 1 + x / speed_hat) and registered at the same place: g_i (``along_m((row, col), x)``: the
+        along-track metres of the TOC of a match in the image focused at x, relative to g_0). The unscented weights (1/6, 2/3, 1/6) of V ~ N(speed_hat, sigma_V^2) give the regression
         g(V) = mean + slope (V - speed_hat) + e with slope = (g_+ - g_-) / 2h, and with q = (g_+ + g_-) / 2 - g_0:
         mean - g_0 = q / 3, var(e) = 2 q^2 / 9. An image focused with a wrong speed moves a target whose TOC is off
         the aperture centre (about 2 (eta0 - eta_c) (V - speed_hat) for a strong azimuth chirp; irregular for weak
         ones, K T^2 of a few), so the measured along-track registration is ``slope (speed_hat - V) - q/3 + e``.
         Returns (slope [s], -q/3 [m], sqrt(var e) [m])."""
-        n = self.n_pulses
         step = max(FOCUS_STEP * speed_hat, math.sqrt(3.0) * (0.0 if speed_sigma is None else float(speed_sigma)))
         g = []
         for sgn in (1.0, -1.0):
-            r_i = self._fine(refocus(sgn * step), ch, i1, j1, precision=False, circular=circular)[0]
-            d = ((r_i - row + n / 2) % n - n / 2) if circular else (r_i - row)  # circular rows, relative to g_0
-            g.append(along_m(d))
+            r_i, c_i, _ = self._fine(refocus(sgn * step), ch, i1, j1, precision=False, circular=circular)
+            g.append(along_m((r_i, c_i), sgn * step))
         q = 0.5 * (g[0] + g[1])
         return (g[0] - g[1]) / (2.0 * step), -q / 3.0, math.sqrt(2.0 / 9.0) * abs(q)

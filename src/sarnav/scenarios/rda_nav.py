@@ -92,8 +92,10 @@ def extra_attrs() -> dict:
         "toc": {"units": "s", "description": "time of closest approach of the (first) reference target each SAR "
                                              "update refers to: measured from the image (image mode) or the truth"},
         "registration_error": {"units": "m", "description": "image-derived minus geometric truth: range of closest "
-                                                            "approach (range), along-track V x TOC error less the "
-                                                            "modelled focusing shift (cross); NaN for the altimeter"},
+                                                            "approach (range), along-track TOC error x the rate of "
+                                                            "the along-track offset (V on a straight track: "
+                                                            "rda_nav.along_rate) less the modelled focusing shift "
+                                                            "(cross); NaN for the altimeter"},
         "registration_sigma": {"units": "m", "description": "1-sigma of the registration predicted from each image "
                                                             "(imaging.registration.magnitude_shift_precision and the "
                                                             "focus sensitivity): range, along-track; the R of the update"},
@@ -545,11 +547,14 @@ class _Sar:
         V = self.prm.trajectory.speed
         for k, (eta_true, r_true, _) in enumerate(true_toc):
             record["registration_error"][:, u, 1 + 2 * k] = am.range[:, k] - r_true
-            # along track: what the image's TOC says beyond the truth, less the modelled shift of focusing with a
-            # speed that is not the true one (sensitivity x (V_focus - V), §2): the registration error proper
+            # along track: what the image's TOC says beyond the truth, in the metres of the cross-range measurement
+            # (the along-track offset of the target at the TOC, which moves at the rate along_rate: V on a straight
+            # track), less the modelled shift of focusing with a speed that is not the true one (sensitivity x
+            # (V_focus - V), §2): the registration error proper
             shift = (np.nan_to_num(am.sensitivity[:, k]) * (am.speed - V) + np.nan_to_num(am.focus_offset[:, k])
                      if self.prm.focus == "estimate" else 0.0)
-            record["registration_error"][:, u, 2 + 2 * k] = V * (am.toc[:, k] - eta_true) - shift
+            rate = along_rate(self.prm.trajectory, self.targets[u, k], eta_true)
+            record["registration_error"][:, u, 2 + 2 * k] = rate * (am.toc[:, k] - eta_true) - shift
             record["registration_sigma"][:, u, 1 + 2 * k:3 + 2 * k] = am.sigma[:, k]
         record["autofocus_dk"][:, u] = am.autofocus_dk
         record["stage_seconds"][:, u, :len(IMAGE_STAGES)] += am.seconds
@@ -570,6 +575,17 @@ class _Sar:
         if prm.focus == "estimate":
             self.sensitivity = np.where(ok, np.nan_to_num(am.sensitivity), 0.0)
             self.focus_offset = np.where(ok, np.nan_to_num(am.focus_offset), 0.0)
+
+
+def along_rate(trajectory, target, eta: float, h: float = 1e-3) -> float:
+    """How fast [m/s] the target's along-track offset ``(target - p(t)) . v(t) / |v(t)|`` falls through zero at its
+    closest approach ``eta``: the speed V on a straight track, V (1 - R / rho) on a turn of radius rho towards a
+    target at range R (a target near the turn's centre has a flat range history, and a small along-track error of the
+    image moves its TOC a long way). The cross-range measurement is that offset, so a TOC error dt is an error of
+    ``along_rate * dt`` metres in it."""
+    st = trajectory.state(np.array([eta - h, eta + h]))
+    a = np.einsum("ij,ij->i", np.asarray(target) - st.position, st.velocity / np.linalg.norm(st.velocity, axis=1)[:, None])
+    return float(-(a[1] - a[0]) / (2.0 * h))
 
 
 def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
