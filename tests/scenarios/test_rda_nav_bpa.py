@@ -15,7 +15,7 @@ from sarnav.scenarios import rda_nav as rn
 from sarnav.scenarios import rda_nav_world as world
 from sarnav.scenarios.config import load_scenario
 from sarnav.trajectory.base import TrajectoryState
-from sarnav.trajectory.sampled import closest_approach
+from sarnav.trajectory.sampled import along_rate, closest_approach
 
 RUNS = 4
 APERTURE = 3
@@ -94,13 +94,13 @@ class _Circle:
 def test_the_along_track_offset_falls_at_v_times_one_minus_r_over_rho_inside_a_turn(R):
     rho, V = 2292.0, 10.0
     target = np.array([0.0, R, 0.0])  # towards the turn's centre, closest approach at t = 0
-    assert rn.along_rate(_Circle(rho, V), target, 0.0) == pytest.approx(V * (1.0 - R / rho), rel=1e-6)
+    assert along_rate(_Circle(rho, V), target, 0.0) == pytest.approx(V * (1.0 - R / rho), rel=1e-6)
     # on the other side of the track the history is more curved, not less
-    assert rn.along_rate(_Circle(rho, V), -target, 0.0) == pytest.approx(V * (1.0 + R / rho), rel=1e-6)
+    assert along_rate(_Circle(rho, V), -target, 0.0) == pytest.approx(V * (1.0 + R / rho), rel=1e-6)
 
 
 def test_the_along_track_offset_falls_at_the_speed_on_a_straight_track():
     prm = rn.parse(rn.default_config())
     target = np.array([35.0, 1800.0, 0.0])
     eta = 3.5
-    assert rn.along_rate(prm.trajectory, target, eta) == pytest.approx(prm.trajectory.speed, rel=1e-9)
+    assert along_rate(prm.trajectory, target, eta) == pytest.approx(prm.trajectory.speed, rel=1e-9)

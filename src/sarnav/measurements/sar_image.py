@@ -539,7 +539,7 @@ class SubApertureImager:
             # is zero then), and a stretched track is elsewhere at that time: an image point moved by -eps x0
             # (eps = dv / V, x0 the target's offset from the aperture centre) has an along-track offset of
             # -2 eps x0 at the TOC (docs/scenarios/rda-nav.md §6). So each refocused match is taken to its offset
-            # from its own track at the TOC eta0 (on a turn that is also the rate of the offset, rda_nav.along_rate)
+            # from its own track at the TOC eta0 (on a turn that is also the rate of the offset, trajectory.sampled.along_rate)
             stretched = lambda dv: centre + (1.0 + dv / speed_hat) * (p_hat - centre)  # noqa: E731
             eta0 = self._closest(local.point(row - i1 + (m - 1) / 2, col - j1 + (n - 1) / 2), times, p_hat)[0]
             along = lambda rc_, dv: _along_offset(local.point(*rc_), times, stretched(dv), eta0)  # noqa: E731

@@ -59,7 +59,7 @@ from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEY
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.base import Trajectory
-from sarnav.trajectory.sampled import closest_approach, interpolate_state
+from sarnav.trajectory.sampled import along_rate, closest_approach, interpolate_state
 
 #: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
 COV_STEP = 0.1
@@ -94,7 +94,7 @@ def extra_attrs() -> dict:
         "registration_error": {"units": "m", "description": "image-derived minus geometric truth: range of closest "
                                                             "approach (range), along-track TOC error x the rate of "
                                                             "the along-track offset (V on a straight track: "
-                                                            "rda_nav.along_rate) less the modelled focusing shift "
+                                                            "trajectory.sampled.along_rate) less the modelled focusing shift "
                                                             "(cross); NaN for the altimeter"},
         "registration_sigma": {"units": "m", "description": "1-sigma of the registration predicted from each image "
                                                             "(imaging.registration.magnitude_shift_precision and the "
@@ -575,17 +575,6 @@ class _Sar:
         if prm.focus == "estimate":
             self.sensitivity = np.where(ok, np.nan_to_num(am.sensitivity), 0.0)
             self.focus_offset = np.where(ok, np.nan_to_num(am.focus_offset), 0.0)
-
-
-def along_rate(trajectory, target, eta: float, h: float = 1e-3) -> float:
-    """How fast [m/s] the target's along-track offset ``(target - p(t)) . v(t) / |v(t)|`` falls through zero at its
-    closest approach ``eta``: the speed V on a straight track, V (1 - R / rho) on a turn of radius rho towards a
-    target at range R (a target near the turn's centre has a flat range history, and a small along-track error of the
-    image moves its TOC a long way). The cross-range measurement is that offset, so a TOC error dt is an error of
-    ``along_rate * dt`` metres in it."""
-    st = trajectory.state(np.array([eta - h, eta + h]))
-    a = np.einsum("ij,ij->i", np.asarray(target) - st.position, st.velocity / np.linalg.norm(st.velocity, axis=1)[:, None])
-    return float(-(a[1] - a[0]) / (2.0 * h))
 
 
 def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):

@@ -10,7 +10,7 @@ import numpy as np
 
 from sarnav.errors import InputDataError
 
-__all__ = ["closest_approach", "interpolate_state", "closest_sample_is_inside", "min_distance"]
+__all__ = ["closest_approach", "interpolate_state", "closest_sample_is_inside", "min_distance", "along_rate"]
 
 
 def _vec3(name: str, value) -> np.ndarray:
@@ -68,3 +68,14 @@ def closest_sample_is_inside(p_targ, times, positions) -> bool:
 def min_distance(positions, point) -> float:
     """Smallest distance [m] from sampled positions (..., 3) to a point (3,)."""
     return float(np.min(np.linalg.norm(np.asarray(positions, dtype=np.float64) - point, axis=-1)))
+
+
+def along_rate(trajectory, target, eta: float, h: float = 1e-3) -> float:
+    """How fast [m/s] the target's along-track offset ``(target - p(t)) . v(t) / |v(t)|`` falls through zero at its
+    closest approach ``eta``: the speed V on a straight track, V (1 - R / rho) on a turn of radius rho towards a
+    target at range R (a target near the turn's centre has a flat range history, and a small along-track error of the
+    image moves its TOC a long way). The cross-range measurement is that offset, so a TOC error dt is an error of
+    ``along_rate * dt`` metres in it."""
+    st = trajectory.state(np.array([eta - h, eta + h]))
+    a = np.einsum("ij,ij->i", np.asarray(target) - st.position, st.velocity / np.linalg.norm(st.velocity, axis=1)[:, None])
+    return float(-(a[1] - a[0]) / (2.0 * h))
