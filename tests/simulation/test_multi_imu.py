@@ -4,8 +4,8 @@ The long runs are marked slow::
 
     .venv/bin/python -m pytest -q -p no:xdist -m slow tests/simulation/test_multi_imu.py
 
-(about 6 minutes on one core: the 3 x ADIS16465 / NovAtel rig for 300 s with 1000 particles per IMU, twice,
-and the UPF flight of 600 s at 3 kHz with 2000 particles).
+(about 2.5 min, measured in docs/particles.md: the 3 x ADIS16465 / NovAtel rig for 300 s with 1000 particles per
+IMU, twice, and the UPF flight of 600 s at 3 kHz with 2000 particles).
 """
 
 import numpy as np

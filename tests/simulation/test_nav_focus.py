@@ -3,7 +3,7 @@ the lambda/16 tolerance (T28), what a position error does to a back-projected po
 above lambda/16 RMS defocuses, a constant offset only translates), the focus metrics and their censoring, and the
 focus ranking of the navigation sources (T30, T32; slow)::
 
-    .venv/bin/python -m pytest -q -p no:xdist -m slow tests/simulation/test_nav_focus.py   # about 3 min on one core
+    .venv/bin/python -m pytest -q -p no:xdist -m slow tests/simulation/test_nav_focus.py   # about 70 s CPU (docs/particles.md)
 """
 
 import numpy as np

@@ -50,7 +50,7 @@ from sarnav.radar.scene import Scene
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
 from sarnav.signal.data import SarImage
 from sarnav.trajectory.base import Trajectory
-from sarnav.trajectory.sampled import closest_approach, closest_sample_is_inside
+from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
 __all__ = ["STAGES", "FAILURES", "ALGORITHMS", "FOCUS", "ImagingSettings", "AperturePasses", "ApertureMeasurements",
            "SubApertureImager", "focusing_track"]
@@ -197,14 +197,6 @@ def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
     path -= path[int(np.searchsorted(fine, t_c))]
     track = p[i_c] + path
     return np.stack([np.interp(times, fine, track[:, i]) for i in range(3)], axis=1)
-
-
-def _along_offset(q, times, track, t) -> float:
-    """Along-track offset [m] of the point ``q`` from the sampled ``track`` (P, 3) at ``times`` at time ``t``:
-    ``(q - p(t)) . v(t) / |v(t)|``, zero at the closest approach."""
-    p = np.array([np.interp(t, times, track[:, i]) for i in range(3)])
-    v = np.array([np.interp(t, times, np.gradient(track[:, i], times)) for i in range(3)])
-    return float(np.dot(np.asarray(q) - p, v) / np.linalg.norm(v))
 
 
 def _crop_range(rc, r_lo, r_hi):
@@ -480,7 +472,7 @@ class SubApertureImager:
             refocus = lambda dv: range_doppler(sub, speed_hat + dv).data  # noqa: E731
             n_p = self.n_pulses
             slope, offset, spread = self._focus_sensitivity(  # RDA rows are pulse times (circular): a row is a TOC
-                refocus, ch, speed_hat, speed_sigma, row, i1, j1,
+                refocus, ch, speed_hat, speed_sigma, i1, j1,
                 lambda rc_, dv: ((rc_[0] - row + n_p / 2) % n_p - n_p / 2) / prf * speed_hat)
             out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
             out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
@@ -539,12 +531,20 @@ class SubApertureImager:
             # is zero then), and a stretched track is elsewhere at that time: an image point moved by -eps x0
             # (eps = dv / V, x0 the target's offset from the aperture centre) has an along-track offset of
             # -2 eps x0 at the TOC (docs/scenarios/rda-nav.md §6). So each refocused match is taken to its offset
-            # from its own track at the TOC eta0 (on a turn that is also the rate of the offset, trajectory.sampled.along_rate)
+            # from its own track at the TOC eta0 (trajectory.sampled.along_offset; on a turn that also carries the
+            # rate of the offset, along_rate)
             stretched = lambda dv: centre + (1.0 + dv / speed_hat) * (p_hat - centre)  # noqa: E731
             eta0 = self._closest(local.point(row - i1 + (m - 1) / 2, col - j1 + (n - 1) / 2), times, p_hat)[0]
-            along = lambda rc_, dv: _along_offset(local.point(*rc_), times, stretched(dv), eta0)  # noqa: E731
+            k0 = min(max(int(np.searchsorted(times, eta0)), 1), len(times) - 1)  # the pulse interval holding eta0
+            w = (eta0 - times[k0 - 1]) / (times[k0] - times[k0 - 1])
+
+            def along(rc_, dv):
+                track = stretched(dv)[k0 - 1:k0 + 1]
+                return float(along_offset(local.point(*rc_), (1.0 - w) * track[0] + w * track[1],
+                                          (track[1] - track[0]) / (times[k0] - times[k0 - 1])))
+
             refocus = lambda dv: backproject(rc, local.points(), positions=stretched(dv)).data  # noqa: E731
-            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, None, (m - 1) // 2,
+            slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, (m - 1) // 2,
                                                             (n - 1) // 2, along, circular=False)
             out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
             out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
@@ -603,15 +603,16 @@ class SubApertureImager:
                                            (ch["noise"], noise_rows)) if precision else (np.nan, np.nan))
         return i1 + shift[0] + anchor[0], j1 + shift[1] + anchor[1], {"sigma_px": sigma, "quality": fine.peak}
 
-    def _focus_sensitivity(self, refocus, ch, speed_hat, speed_sigma, row, i1, j1, along_m,
+    def _focus_sensitivity(self, refocus, ch, speed_hat, speed_sigma, i1, j1, along_m,
                            circular: bool = True) -> tuple[float, float, float]:
         """How the along-track registration [m] depends on the focusing speed, statistically linearised over the
         filter's uncertainty of the speed (docs/scenarios/rda-nav.md §2).
 
         The same data are focused at ``V_i = speed_hat + x_i`` with x in (-h, 0, +h), h = sqrt(3) sigma_V (at least
         ``FOCUS_STEP`` speed_hat) (``refocus(x)``: RDA with that speed; BPA with the estimated positions stretched
-        along track by 1 + x / speed_hat) and registered at the same place: g_i (``along_m((row, col), x)``: the
-        along-track metres of the TOC of a match in the image focused at x, relative to g_0). The unscented weights (1/6, 2/3, 1/6) of V ~ N(speed_hat, sigma_V^2) give the regression
+        along track by 1 + x / speed_hat) and registered at the same place (the cut around i1, j1): g_i
+        (``along_m((row, col), x)``: the along-track metres of the TOC of a match in the image focused at x, relative
+        to g_0). The unscented weights (1/6, 2/3, 1/6) of V ~ N(speed_hat, sigma_V^2) give the regression
         g(V) = mean + slope (V - speed_hat) + e with slope = (g_+ - g_-) / 2h, and with q = (g_+ + g_-) / 2 - g_0:
         mean - g_0 = q / 3, var(e) = 2 q^2 / 9. An image focused with a wrong speed moves a target whose TOC is off
         the aperture centre (about 2 (eta0 - eta_c) (V - speed_hat) for a strong azimuth chirp; irregular for weak

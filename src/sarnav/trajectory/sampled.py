@@ -10,7 +10,7 @@ import numpy as np
 
 from sarnav.errors import InputDataError
 
-__all__ = ["closest_approach", "interpolate_state", "closest_sample_is_inside", "min_distance", "along_rate"]
+__all__ = ["closest_approach", "interpolate_state", "closest_sample_is_inside", "min_distance", "along_offset", "along_rate"]
 
 
 def _vec3(name: str, value) -> np.ndarray:
@@ -70,12 +70,19 @@ def min_distance(positions, point) -> float:
     return float(np.min(np.linalg.norm(np.asarray(positions, dtype=np.float64) - point, axis=-1)))
 
 
+def along_offset(point, position, velocity):
+    """Along-track offset [m] of ``point`` (3,) from track positions ``position`` (..., 3) moving with ``velocity``
+    (..., 3): ``(point - p) . v / |v|``; zero at the closest approach (where the line of sight is perpendicular to
+    the velocity). The cross-range measurement of rda-nav is this offset at the measured TOC."""
+    v = np.asarray(velocity, dtype=np.float64)
+    return np.sum((np.asarray(point, dtype=np.float64) - position) * v, axis=-1) / np.linalg.norm(v, axis=-1)
+
+
 def along_rate(trajectory, target, eta: float, h: float = 1e-3) -> float:
-    """How fast [m/s] the target's along-track offset ``(target - p(t)) . v(t) / |v(t)|`` falls through zero at its
-    closest approach ``eta``: the speed V on a straight track, V (1 - R / rho) on a turn of radius rho towards a
+    """How fast [m/s] the target's :func:`along_offset` falls through zero at its closest approach ``eta`` (a
+    central difference over +-h): the speed V on a straight track, V (1 - R / rho) on a turn of radius rho towards a
     target at range R (a target near the turn's centre has a flat range history, and a small along-track error of the
-    image moves its TOC a long way). The cross-range measurement is that offset, so a TOC error dt is an error of
-    ``along_rate * dt`` metres in it."""
+    image moves its TOC a long way). A TOC error dt is an error of ``along_rate * dt`` metres in the offset."""
     st = trajectory.state(np.array([eta - h, eta + h]))
-    a = np.einsum("ij,ij->i", np.asarray(target) - st.position, st.velocity / np.linalg.norm(st.velocity, axis=1)[:, None])
+    a = along_offset(target, st.position, st.velocity)
     return float(-(a[1] - a[0]) / (2.0 * h))
