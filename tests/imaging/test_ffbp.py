@@ -12,6 +12,7 @@ import pytest
 from sarnav.errors import ConfigError
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.ffbp import ffbp, ffbp_error_model
+from sarnav.imaging.interpolation_error import interpolation_error, summed_interpolation_error
 from sarnav.imaging.grid import GroundGrid
 from sarnav.signal.data import PulseData
 
@@ -48,41 +49,80 @@ def gain_error_db(img, ref):
     return float(10 * np.log10(np.sum(np.abs(g * img - ref) ** 2) / np.sum(np.abs(ref) ** 2)))
 
 
-@pytest.mark.parametrize("slant, oversample, levels", [(5e3, 3.0, None), (5e3, 4.0, None), (700e3, 4.0, None),
-                                                       (700e3, 4.0, 2)])
-def test_ffbp_error_matches_prediction(slant, oversample, levels):
-    """levels None: the cost model's plan (1 level at os 3, none at os 4); 2: two merges of 4 at 700 km (the
-    polar images' float64 geometry and complex64 storage at spaceborne range)."""
+def ideal(rc, grid):
+    """Exact back-projection with the pulses upsampled x16 (linear at 32 x Nyquist: -68 dB): the reference for the
+    FFBP's error, which includes its own level-0 range interpolation (FFT x8, then linear)."""
+    return backproject(rc, grid, interpolation="upsample", upsample=16).data
+
+
+@pytest.mark.parametrize("slant, kernel, oversample, levels", [(5e3, "kaiser6", 2.0, None), (5e3, "kaiser6", 2.0, 2),
+                                                               (5e3, "kaiser6", 3.0, None),
+                                                               (5e3, "cubic", 4.0, None), (700e3, "kaiser6", 2.0, None),
+                                                               (700e3, "kaiser6", 2.0, 2), (700e3, "cubic", 4.0, 2)])
+def test_ffbp_error_matches_prediction(slant, kernel, oversample, levels):
+    """levels None: the cost model's plan; 2: two merges of 4 (at 700 km: the polar images' float64 geometry and
+    complex64 storage at spaceborne range). Predicted: (levels + 1) polar stages of the kernel's 2-D error plus the
+    level-0 range interpolation (FFT x8 then linear at fs / B = 2: linear at os 16)."""
     rc, grid = scene(192, 192, slant, n_targets=120)
-    ref = backproject(rc, grid, interpolation="upsample").data
-    img = ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, oversample=oversample, levels=levels)
-    pred = img.metadata["ffbp_predicted_error_db"]
-    assert levels is None or img.metadata["ffbp_levels"] == levels
-    assert pred == pytest.approx(ffbp_error_model(oversample, img.metadata["ffbp_levels"] + 1))
+    ref = ideal(rc, grid)
+    img = ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, oversample=oversample, levels=levels, kernel=kernel)
+    md = img.metadata
+    assert levels is None or md["ffbp_levels"] == levels
+    assert md["ffbp_kernel"] == kernel
+    assert md["ffbp_predicted_error_db"] == pytest.approx(
+        ffbp_error_model(oversample, md["ffbp_levels"] + 1, summed_interpolation_error("linear", 2 * 8), kernel=kernel))
     err = gain_error_db(img.data, ref)
-    assert abs(err - pred) < 2.0, (err, pred)
-    if oversample >= 4.0:
-        assert err < -40.0
+    assert abs(err - md["ffbp_predicted_error_db"]) < 2.0, (err, md["ffbp_predicted_error_db"])
+    assert err < -40.0
+
+
+def test_kaiser6_table_interpolates_band_limited_data_as_its_error_model_says():
+    """The tabulated 6-tap kernel FFBP uses, applied to a random signal flat over |f| <= 1/(2 os) at random positions:
+    measured mean-square error within 1 dB of interpolation_error("kaiser6", os), at os 1.5, 2 and 3."""
+    from sarnav.imaging.ffbp import kernel_table
+
+    rng = np.random.default_rng(7)
+    n = 4096
+    for os_ in (1.5, 2.0, 3.0):
+        spec = np.zeros(n, complex)
+        band = np.abs(np.fft.fftfreq(n)) <= 0.5 / os_
+        spec[band] = rng.standard_normal(band.sum()) + 1j * rng.standard_normal(band.sum())
+        x = np.fft.ifft(spec)
+        t = rng.uniform(10, n - 10, 20000)                    # positions (samples)
+        truth = np.exp(2j * np.pi * np.outer(t, np.fft.fftfreq(n))) @ spec / n
+        tab = kernel_table("kaiser6", os_)
+        fl = np.floor(t).astype(int)
+        w = tab[np.rint((t - fl) * (tab.shape[0] - 1)).astype(int)]    # (M, 6): taps at fl - 2 .. fl + 3
+        est = np.sum(w * x[fl[:, None] + np.arange(-2, 4)[None, :]], axis=1)
+        measured = np.mean(np.abs(est - truth) ** 2) / np.mean(np.abs(truth) ** 2)
+        assert abs(10 * np.log10(measured / interpolation_error("kaiser6", os_))) < 1.0, os_
+    # interpolating: weight 1 on the sample itself at fraction 0, 0 on the others
+    assert np.allclose(kernel_table("kaiser6", 2.0)[0], [0, 0, 1, 0, 0, 0], atol=1e-7)
 
 
 def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
     rc, grid = scene(96, 96, 5e3, n_targets=40)
-    ref = backproject(rc, grid, interpolation="upsample").data
-    e = [gain_error_db(ffbp(rc, grid, bandwidth=BW, base_pulses=8, oversample=o).data, ref) for o in (2.0, 4.0)]
-    assert e[1] < e[0] - 10.0
+    ref = ideal(rc, grid)
+    for kernel, gain in (("cubic", 10.0), ("kaiser6", 5.0)):
+        e = [gain_error_db(ffbp(rc, grid, bandwidth=BW, base_pulses=8, oversample=o, kernel=kernel).data, ref)
+             for o in (2.0, 4.0)]
+        assert e[1] < e[0] - gain, (kernel, e)
     with pytest.raises(ConfigError, match="^oversample"):
         ffbp(rc, grid, oversample=1.0)
     with pytest.raises(ConfigError, match="^merge"):
         ffbp(rc, grid, merge=1)
+    with pytest.raises(ConfigError, match="^kernel: must be one of"):
+        ffbp(rc, grid, kernel="lanczos")
 
 
 @pytest.mark.slow
 def test_ffbp_2048_square_below_minus_40_db():
-    """2048^2 pixels, 2048 pulses, 5 km: base subaperture 16 pulses, merges of 4 (the cost model's plan: one, so the
-    tile is a 64-pulse subaperture), polar cells c / (2 B os) x lambda / (2 l os) at os 4. ``-s`` prints the numbers."""
+    """2048^2 pixels, 2048 pulses, 5 km, the defaults: base subaperture 16 pulses, merges of 4 (the cost model's
+    plan: two, so the tile is a 256-pulse subaperture), polar cells c / (2 B os) x lambda / (2 l os) at os 2, the
+    6-tap Kaiser kernel. ``-s`` prints the numbers."""
     rc, grid = scene(2048, 2048, 5e3, n_targets=400)
-    ref = backproject(rc, grid, interpolation="upsample").data
-    img = ffbp(rc, grid, bandwidth=BW, oversample=4.0)
+    ref = ideal(rc, grid)
+    img = ffbp(rc, grid, bandwidth=BW)
     err = gain_error_db(img.data, ref)
     md = img.metadata
     print(f"2048^2: error {err:.1f} dB, predicted {md['ffbp_predicted_error_db']:.1f} dB; base {md['ffbp_base_pulses']} "

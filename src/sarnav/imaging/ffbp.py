@@ -15,11 +15,12 @@ Algorithm (Ulander, Hellsten & Stenstrom, IEEE TAES 39(3) 2003, "fast factorized
    a band-limited function of (r, u): |f_r| <= B/c, |f_u| <= l_J (1 + B / 2 f_c) / lambda (l_J the
    subaperture length along v).
 3. Each merge groups ``merge`` consecutive subapertures into a parent with a ``merge`` times finer u
-   sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (2-D Keys cubic
-   interpolation of each child at the parent's grid points, float64 geometry). Kernels: per block of
-   points a vectorised float64 pass locates each point on the child (``_locate``), a vectorised float32
-   pass computes the 8 Keys weights and the phase factor, a scalar pass gathers the 16 complex64 taps
-   (``_taps``); formed polar images are stored as complex64 (rounding ~-140 dB).
+   sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (separable 2-D
+   interpolation of each child at the parent's grid points with ``kernel``: the 6-tap Kaiser-windowed sinc
+   "kaiser6" or 4-tap Keys "cubic", both tabulated; float64 geometry). Compiled kernels: per block of points a
+   vectorised float64 pass locates each point on the child (``_locate``), a scalar pass reads the two kernel
+   table rows, gathers the N x N complex64 taps and remodulates (``_taps``); formed polar images are stored as
+   complex64 (rounding ~-140 dB).
 4. The pixels finally take ``A(p) = sum_J I_J(r_J(p), u_J(p)) e^{j4pi r_J(p)/lambda}``.
 
 Sampling: Delta_r = c / (2 B os), Delta_u = lambda / (2 (l_J + dx)(1 + B / 2 f_c) os) with ``os`` the
@@ -27,9 +28,11 @@ Sampling: Delta_r = c / (2 B os), Delta_u = lambda / (2 (l_J + dx)(1 + B / 2 f_c
 rate c / (2 dr)).
 
 Error model (:func:`ffbp_error_model`): every interpolation stage (each merge and the final
-evaluation) adds the 2-D Keys-cubic error of a flat band at oversampling ``os`` in both dimensions
+evaluation) adds the kernel's 2-D error of a flat band at oversampling ``os`` in both dimensions
 (:mod:`sarnav.imaging.interpolation_error`); the subaperture images occupy disjoint Doppler bands,
-so their energies (and their errors') add: predicted ``eps = n_stages * eps_2d(os, os)``. The
+so their energies (and their errors') add; the level-0 range interpolation of the pulses adds the part of its
+error that survives the sum over pulses (``summed_interpolation_error``): predicted
+``eps = n_stages * eps_2d(os, os) + eps_data``, against an ideal (band-limited) back-projection. The
 "tile" of this factorisation is the subaperture (``base_pulses`` x ``merge^levels`` pulses) and
 its polar cell (Delta_r, Delta_u). A subaperture that is not straight (navigation errors,
 manoeuvres) adds an error the model does not include: the residual of its positions about the
@@ -43,19 +46,35 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _S0, _S1, _S2, _S3, _S4, _S5,
                                            _check_pulses, _cis, _image, _points, _wavelength, backproject_fan,
-                                           backproject_points, plane_of)
-from sarnav.imaging.interpolation_error import interpolation_error_2d
+                                           _check_interpolation, backproject_points, data_oversampling, plane_of,
+                                           resolve_interpolation)
+from sarnav.imaging.interpolation_error import interpolation_error_2d, kernel_values, summed_interpolation_error
+from sarnav.imaging.grid import as_grid
 
-__all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan"]
+__all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
 
 _C = 299792458.0
-#: extra polar samples beyond the pixels' extent on each side (cubic support is 2)
-_MARGIN = 3
+#: polar-image interpolation kernels: name -> taps per dimension (sarnav.imaging.interpolation_error)
+FFBP_KERNELS = {"kaiser6": 6, "cubic": 4}
+#: extra polar samples beyond the pixels' extent on each side (the 6-tap kernel's support is 3)
+_MARGIN = 4
+#: fractions per sample of the tabulated kernels (nearest row: position error <= 1/(2 F) sample, ~-73 dB at os 2)
+_TABLE = 2048
+
+
+def kernel_table(kernel: str, oversample: float) -> np.ndarray:
+    """(F + 1, N) float32: the N tap weights of ``kernel`` for a point at fraction w = i / F past sample floor:
+    tap t sits at offset t - (N/2 - 1), at distance w - t + N/2 - 1."""
+    n = FFBP_KERNELS[kernel]
+    w = np.arange(_TABLE + 1) / _TABLE
+    x = w[:, None] - np.arange(n)[None, :] + (n // 2 - 1)
+    return np.ascontiguousarray(kernel_values(kernel, x, oversample), dtype=np.float32)
 
 
 @dataclass(frozen=True)
@@ -69,20 +88,28 @@ class FfbpPlan:
     bandwidth: float
     n_stages: int
     predicted_error_db: float
+    kernel: str = "kaiser6"
 
     @property
     def final_pulses(self) -> int:
         return self.base_pulses * self.merge ** self.levels
 
 
-def ffbp_error_model(oversample: float, n_stages: int, data_error: float = 0.0) -> float:
+def ffbp_error_model(oversample: float, n_stages: int, data_error: float = 0.0, kernel: str = "kaiser6") -> float:
     """Predicted image error [dB] of FFBP against exact back-projection (module doc).
 
-    ``10 log10(n_stages * eps_cubic_2d(os, os) + data_error)``; ``data_error`` (linear) adds the
+    ``10 log10(n_stages * eps_kernel_2d(os, os) + data_error)``; ``data_error`` (linear) adds the
     range-interpolation error of the pulses when the exact reference interpolates them differently.
     """
-    eps = n_stages * interpolation_error_2d("cubic", oversample, oversample) + data_error
+    _kernel_arg(kernel)
+    eps = n_stages * interpolation_error_2d(kernel, oversample, oversample) + data_error
     return float(10.0 * math.log10(eps))
+
+
+def _kernel_arg(kernel):
+    if kernel not in FFBP_KERNELS:
+        raise ConfigError("kernel", f"must be one of {tuple(FFBP_KERNELS)}, got {kernel!r}")
+    return kernel
 
 
 def _int_arg(name, value, lo):
@@ -92,14 +119,16 @@ def _int_arg(name, value, lo):
 
 
 def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: int | None = None,
-              oversample: float = 4.0, bandwidth: float, cost=None) -> FfbpPlan:
-    """Choose the factorisation and predict its error.
+              oversample: float = 2.0, bandwidth: float, cost=None, kernel: str = "kaiser6",
+              data_error: float = 0.0) -> FfbpPlan:
+    """Choose the factorisation and predict its error (``data_error``: the level-0 range interpolation's, linear).
 
     Default ``levels``: the one of 0 .. (as many merges as fit) that minimises ``cost(levels)``
     (operation count estimate, see :func:`ffbp`), or the largest when ``cost`` is None.
     """
     base_pulses = _int_arg("base_pulses", base_pulses, 1)
     merge = _int_arg("merge", merge, 2)
+    _kernel_arg(kernel)
     if not (isinstance(oversample, (int, float)) and math.isfinite(oversample) and oversample >= 1.5):
         raise ConfigError("oversample", f"must be a number >= 1.5 (polar samples per Nyquist sample), got {oversample!r}")
     if levels is None:
@@ -111,16 +140,16 @@ def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: i
     levels = _int_arg("levels", levels, 0)
     n_stages = levels + 1
     return FfbpPlan(base_pulses, merge, levels, float(oversample), float(bandwidth), n_stages,
-                    ffbp_error_model(oversample, n_stages))
+                    ffbp_error_model(oversample, n_stages, data_error, kernel=kernel), kernel)
 
 
 # ---------------------------------------------------------------------------------------------
 # compiled kernel: evaluate a demodulated polar image at 3-D points, remodulate, accumulate
 
 @numba.njit(fastmath=True, cache=True, inline="always")
-def _locate(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda):  # pragma: no cover
-    """Where point q falls on a polar image (float64): (flat index of its 4 x 4 Keys support, range and angle
-    weights in [0, 1), fractional cycle of 2 (r(q) - ref_r) / lambda; 2 marks a point off the image)."""
+def _locate(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda, half):  # pragma: no cover
+    """Where point q falls on a polar image (float64): (flat index of its (2 half) x (2 half) kernel support, range and
+    angle weights in [0, 1), fractional cycle of 2 (r(q) - ref_r) / lambda; 2 marks a point off the image)."""
     dx = qx - centre[0]
     dy = qy - centre[1]
     dz = qz - centre[2]
@@ -130,61 +159,56 @@ def _locate(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_ov
     fu = (u - u0) * inv_du
     ir = math.floor(fr)
     iu = math.floor(fu)
-    valid = (ir >= 1.0) & (iu >= 1.0) & (ir <= nr - 3.0) & (iu <= nu - 3.0)
-    irc = min(max(ir, 1.0), nr - 3.0)
-    iuc = min(max(iu, 1.0), nu - 3.0)
+    lo = half - 1.0
+    valid = (ir >= lo) & (iu >= lo) & (ir <= nr - 1.0 - half) & (iu <= nu - 1.0 - half)
+    irc = min(max(ir, lo), nr - 1.0 - half)
+    iuc = min(max(iu, lo), nu - 1.0 - half)
     cyc = (r - ref_r) * two_over_lambda
     f = cyc - math.floor(cyc + 0.5)        # fractional cycle, exact in float64
-    return (np.uint32((irc - 1.0) * nu + (iuc - 1.0)), np.float32(fr - ir), np.float32(fu - iu),
+    return (np.uint32((irc - lo) * nu + (iuc - lo)), np.float32(fr - ir), np.float32(fu - iu),
             np.float32(f if valid else 2.0))
 
 
 @numba.njit(fastmath=True, cache=True, inline="always")
-def _keys4(w):  # pragma: no cover - compiled
-    """Keys (1981, a = -1/2) weights of the taps at distances 1 + w, w, 1 - w, 2 - w (float32)."""
-    a = np.float32(-0.5)
-    x1 = np.float32(1.0) + w
-    x2 = np.float32(1.0) - w
-    x3 = np.float32(2.0) - w
-    return (((a * x1 - 5 * a) * x1 + 8 * a) * x1 - 4 * a, ((a + 2) * w - (a + 3)) * w * w + 1,
-            ((a + 2) * x2 - (a + 3)) * x2 * x2 + 1, ((a * x3 - 5 * a) * x3 + 8 * a) * x3 - 4 * a)
+def _taps(img, nu, n, base, wr, wu, f, ktab, out_re, out_im, o0):  # pragma: no cover - compiled
+    """out[o0 + i] += the N x N kernel interpolation of the flat complex64 polar image at base[i] (weights: the rows
+    of the tabulated kernel ``ktab`` (F + 1, N) nearest the fractions wr[i], wu[i]), times exp(j 2 pi f[i]) (zero
+    for the off-image marker f = 2); scalar gathers, the tap loops unrolled for the kernels' literal sizes."""
+    nt = ktab.shape[1]
+    if nt == 6:
+        _taps_n(img, nu, n, base, wr, wu, f, ktab, 6, out_re, out_im, o0)
+    elif nt == 4:
+        _taps_n(img, nu, n, base, wr, wu, f, ktab, 4, out_re, out_im, o0)
+    else:
+        _taps_n(img, nu, n, base, wr, wu, f, ktab, nt, out_re, out_im, o0)
 
 
 @numba.njit(fastmath=True, cache=True, inline="always")
-def _weights(n, wr, wu, f, tab):  # pragma: no cover - compiled
-    """tab[0:4] range and tab[4:8] angle Keys weights, tab[8:10] cos and sin of 2 pi f (vectorised float32)."""
+def _taps_n(img, nu, n, base, wr, wu, f, ktab, nt, out_re, out_im, o0):  # pragma: no cover - compiled
+    scale = np.float32(ktab.shape[0] - 1)
     for i in range(n):
-        tab[0, i], tab[1, i], tab[2, i], tab[3, i] = _keys4(wr[i])
-        tab[4, i], tab[5, i], tab[6, i], tab[7, i] = _keys4(wu[i])
-        tab[8, i], tab[9, i] = _cis(f[i])
-
-
-@numba.njit(fastmath=True, cache=True, inline="always")
-def _taps(img, nu, n, base, tab, out_re, out_im, o0):  # pragma: no cover - compiled
-    """out[o0 + i] += the 4 x 4 Keys interpolation of the flat complex64 polar image at base[i], times
-    tab[8, i] + j tab[9, i] (scalar gathers)."""
-    for i in range(n):
+        a = np.int64(wr[i] * scale + np.float32(0.5))
+        c = np.int64(wu[i] * scale + np.float32(0.5))
         b = base[i]
         sr = np.float32(0.0)
         si = np.float32(0.0)
-        for t in range(4):
+        for t in range(nt):
             row = b + np.uint32(t * nu)
-            p0 = img[row]
-            p1 = img[row + np.uint32(1)]
-            p2 = img[row + np.uint32(2)]
-            p3 = img[row + np.uint32(3)]
-            rr = tab[4, i] * p0.real + tab[5, i] * p1.real + tab[6, i] * p2.real + tab[7, i] * p3.real
-            ri = tab[4, i] * p0.imag + tab[5, i] * p1.imag + tab[6, i] * p2.imag + tab[7, i] * p3.imag
-            sr += tab[t, i] * rr
-            si += tab[t, i] * ri
-        c = tab[8, i]
-        s = tab[9, i]
-        out_re[o0 + i] += sr * c - si * s
-        out_im[o0 + i] += sr * s + si * c
+            rr = np.float32(0.0)
+            ri = np.float32(0.0)
+            for k in range(nt):
+                p = img[row + np.uint32(k)]
+                rr += ktab[c, k] * p.real
+                ri += ktab[c, k] * p.imag
+            sr += ktab[a, t] * rr
+            si += ktab[a, t] * ri
+        cs, sn = _cis(f[i])
+        out_re[o0 + i] += sr * cs - si * sn
+        out_im[o0 + i] += sr * sn + si * cs
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
-def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda, block,
+def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda, ktab, block,
                 out_re, out_im):  # pragma: no cover - compiled
     """out += polar image ``img`` ((nr, nu) complex64) at the points, remodulated by
     exp(j 4 pi (r(q) - ref_r) / lambda) (ref_r: (M,) parent ranges, 0 for the final pixels). Blocks of points
@@ -192,6 +216,8 @@ def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lam
     phase factor) and a scalar pass of 16-tap gathers (``_taps``)."""
     nr, nu = img.shape
     flat = img.ravel()
+    nt = ktab.shape[1]
+    half = nt // 2
     m = pts.shape[0]
     for blk in numba.prange((m + block - 1) // block):
         i0 = blk * block
@@ -200,57 +226,66 @@ def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lam
         wr = np.empty(n, np.float32)
         wu = np.empty(n, np.float32)
         f = np.empty(n, np.float32)
-        tab = np.empty((10, n), np.float32)
         for i in range(n):
             base[i], wr[i], wu[i], f[i] = _locate(pts[i0 + i, 0], pts[i0 + i, 1], pts[i0 + i, 2], ref_r[i0 + i],
-                                                  centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda)
-        _weights(n, wr, wu, f, tab)
-        _taps(flat, nu, n, base, tab, out_re, out_im, i0)
+                                                  centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda, half)
+        _taps(flat, nu, n, base, wr, wu, f, ktab, out_re, out_im, i0)
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def _polar_eval_plane(origin, e_row, e_col, ny, nx, tile, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda,
-                      out):  # pragma: no cover - compiled
+                      ktab, out, last, wide):  # pragma: no cover - compiled
     """out (ny * nx) complex64 += polar image ``img`` at the pixels origin + i e_row + j e_col of a plane grid,
     generated tile by tile (``tile`` x ``tile`` pixels: their polar footprint stays in cache), remodulated by
     exp(j 4 pi r(q) / lambda); as ``_polar_eval`` without reading pixel coordinates, summed in float32 (a few tens
-    of subimages: rounding ~-140 dB)."""
+    of subimages: rounding ~-140 dB). ``last``: the sum goes to ``wide`` (complex128) instead (no separate widening
+    pass over the image)."""
     nr, nu = img.shape
     flat = img.ravel()
+    nt = ktab.shape[1]
+    half = nt // 2
     nty = (ny + tile - 1) // tile
     ntx = (nx + tile - 1) // tile
-    for t in numba.prange(nty * ntx):
-        iy0 = (t // ntx) * tile
-        ix0 = (t % ntx) * tile
+    for ty in numba.prange(nty):                  # a row of tiles per work item: work arrays allocated once for it
+        iy0 = ty * tile
         my = min(ny, iy0 + tile) - iy0
-        mx = min(nx, ix0 + tile) - ix0
-        n = my * mx
-        base = np.empty(n, np.uint32)
-        wr = np.empty(n, np.float32)
-        wu = np.empty(n, np.float32)
-        f = np.empty(n, np.float32)
-        tab = np.empty((10, n), np.float32)
-        acc_re = np.zeros(n, np.float32)
-        acc_im = np.zeros(n, np.float32)
-        for a in range(my):
-            for b in range(mx):
-                i = a * mx + b
-                qx = origin[0] + (iy0 + a) * e_row[0] + (ix0 + b) * e_col[0]
-                qy = origin[1] + (iy0 + a) * e_row[1] + (ix0 + b) * e_col[1]
-                qz = origin[2] + (iy0 + a) * e_row[2] + (ix0 + b) * e_col[2]
-                base[i], wr[i], wu[i], f[i] = _locate(qx, qy, qz, 0.0, centre, v, r0, inv_dr, u0, inv_du, nr, nu,
-                                                      two_over_lambda)
-        _weights(n, wr, wu, f, tab)
-        _taps(flat, nu, n, base, tab, acc_re, acc_im, 0)
-        for a in range(my):
-            o = (iy0 + a) * nx + ix0
-            for b in range(mx):
-                i = a * mx + b
-                out[o + b] += np.complex64(complex(acc_re[i], acc_im[i]))
+        base = np.empty(tile * tile, np.uint32)
+        wr = np.empty(tile * tile, np.float32)
+        wu = np.empty(tile * tile, np.float32)
+        f = np.empty(tile * tile, np.float32)
+        acc_re = np.empty(tile * tile, np.float32)
+        acc_im = np.empty(tile * tile, np.float32)
+        for tx in range(ntx):
+            ix0 = tx * tile
+            mx = min(nx, ix0 + tile) - ix0
+            n = my * mx
+            for a in range(my):
+                for b in range(mx):
+                    i = a * mx + b
+                    qx = origin[0] + (iy0 + a) * e_row[0] + (ix0 + b) * e_col[0]
+                    qy = origin[1] + (iy0 + a) * e_row[1] + (ix0 + b) * e_col[1]
+                    qz = origin[2] + (iy0 + a) * e_row[2] + (ix0 + b) * e_col[2]
+                    base[i], wr[i], wu[i], f[i] = _locate(qx, qy, qz, 0.0, centre, v, r0, inv_dr, u0, inv_du, nr, nu,
+                                                          two_over_lambda, half)
+                    acc_re[i] = 0.0
+                    acc_im[i] = 0.0
+            _taps(flat, nu, n, base, wr, wu, f, ktab, acc_re, acc_im, 0)
+            for a in range(my):
+                o = (iy0 + a) * nx + ix0
+                for b in range(mx):
+                    i = a * mx + b
+                    if last:
+                        wide[o + b] = np.complex128(out[o + b]) + complex(acc_re[i], acc_im[i])
+                    else:
+                        out[o + b] += np.complex64(complex(acc_re[i], acc_im[i]))
+
+
+#: parent rows per parallel work item of a merge
+_MERGE_ROWS = 8
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
-def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, two_over_lambda,
+def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, two_over_lambda, ktab,
            out):  # pragma: no cover - compiled
     """out (Nr, Nu) complex64 += child image ``img`` (complex64) at the parent's polar grid points q(r, u), generated
     on the fly row by row (float64), interpolated as in ``_polar_eval`` (a parent sums ``merge`` children in float32:
@@ -258,26 +293,32 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
     nr, nu = out.shape
     cnr, cnu = img.shape
     flat = img.ravel()
+    nt = ktab.shape[1]
+    half = nt // 2
     pairs = out.ravel().view(np.float32)     # complex64 as interleaved float32 (re, im): _taps adds into both
     ore = pairs[0::2]
     oim = pairs[1::2]
-    for i in numba.prange(nr):
-        r = pr0 + i * pdr
-        base = np.empty(nu, np.uint32)
+    ex = np.empty(nu)                         # the parent's directions e(u) = u v + sqrt(1 - u^2) w, shared by its rows
+    ey = np.empty(nu)
+    ez = np.empty(nu)
+    for j in range(nu):
+        u = pu0 + j * pdu
+        sw = math.sqrt(max(1.0 - u * u, 0.0))
+        ex[j] = u * pv[0] + sw * pw[0]
+        ey[j] = u * pv[1] + sw * pw[1]
+        ez[j] = u * pv[2] + sw * pw[2]
+    chunk = _MERGE_ROWS
+    for blk in numba.prange((nr + chunk - 1) // chunk):
+        base = np.empty(nu, np.uint32)        # work arrays once per block of rows
         wr = np.empty(nu, np.float32)
         wu = np.empty(nu, np.float32)
         f = np.empty(nu, np.float32)
-        tab = np.empty((10, nu), np.float32)
-        for j in range(nu):
-            u = pu0 + j * pdu
-            sw = math.sqrt(max(1.0 - u * u, 0.0))
-            qx = pc[0] + r * (u * pv[0] + sw * pw[0])
-            qy = pc[1] + r * (u * pv[1] + sw * pw[1])
-            qz = pc[2] + r * (u * pv[2] + sw * pw[2])
-            base[j], wr[j], wu[j], f[j] = _locate(qx, qy, qz, r, cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu,
-                                                  two_over_lambda)
-        _weights(nu, wr, wu, f, tab)
-        _taps(flat, cnu, nu, base, tab, ore, oim, i * nu)
+        for i in range(blk * chunk, min(nr, (blk + 1) * chunk)):
+            r = pr0 + i * pdr
+            for j in range(nu):
+                base[j], wr[j], wu[j], f[j] = _locate(pc[0] + r * ex[j], pc[1] + r * ey[j], pc[2] + r * ez[j], r, cc,
+                                                      pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu, two_over_lambda, half)
+            _taps(flat, cnu, nu, base, wr, wu, f, ktab, ore, oim, i * nu)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -336,6 +377,18 @@ def _hull_points(pts: np.ndarray) -> np.ndarray:
     return pts.reshape(-1, 3)
 
 
+def _plane_hull(origin, e_row, e_col, ny, nx) -> np.ndarray:
+    """:func:`_hull_points` of the plane grid origin + i e_row + j e_col (i < ny, j < nx), without listing its pixels."""
+    step = max(1, min(ny, nx) // 32) if min(ny, nx) >= 2 else 1
+    iy, ix = np.arange(ny, dtype=np.float64), np.arange(nx, dtype=np.float64)
+    parts = [(np.zeros(nx), ix), (np.full(nx, ny - 1.0), ix), (iy, np.zeros(ny)), (iy, np.full(ny, nx - 1.0))]
+    a, b = np.meshgrid(iy[::step], ix[::step], indexing="ij")
+    parts.append((a.ravel(), b.ravel()))
+    i = np.concatenate([q[0] for q in parts])
+    j = np.concatenate([q[1] for q in parts])
+    return origin + i[:, None] * e_row + j[:, None] * e_col
+
+
 def _tile_order(shape, tile: int = 32) -> np.ndarray:
     """Flat pixel indices of a (Ny, Nx) (or any) grid visited tile by tile."""
     if len(shape) != 2:
@@ -384,6 +437,7 @@ class _Former:
         self.rc, self.pos, self.lam, self.v = rc, pos, lam, v
         self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
         self.plan, self.interpolation, self.upsample = plan, interpolation, upsample
+        self.ktab = kernel_table(plan.kernel, plan.oversample)
 
     def build(self, k0: int, k1: int, level: int) -> _Polar:
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
@@ -405,7 +459,7 @@ class _Former:
         for j0 in range(k0, k1, step):
             child = self.build(j0, min(k1, j0 + step), level - 1)
             _merge(grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
-                   1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, acc)
+                   1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, self.ktab, acc)
         grid.img = acc
         return grid
 
@@ -416,22 +470,24 @@ _EVAL_BLOCK = 256
 _EVAL_TILE = 16
 
 
-def _evaluate(g: _Polar, q, ref_r, v, lam, out_re, out_im):
-    _polar_eval(q, ref_r, g.centre, v, g.r0, 1.0 / g.dr, g.u0, 1.0 / g.du, g.img, 2.0 / lam, _EVAL_BLOCK, out_re,
+def _evaluate(g: _Polar, q, ref_r, v, lam, ktab, out_re, out_im):
+    _polar_eval(q, ref_r, g.centre, v, g.r0, 1.0 / g.dr, g.u0, 1.0 / g.du, g.img, 2.0 / lam, ktab, _EVAL_BLOCK, out_re,
                 out_im)
 
 
-#: cost of one polar-image evaluation (16 taps) relative to one back-projected pixel-pulse (measured 3-5)
-_EVAL_COST = 5.0
+#: cost of one polar-image evaluation relative to one back-projected pixel-pulse: fixed part (locate, phase) and per
+#: tap (benchmarks/bench_ffbp.py, 2 cores: 16 taps ~5)
+_EVAL_COST_FIXED, _EVAL_COST_TAP = 1.0, 0.25
 
 
-def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge):
+def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge, taps):
     """Operation count (pixel-pulse units) of the factorisation as a function of its number of levels."""
     c = pos.mean(axis=0)
     d = hull - c
     r = np.linalg.norm(d, axis=1)
     u = d @ v / r
     n_r = np.ptp(r) * 2.0 * bw * os_ / _C + 2 * _MARGIN
+    eval_cost = _EVAL_COST_FIXED + _EVAL_COST_TAP * taps * taps
 
     def n_u(n_pulses):
         return np.ptp(u) * 2.0 * n_pulses * spacing * os_ / lam_eff + 2 * _MARGIN
@@ -440,15 +496,27 @@ def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge):
         total = p * n_r * n_u(base)                                  # level-0 exact formation
         for lev in range(1, levels + 1):
             size = base * merge ** lev
-            total += _EVAL_COST * (p / size) * n_r * n_u(size) * merge
-        return total + _EVAL_COST * n_pix * math.ceil(p / (base * merge ** levels))
+            total += eval_cost * (p / size) * n_r * n_u(size) * merge
+        return total + eval_cost * n_pix * math.ceil(p / (base * merge ** levels))
 
     return cost
 
 
+def _range_error(rc, interpolation, upsample, bw) -> float:
+    """Predicted image error (linear) of the level-0 range interpolation of the pulses against band-limited
+    interpolation: ``summed_interpolation_error`` (the part that survives the sum over pulses) on the data's
+    oversampling fs / B ("upsample": linear at fs / B x upsample)."""
+    _check_interpolation(interpolation, upsample)
+    mode, factor = resolve_interpolation(rc, interpolation, upsample, bw)
+    os_data = data_oversampling(rc, bw)
+    if mode == "upsample":
+        return summed_interpolation_error("linear", os_data * factor)
+    return summed_interpolation_error(mode, os_data)
+
+
 def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
-         base_pulses: int = 16, merge: int = 4, levels: int | None = None, oversample: float = 4.0,
-         interpolation: str = "upsample", upsample: int = 4) -> SarImage:
+         base_pulses: int = 16, merge: int = 4, levels: int | None = None, oversample: float = 2.0,
+         kernel: str = "kaiser6", interpolation: str = "upsample", upsample: int = 8) -> SarImage:
     """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
 
     Parameters
@@ -461,13 +529,33 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
         then ``levels`` merges of ``merge`` children each (default: as many as fit).
     oversample : polar samples per Nyquist sample in range and angle (>= 1.5; error model in
         :func:`ffbp_error_model`).
-    interpolation, upsample : range interpolation of the pulses in the level-0 formation.
+    kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
+        sinc; -50.6 dB a stage at os 2) or "cubic" (4 x 4 Keys; -47.5 dB a stage at os 4).
+    interpolation, upsample : range interpolation of the pulses in the level-0 formation (default FFT upsampling x8
+        then linear: at fs / B = 2 its error, -56 dB, stays below the polar stages').
 
     Returns
     -------
-    SarImage (complex128), ``metadata["algorithm"] = "ffbp"`` plus the plan and its predicted error.
+    SarImage (complex128), ``metadata["algorithm"] = "ffbp"`` plus the plan and its predicted error against an ideal
+    (band-limited) back-projection: the polar stages' plus the level-0 range interpolation's.
     """
-    g, pts = _points(grid)
+    g = as_grid(grid)
+    plane = plane_of(g)
+    if plane is not None:                        # a plane grid: its pixels are never listed (hull and centre from it)
+        origin, e_row, e_col, ny, nx = plane
+        if not all(np.all(np.isfinite(a)) for a in (origin, e_row, e_col)):
+            raise InputDataError("grid", "pixel positions must be finite (found NaN/inf)")
+        shape = (ny, nx)
+        hull = _plane_hull(origin, e_row, e_col, ny, nx)
+        centre = origin + 0.5 * (ny - 1) * e_row + 0.5 * (nx - 1) * e_col
+        n_pix = ny * nx
+    else:
+        g, pts = _points(g)
+        shape = pts.shape[:-1]
+        hull = _hull_points(pts)
+        flat = pts.reshape(-1, 3)
+        centre = flat.mean(axis=0)
+        n_pix = flat.shape[0]
     data, rng, pos = _check_pulses(rc, positions)
     lam = _wavelength(rc, wavelength)
     dr_data = float(rng[1] - rng[0])
@@ -484,42 +572,47 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     spacing = float(np.linalg.norm(track)) / (p - 1)
     fc = _C / lam
     lam_eff = lam / (1.0 + bw / (2.0 * fc))
-    hull = _hull_points(pts)
-    flat = pts.reshape(-1, 3)
-    centre = flat.mean(axis=0)
     os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
-    cost = _cost_model(p, flat.shape[0], pos, v, hull, bw, os_, spacing, lam_eff, base_pulses, merge) \
+    _kernel_arg(kernel)
+    cost = _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base_pulses, merge,
+                       FFBP_KERNELS[kernel]) \
         if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) and isinstance(merge, int) \
         and base_pulses >= 1 and merge >= 2 else None
     plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
-                     cost=cost)
+                     cost=cost, kernel=kernel, data_error=_range_error(rc, interpolation, upsample, bw))
     dr = _C / (2.0 * bw * plan.oversample)
+    if interpolation == "upsample" and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
+        # zero samples past the receive window (no echo there) to a length the FFT upsampling does fast (1896 = 8 x 3 x
+        # 79 bins take 3x the time of 1920)
+        n = sfft.next_fast_len(data.shape[1])
+        data = np.concatenate([data, np.zeros((data.shape[0], n - data.shape[1]), data.dtype)], axis=1)
+        rng = rng[0] + np.arange(n) * dr_data
     rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
     former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample)
     step = plan.final_pulses
-    plane = plane_of(g)
     if plane is not None:                        # pixels generated tile by tile (no coordinates read)
-        origin, e_row, e_col, ny, nx = plane
         acc = np.zeros(ny * nx, np.complex64)
-        for k0 in range(0, p, step):
+        values = np.empty(ny * nx, np.complex128)
+        starts = range(0, p, step)
+        for k0 in starts:
             sb = former.build(k0, min(p, k0 + step), plan.levels)
             _polar_eval_plane(origin, e_row, e_col, ny, nx, _EVAL_TILE, sb.centre, v, sb.r0, 1.0 / sb.dr, sb.u0,
-                              1.0 / sb.du, sb.img, 2.0 / lam, acc)
-        values = acc.astype(np.complex128)
+                              1.0 / sb.du, sb.img, 2.0 / lam, former.ktab, acc, k0 == starts[-1], values)
     else:
-        order = _tile_order(pts.shape[:-1])      # pixels in 32 x 32 tiles: polar footprint stays in cache
+        order = _tile_order(shape)      # pixels in 32 x 32 tiles: polar footprint stays in cache
         tiled = np.ascontiguousarray(flat[order])
         out_re = np.zeros(flat.shape[0])
         out_im = np.zeros(flat.shape[0])
         zero = np.zeros(flat.shape[0])
         for k0 in range(0, p, step):
             sub = former.build(k0, min(p, k0 + step), plan.levels)
-            _evaluate(sub, tiled, zero, v, lam, out_re, out_im)
+            _evaluate(sub, tiled, zero, v, lam, former.ktab, out_re, out_im)
         values = np.empty(flat.shape[0], dtype=np.complex128)
         values[order] = out_re + 1j * out_im
-    img = _image(g, values.reshape(pts.shape[:-1]), rc, lam, interpolation, upsample, "ffbp")
+    img = _image(g, values.reshape(shape), rc, lam, interpolation, upsample, "ffbp")
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
-                         "ffbp_oversample": plan.oversample, "ffbp_predicted_error_db": plan.predicted_error_db})
+                         "ffbp_oversample": plan.oversample, "ffbp_kernel": plan.kernel,
+                         "ffbp_predicted_error_db": plan.predicted_error_db})
     return img
 
 

@@ -30,7 +30,6 @@ the pulses). The phase is estimated per spectral bin and interpolated to the pul
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np

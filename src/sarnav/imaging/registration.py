@@ -23,7 +23,7 @@ their mean removed before correlation, so the pedestal does not bias the peak to
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft as sfft
