@@ -113,6 +113,13 @@ def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
         ffbp(rc, grid, merge=1)
     with pytest.raises(ConfigError, match="^kernel: must be one of"):
         ffbp(rc, grid, kernel="lanczos")
+    # "auto" is resolved once for all pulses (fs / B = 2: FFT x4 then linear) and gives that mode's image exactly
+    from sarnav.imaging.backprojection import resolve_interpolation
+
+    assert resolve_interpolation(rc, "auto", 8, BW) == ("upsample", 4)
+    a = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="auto")
+    b = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="upsample", upsample=4)
+    assert np.array_equal(a.data, b.data)
 
 
 @pytest.mark.slow

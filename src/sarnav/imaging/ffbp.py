@@ -50,8 +50,9 @@ import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
-from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _S0, _S1, _S2, _S3, _S4, _S5,
-                                           _check_pulses, _cis, _image, _points, _wavelength, backproject_fan,
+from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _MODE, _PAD, _S0, _S1, _S2, _S3, _S4,
+                                           _S5, DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, _bpa_fan_kernel, _check_pulses,
+                                           _cis, _image, _points, _upsample_pulses, _wavelength,
                                            _check_interpolation, backproject_points, data_oversampling, plane_of,
                                            resolve_interpolation)
 from sarnav.imaging.interpolation_error import interpolation_error_2d, kernel_values, summed_interpolation_error
@@ -438,22 +439,46 @@ class _Former:
         self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
         self.plan, self.interpolation, self.upsample = plan, interpolation, upsample
         self.ktab = kernel_table(plan.kernel, plan.oversample)
+        self._pulses = None                     # (k0, k1, padded samples, kernel constants) of the current top block
+
+    def _prepare(self, k0: int, k1: int) -> None:
+        """Range-interpolation-ready samples of pulses k0..k1 (one top-level subimage): FFT-upsampled once for the
+        block (complex64, as ``backproject_fan`` does per call) and zero-padded for the kernel's taps."""
+        data, rng = self.rc.data[k0:k1], self.rc.slant_range
+        if self.interpolation == "upsample":
+            data, rng = _upsample_pulses(data, rng, self.upsample, np.complex64)
+        n = data.shape[1]
+        padded = np.zeros((data.shape[0], n + 2 * _PAD), dtype=np.complex64)
+        padded[:, _PAD:_PAD + n] = data
+        d = float(rng[1] - rng[0])
+        self._pulses = (k0, k1, padded, (float(rng[0]) / d, 1.0 / d, float(n - 1), 2.0 / self.lam,
+                                         _MODE[self.interpolation], DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK))
+
+    def _level0(self, grid: _Polar, k0: int, k1: int) -> np.ndarray:
+        """Exact back-projection of pulses k0..k1 along the grid's lines of constant u (range quadratic along each
+        line: ``backprojection._bpa_fan_kernel``), demodulated by exp(-j 4 pi r / lambda) (a function of the line's
+        range only): the (nr, nu) complex64 polar image."""
+        if self._pulses is None or not (self._pulses[0] <= k0 and k1 <= self._pulses[1]):
+            self._prepare(k0, k1)
+        b0, _, padded, common = self._pulses
+        e = grid.directions(self.v)
+        out_re = np.zeros(grid.nu * grid.nr)
+        out_im = np.zeros(grid.nu * grid.nr)
+        _bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
+                        np.ascontiguousarray(self.pos[k0:k1]), padded[k0 - b0:k1 - b0], *common, out_re, out_im)
+        r = grid.r0 + np.arange(grid.nr) * grid.dr
+        d_re, d_im = _demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
+        vals = (out_re + 1j * out_im).reshape(grid.nu, grid.nr)
+        return np.ascontiguousarray((vals * (d_re + 1j * d_im)[None, :]).T, dtype=np.complex64)
 
     def build(self, k0: int, k1: int, level: int) -> _Polar:
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
                            self.plan.oversample)
         if level == 0:
-            # exact back-projection along the grid's lines of constant u (range quadratic along each line), then
-            # demodulated by exp(-j 4 pi r / lambda), a function of the line's range only
-            sub = PulseData(self.rc.data[k0:k1], self.rc.slant_range, self.rc.pulse_times[k0:k1], self.pos[k0:k1],
-                            None, compressed=True, wavelength=self.lam)
-            e = grid.directions(self.v)
-            vals = backproject_fan(sub, grid.centre + grid.r0 * e, grid.dr * e, grid.nr,
-                                   interpolation=self.interpolation, upsample=self.upsample)       # (nu, nr)
-            r = grid.r0 + np.arange(grid.nr) * grid.dr
-            d_re, d_im = _demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
-            grid.img = np.ascontiguousarray((vals * (d_re + 1j * d_im)[None, :]).T, dtype=np.complex64)
+            grid.img = self._level0(grid, k0, k1)
             return grid
+        if level == self.plan.levels:
+            self._prepare(k0, k1)
         acc = np.zeros((grid.nr, grid.nu), np.complex64)
         step = self.plan.base_pulses * self.plan.merge ** (level - 1)
         for j0 in range(k0, k1, step):
@@ -581,6 +606,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
                      cost=cost, kernel=kernel, data_error=_range_error(rc, interpolation, upsample, bw))
     dr = _C / (2.0 * bw * plan.oversample)
+    interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)   # "auto" once for all pulses
     if interpolation == "upsample" and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
         # zero samples past the receive window (no echo there) to a length the FFT upsampling does fast (1896 = 8 x 3 x
         # 79 bins take 3x the time of 1920)
