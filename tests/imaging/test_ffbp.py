@@ -113,6 +113,12 @@ def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
         ffbp(rc, grid, merge=1)
     with pytest.raises(ConfigError, match="^kernel: must be one of"):
         ffbp(rc, grid, kernel="lanczos")
+    with pytest.raises(ConfigError, match="^interpolation: must be one of"):
+        ffbp(rc, grid, interpolation="sinc")
+    from sarnav.imaging.interpolation_error import kernel_spectrum
+
+    with pytest.raises(ConfigError, match="^beta: a windowed kernel needs"):
+        kernel_spectrum("kaiser6", 0.1)
     # "auto" is resolved once for all pulses (fs / B = 2: FFT x4 then linear) and gives that mode's image exactly
     from sarnav.imaging.backprojection import resolve_interpolation
 

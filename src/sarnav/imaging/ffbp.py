@@ -55,14 +55,15 @@ from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _M
                                            _cis, _image, _points, _upsample_pulses, _wavelength,
                                            _check_interpolation, backproject_points, data_oversampling, plane_of,
                                            resolve_interpolation)
-from sarnav.imaging.interpolation_error import interpolation_error_2d, kernel_values, summed_interpolation_error
+from sarnav.imaging.interpolation_error import (WINDOWED, interpolation_error_2d, kernel_values,
+                                                summed_interpolation_error)
 from sarnav.imaging.grid import as_grid
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
 
 _C = 299792458.0
 #: polar-image interpolation kernels: name -> taps per dimension (sarnav.imaging.interpolation_error)
-FFBP_KERNELS = {"kaiser6": 6, "cubic": 4}
+FFBP_KERNELS = {"kaiser6": WINDOWED["kaiser6"], "cubic": 4}
 #: extra polar samples beyond the pixels' extent on each side (the 6-tap kernel's support is 3)
 _MARGIN = 4
 #: fractions per sample of the tabulated kernels (nearest row: position error <= 1/(2 F) sample, ~-73 dB at os 2)
@@ -213,8 +214,8 @@ def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lam
                 out_re, out_im):  # pragma: no cover - compiled
     """out += polar image ``img`` ((nr, nu) complex64) at the points, remodulated by
     exp(j 4 pi (r(q) - ref_r) / lambda) (ref_r: (M,) parent ranges, 0 for the final pixels). Blocks of points
-    in parallel; per block a vectorised float64 pass (``_locate``), a vectorised float32 pass (weights and
-    phase factor) and a scalar pass of 16-tap gathers (``_taps``)."""
+    in parallel; per block a vectorised float64 pass (``_locate``) and a scalar pass that reads the kernel table,
+    gathers the N x N taps and remodulates (``_taps``)."""
     nr, nu = img.shape
     flat = img.ravel()
     nt = ktab.shape[1]
@@ -527,12 +528,10 @@ def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge, 
     return cost
 
 
-def _range_error(rc, interpolation, upsample, bw) -> float:
-    """Predicted image error (linear) of the level-0 range interpolation of the pulses against band-limited
-    interpolation: ``summed_interpolation_error`` (the part that survives the sum over pulses) on the data's
-    oversampling fs / B ("upsample": linear at fs / B x upsample)."""
-    _check_interpolation(interpolation, upsample)
-    mode, factor = resolve_interpolation(rc, interpolation, upsample, bw)
+def _range_error(rc, mode, factor, bw) -> float:
+    """Predicted image error (linear) of the level-0 range interpolation (resolved ``mode``, upsampling ``factor``) of
+    the pulses against band-limited interpolation: ``summed_interpolation_error`` (the part that survives the sum over
+    pulses) on the data's oversampling fs / B ("upsample": linear at fs / B x factor)."""
     os_data = data_oversampling(rc, bw)
     if mode == "upsample":
         return summed_interpolation_error("linear", os_data * factor)
@@ -603,10 +602,11 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
                        FFBP_KERNELS[kernel]) \
         if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) and isinstance(merge, int) \
         and base_pulses >= 1 and merge >= 2 else None
+    _check_interpolation(interpolation, upsample)
+    interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)   # "auto" once for all pulses
     plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
                      cost=cost, kernel=kernel, data_error=_range_error(rc, interpolation, upsample, bw))
     dr = _C / (2.0 * bw * plan.oversample)
-    interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)   # "auto" once for all pulses
     if interpolation == "upsample" and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
         # zero samples past the receive window (no echo there) to a length the FFT upsampling does fast (1896 = 8 x 3 x
         # 79 bins take 3x the time of 1920)

@@ -16,7 +16,7 @@ Kernels: "nearest" (box), "linear" (triangle, K = sinc^2), "cubic" (Keys 1981, a
 for a band-limited periodic pulse). FFBP also has "kaiser6": the 6-tap Kaiser-windowed sinc
 ``k(x) = sinc(x) I0(beta sqrt(1 - (x/3)^2)) / I0(beta)`` on |x| < 3 (interpolating: k(0) = 1, k(n) = 0),
 with beta the one minimising the error at the data's oversampling (:func:`kaiser_beta`); at os 2 it
-is -50.5 dB in 2-D where Keys cubic is -26.4 dB, so it reaches a given error with half the samples
+is -50.6 dB in 2-D where Keys cubic is -26.4 dB, so it reaches a given error with half the samples
 per dimension.
 """
 
@@ -63,6 +63,8 @@ def kernel_spectrum(name: str, f, beta: float | None = None) -> np.ndarray:
     (``beta``: the window of a :data:`WINDOWED` kernel)."""
     f = np.asarray(f, dtype=np.float64)
     if name in WINDOWED:
+        if beta is None or not math.isfinite(beta) or beta < 0:
+            raise ConfigError("beta", f"a windowed kernel needs its window's beta >= 0 (kaiser_beta), got {beta!r}")
         half = WINDOWED[name] / 2
         x = (np.arange(4000) + 0.5) * (half / 4000)    # midpoints on (0, taps/2] (smooth kernel: rule error ~1e-9)
         return 2.0 * np.cos(2.0 * np.pi * np.multiply.outer(f, x)) @ windowed_sinc(x, WINDOWED[name], beta) * (half / 4000)
@@ -126,7 +128,8 @@ def summed_interpolation_error(name: str, os: float) -> float:
 @functools.lru_cache(maxsize=64)
 def kaiser_beta(name: str, os: float) -> float:
     """The Kaiser window's beta that minimises the 1-D error of :data:`WINDOWED` kernel ``name`` at oversampling
-    ``os`` (a bounded scalar search over 0 .. 3 taps; the 2-D optimum is within 2 % of it)."""
+    ``os`` (a bounded scalar search over 0 .. 3 taps; the 2-D optimum, searched with Nelder-Mead, differs by
+    0.2-0.3 %: 4.734 against 4.745 at os 2, 6.45 against 6.47 at os 3)."""
     from scipy.optimize import minimize_scalar
 
     if name not in WINDOWED:
