@@ -119,7 +119,10 @@ def summed_interpolation_error(name: str, os: float) -> float:
     is the mean response's ripple across the band, ``mean_f |g - K(f)|^2 / g^2`` with g = mean_f K(f) (the
     coherent part of the module doc's eps(f)). Linear at os 8: -48.3 dB (full per-sample error: -44.0 dB);
     measured in the image (x4 against x16 upsampled exact back-projection, benchmarks/bench_ffbp.py scene):
-    -47.2 dB."""
+    -47.2 dB. The averaging needs the fractional positions spread across the aperture (range migration over many
+    samples, as on the FFBP benchmark's 2048-pulse aperture); with little migration the error tends to the
+    per-sample :func:`interpolation_error` (benchmarks/bench_bpa.py, 128 pulses: -44.5 dB measured). So this is
+    the lower end of a range whose upper end is the per-sample error."""
     k0, _ = _spectra(name, float(os))
     g = float(np.mean(k0))
     return float(np.mean((g - k0) ** 2) / g**2)
