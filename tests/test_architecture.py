@@ -24,6 +24,7 @@ LAYERS = [
     ("imaging",),
     ("io",),
     ("measurements",),
+    ("navigation",),
     ("simulation",),
     ("analysis",),
     ("montecarlo",),

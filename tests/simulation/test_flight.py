@@ -27,13 +27,14 @@ def test_free_flight_records_every_epoch_and_the_history_of_each_interval():
     L = rn.STATE_LAYOUT
     for u in range(3):
         iv = fl.fly_interval(u)
-        assert iv["j"] == (u + 1) * fl.steps and iv["t"].shape == (fl.steps + 1,)
-        np.testing.assert_array_equal(iv["p"][:, -1], fl.nav.p)
-        np.testing.assert_array_equal(iv["v"][:, -1], fl.nav.v)
+        assert fl.j == (u + 1) * fl.steps and iv.t.shape == (fl.steps + 1,)
+        np.testing.assert_array_equal(iv.p[:, -1], fl.nav.p)
+        np.testing.assert_array_equal(iv.v[:, -1], fl.nav.v)
         # a null update (H = 0) leaves the estimate and P unchanged
         H = np.zeros((2, 1, L.n))
         dx, P, _ = joseph_update(fl.P, H, np.ones((2, 1, 1)), np.zeros((2, 1)))
-        fl.after_update(iv["j"], dx, P)
+        fl.navigator.feedback(dx, P)
+        fl.record_update()
     assert np.all(np.isfinite(fl.err)) and np.all(np.isfinite(fl.sig)) and np.all(np.isfinite(fl.nees))
     # no aiding: the position sigma grows
     assert np.all(fl.sig[:, -1, :3] > fl.sig[:, 0, :3])
@@ -97,7 +98,7 @@ def test_a_short_flight_of_the_paper_scenario_runs_unaided(short_flight):
     fl = ErrorStateFlight(spec, rn.STATE_LAYOUT, np.random.SeedSequence(3).spawn(4))
     for u in range(prm.n_updates):
         iv = fl.fly_interval(u)
-        fl.after_update(iv["j"], np.zeros((4, rn.STATE_LAYOUT.n)), fl.P)
+        fl.after_update(fl.j, np.zeros((4, rn.STATE_LAYOUT.n)), fl.P)
     assert fl.err.shape == (4, prm.n_updates * fl.steps + 1, rn.STATE_LAYOUT.n)
     # the velocity error grows like the accelerometer bias times t: within the filter's own 3 sigma
     assert np.all(np.abs(fl.err[:, -1, 3:6]) < 3 * fl.sig[:, -1, 3:6])

@@ -49,6 +49,7 @@ from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEY
                                          read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
+from sarnav.navigation import Interval
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.tomlio import dump_toml
 from sarnav.trajectory import StraightLevel
@@ -266,11 +267,11 @@ def kappa_for(prm: QualityNavParams) -> dict:
 
 # --- the Monte Carlo ------------------------------------------------------------------------------
 
-def _state_at(nav: NavState, iv: dict, t: float) -> NavState:
+def _state_at(nav: NavState, iv: Interval, t: float) -> NavState:
     """The INS estimate at time t inside the interval: p, v interpolated in its history, the rest of the update
     epoch (only v enters the focus measurement)."""
-    p = np.stack([[np.interp(t, iv["t"], iv["p"][r, :, i]) for i in range(3)] for r in range(nav.p.shape[0])])
-    v = np.stack([[np.interp(t, iv["t"], iv["v"][r, :, i]) for i in range(3)] for r in range(nav.p.shape[0])])
+    p = np.stack([[np.interp(t, iv.t, iv.p[r, :, i]) for i in range(3)] for r in range(nav.p.shape[0])])
+    v = np.stack([[np.interp(t, iv.t, iv.v[r, :, i]) for i in range(3)] for r in range(nav.p.shape[0])])
     return NavState(p=p, v=v, q=nav.q, ba=nav.ba, bg=nav.bg, bm=nav.bm)
 
 
@@ -282,10 +283,10 @@ class _Focus:
         self.imager = FocusApertureImager(prm.radar, prm.trajectory, prm.settings)
         self.kappa = kappa_for(prm)["kappa"] if prm.measurement == "image" else None
 
-    def measure(self, u: int, iv: dict, noise) -> dict:
+    def measure(self, u: int, iv: Interval, noise) -> dict:
         """z (R, 1), the model, ok (R,), t_c, mapdrift's speed and the curvature (R,) of update u."""
         prm, fl = self.prm, self.fl
-        t_end = float(iv["t"][-1])
+        t_end = float(iv.t[-1])
         times = self.imager.times(t_end)
         t_c = 0.5 * (times[0] + times[-1])
         v_true = prm.trajectory.state(np.array([t_c])).velocity[0]
@@ -299,7 +300,7 @@ class _Focus:
             return {"z": model.simulate(truth_c, noise=noise), "model": model, "ok": np.ones(fl.R, bool), "t_c": t_c,
                     "mapdrift": nan, "curvature": nan, "truth_c": truth_c}
         spans = self.spans(iv, t_c)
-        fx = self.imager.measure(t_end, iv["t"], iv["p"], iv["v"], [[int(s), u] for s in fl.extra], spans)
+        fx = self.imager.measure(t_end, iv.t, iv.p, iv.v, [[int(s), u] for s in fl.extra], spans)
         ok = fx.ok
         e = np.where(ok[:, None], fx.direction, fx.v_hat)
         sigma = np.where(ok, np.sqrt(self.kappa / np.where(ok, fx.curvature, 1.0)), 1.0)
@@ -307,7 +308,7 @@ class _Focus:
         return {"z": np.where(ok, fx.value, 0.0)[:, None], "model": model, "ok": ok, "t_c": t_c,
                 "mapdrift": fx.mapdrift_speed, "curvature": np.where(ok, fx.curvature, np.nan), "truth_c": truth_c}
 
-    def spans(self, iv: dict, t_c: float) -> np.ndarray:
+    def spans(self, iv: Interval, t_c: float) -> np.ndarray:
         """Half-width of each run's first search stage: focus.span_sigmas x the filter's predicted 1-sigma of the fix
         (sqrt(H P H^T), the acceleration coupling included), clipped to [focus.span, focus.span_max] [m/s]."""
         prm, fl = self.prm, self.fl
@@ -319,37 +320,34 @@ class _Focus:
         s_pred = np.sqrt(np.maximum(update.innovation_covariance(fl.P, pred)[:, 0, 0] - pred.R[:, 0, 0], 0.0))
         return np.clip(prm.span_sigmas * s_pred, prm.settings.span, prm.span_max)
 
-    def coupling(self, los, lever, iv: dict) -> dict:
+    def coupling(self, los, lever, iv: Interval) -> dict:
         """The acceleration coupling of the fix (``FocusVelocityMeasurement``): the INS's specific force of the
         interval's last step, in the nav frame (f_ref) and back in the body frame with its bias estimate (f_body)."""
         nav = self.fl.nav
-        return {"los": los, "lever": lever, **body_specific_force(nav.q, iv["f_mean"], nav.ba)}
+        return {"los": los, "lever": lever, **body_specific_force(nav.q, iv.f_mean, nav.ba)}
 
 
-def _predict(prm: QualityNavParams, fl: ErrorStateFlight, iv: dict, model, t_c: float):
+def _predict(prm: QualityNavParams, fl: ErrorStateFlight, iv: Interval, model, t_c: float):
     """(prediction at the update epoch, covariance at t_c): the model at the INS state of t_c, mapped by the
     delayed-state strategy (``focus.delayed_state``)."""
     pred = model.predict(_state_at(fl.nav, iv, t_c)).replace(hessians=None)
     if not prm.delayed_state:
         return pred, fl.P
-    span = np.full(fl.R, float(iv["t"][-1]) - t_c)
-    Phi_inv, Qd = delayed.back_transition(fl.model, quat_to_dcm(fl.nav.q), iv["f_mean"], span)
+    span = np.full(fl.R, float(iv.t[-1]) - t_c)
+    Phi_inv, Qd = delayed.back_transition(fl.model, quat_to_dcm(fl.nav.q), iv.f_mean, span)
     return delayed.map_to_update_epoch(pred, Phi_inv, Qd), delayed.covariance_at(fl.P, Phi_inv, Qd)
 
 
-def _update(prm: QualityNavParams, fl: ErrorStateFlight, iv: dict, z, model, ok, t_c):
-    """The (delayed-state) correlated update, runs without a fix (or whose innovation is beyond
-    ``focus.gate_sigmas``) left untouched; returns (Update, predicted sigma of e . v at t_c, used (R,))."""
+def _update(prm: QualityNavParams, fl: ErrorStateFlight, iv: Interval, z, model, ok, t_c):
+    """The navigator's (delayed-state) correlated update, runs without a fix (or whose innovation is beyond
+    ``focus.gate_sigmas``) left out; returns (Fused, predicted sigma of e . v at t_c, used (R,))."""
     pred, Pc = _predict(prm, fl, iv, model, t_c)
     predicted = directional_sigma(Pc, LAYOUT.slice("v"), np.broadcast_to(model.directions, (fl.R, 3)))
     S = update.innovation_covariance(fl.P, pred)[:, 0, 0]
     ok = ok & (np.abs(np.asarray(z)[:, 0] - pred.z_hat[:, 0]) <= prm.gate_sigmas * np.sqrt(S))
-    bad = ~ok
-    H, R, zz = pred.H.copy(), pred.R.copy(), np.array(z, dtype=np.float64)
-    H[bad], R[bad], zz[bad] = 0.0, 1.0, pred.z_hat[bad]
-    C = None if pred.C is None else np.where(bad[:, None, None], 0.0, pred.C)
-    pred = pred.replace(H=H, R=R, C=C)
-    return update.correlated(fl.P, pred, zz), predicted, ok
+    if pred.C is None:  # the correlated form with C = 0, as with the delayed state
+        pred = pred.replace(C=np.zeros((fl.R, LAYOUT.n, pred.dim)))
+    return fl.navigator.update(pred, z, ok[:, None]), predicted, ok
 
 
 def simulate_runs(prm: QualityNavParams, run_ids, seeds) -> list[RunRecord]:
@@ -368,7 +366,8 @@ def simulate_runs(prm: QualityNavParams, run_ids, seeds) -> list[RunRecord]:
         iv = fl.fly_interval(u)
         noise = np.stack([g.standard_normal(1) for g in fl.rngs])  # (R, 1), drawn in every mode
         if focus is None:
-            fl.after_update(iv["j"], np.zeros((R, LAYOUT.n)), fl.P)
+            fl.navigator.feedback(np.zeros((R, LAYOUT.n)), fl.P)
+            fl.record_update()
             continue
         m = focus.measure(u, iv, noise)
         ok, model = m["ok"], m["model"]
@@ -376,13 +375,13 @@ def simulate_runs(prm: QualityNavParams, run_ids, seeds) -> list[RunRecord]:
         rec["focus_used"][:, u] = used
         rec["focus_gated"][:, u] = ok & ~used
         ok = used
-        fl.after_update(iv["j"], up.dx, up.P)
+        fl.record_update()
         v_true = prm.trajectory.state(np.array([m["t_c"]])).velocity[0]
         e = np.broadcast_to(model.directions, (R, 3))
         h_true = model.predict(m["truth_c"]).z_hat[:, 0]  # the model at the truth: what an error-free fix gives
         rec["residual"][ok, u] = up.residual[ok, 0]
         rec["residual_sigma"][ok, u] = up.residual_sigma[ok, 0]
-        rec["nis"][ok, u], rec["nis_dof"][ok, u] = up.nis[ok], 1
+        rec["nis"][ok, u], rec["nis_dof"][ok, u] = up.nis[ok], up.dof[ok]
         rec["focus_error"][ok, u] = m["z"][ok, 0] - h_true[ok]
         rec["focus_accel_term"][:, u] = h_true - e @ v_true
         rec["focus_sigma"][ok, u] = np.broadcast_to(model.sigma, (R,))[ok]

@@ -56,6 +56,7 @@ from sarnav.scenarios.fields import vector as _vector
 from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
+from sarnav.navigation import Interval
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
 from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.base import Trajectory
@@ -447,11 +448,11 @@ def reference_targets(prm: RdaNavParams) -> np.ndarray:
 
 # --- the Monte Carlo ------------------------------------------------------------------------------
 
-def _toc_state(nav: NavState, iv: dict, eta) -> NavState:
+def _toc_state(nav: NavState, iv: Interval, eta) -> NavState:
     """The INS estimate at each run's TOC ``eta`` (R,): position and velocity interpolated in the aperture's
     history, the bias estimates of the update epoch."""
-    p = np.stack([interpolate_state(iv["t"], iv["p"][r], eta[r]) for r in range(len(eta))])
-    v = np.stack([interpolate_state(iv["t"], iv["v"][r], eta[r]) for r in range(len(eta))])
+    p = np.stack([interpolate_state(iv.t, iv.p[r], eta[r]) for r in range(len(eta))])
+    v = np.stack([interpolate_state(iv.t, iv.v[r], eta[r]) for r in range(len(eta))])
     return NavState(p=p, v=v, q=nav.q, ba=nav.ba, bg=nav.bg, bm=nav.bm)
 
 
@@ -471,17 +472,17 @@ class _Sar:
         self.status = np.zeros((fl.R, self.T), dtype=np.int64)
         self.D = np.diag(np.asarray(prm.scene["geolocation_sigma"], dtype=np.float64) ** 2)
 
-    def models(self, u: int, iv: dict, k: int):
+    def models(self, u: int, iv: Interval, k: int):
         L, targ = self.fl.layout, self.map[:, u, k]
         kw = {}
         if self.prm.cross_model == "paper":  # eq. 49: u_c and r_orig from each run's estimated aperture
-            kw = dict(u_c=iv["p"][:, -1] - iv["p"][:, 0], r_orig=iv["p"][:, 0])
+            kw = dict(u_c=iv.p[:, -1] - iv.p[:, 0], r_orig=iv.p[:, 0])
         elif self.sensitivity is not None:
             kw = dict(focus_sensitivity=self.sensitivity[:, k], focus_offset=self.focus_offset[:, k])
         return (SarRangeMeasurement(targ, self.sigma[:, k, 0], L),
                 SarCrossRangeMeasurement(targ, self.sigma[:, k, 1], L, model=self.prm.cross_model, **kw))
 
-    def predict(self, u: int, iv: dict, eta) -> Prediction:
+    def predict(self, u: int, iv: Interval, eta) -> Prediction:
         """The stacked prediction of every target's pair, each referred to its own TOC ``eta[:, k]`` and mapped to the
         update epoch (the process noise shared between two targets' TOC intervals is not correlated across pairs:
         docs §3)."""
@@ -493,7 +494,7 @@ class _Sar:
         if np.any(self.D > 0):
             pred = target_position_noise(pred, fl.layout, self.D, (0, 1))
         if prm.delayed_state:
-            Phi_inv, Qd = delayed.back_transition(fl.model, quat_to_dcm(fl.nav.q), iv["f_mean"], iv["t"][-1] - eta)
+            Phi_inv, Qd = delayed.back_transition(fl.model, quat_to_dcm(fl.nav.q), iv.f_mean, iv.t[-1] - eta)
             if prm.second_order:
                 pred = second_order.with_second_order(pred, delayed.covariance_at(fl.P, Phi_inv, Qd))
             return delayed.map_to_update_epoch(pred, Phi_inv, Qd)
@@ -501,13 +502,13 @@ class _Sar:
             pred = second_order.with_second_order(pred, fl.P)
         return pred.replace(hessians=None)
 
-    def measure(self, u: int, iv: dict, noise, record: dict):
+    def measure(self, u: int, iv: Interval, noise, record: dict):
         """(z (R, 2T), TOC each pair's prediction refers to (R, T)): from the images, or the oracle's truth."""
         fl, prm, R = self.fl, self.prm, self.fl.R
-        j, steps = iv["j"], fl.steps
+        j, steps = fl.j, fl.steps
         bm = fl.bm_truth[:, j]
         truth_track = fl.truth_out.position[u * steps:j + 1]
-        true_toc = [closest_approach(self.targets[u, k], iv["t"], truth_track) for k in range(self.T)]
+        true_toc = [closest_approach(self.targets[u, k], iv.t, truth_track) for k in range(self.T)]
         if self.imager is None:
             z, eta = [], np.empty((R, self.T))
             for k, (eta_true, _, p_true) in enumerate(true_toc):
@@ -517,27 +518,27 @@ class _Sar:
                 # the oracle measures the true target (the map's error enters only through the prediction)
                 ms = [SarRangeMeasurement(self.targets[u, k], self.sigma[:, k, 0], fl.layout),
                       SarCrossRangeMeasurement(self.targets[u, k], self.sigma[:, k, 1], fl.layout,
-                                               model=prm.cross_model, **(dict(u_c=iv["p"][:, -1] - iv["p"][:, 0],
-                                                                              r_orig=iv["p"][:, 0])
+                                               model=prm.cross_model, **(dict(u_c=iv.p[:, -1] - iv.p[:, 0],
+                                                                              r_orig=iv.p[:, 0])
                                                                          if prm.cross_model == "paper" else {}))]
                 z += [m.simulate(truth_toc, noise=noise[:, 2 * k + i:2 * k + i + 1]) for i, m in enumerate(ms)]
                 eta[:, k] = eta_true
             return np.concatenate(z, axis=1), eta
         speed_sigma = directional_sigma(fl.P, fl.layout.slice("v"), fl.nav.v)
-        am = self.imager.measure(u, iv["t"], iv["p"], iv["v"], speed_sigma, map_targets=self.map[:, u],
-                                 along_sigma=self._along_sigma(u, iv), ap_q=iv["q"])
+        am = self.imager.measure(u, iv.t, iv.p, iv.v, speed_sigma, map_targets=self.map[:, u],
+                                 along_sigma=self._along_sigma(u, iv), ap_q=iv.q)
         self._take(am)
         n_add = (prm.sar_sigma[None, None, :] * noise.reshape(R, self.T, 2)) * self.add_white
         z = np.stack([am.range + bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # cross: 0 at zero Doppler
         self._record(u, am, true_toc, record)
-        centre = 0.5 * (iv["t"][0] + iv["t"][-1])
+        centre = 0.5 * (iv.t[0] + iv.t[-1])
         return z.reshape(R, 2 * self.T), np.where(self.status == 0, am.toc, centre)
 
-    def _along_sigma(self, u: int, iv: dict) -> np.ndarray:
+    def _along_sigma(self, u: int, iv: Interval) -> np.ndarray:
         """(R,) the filter's 1-sigma of the first target's zero-Doppler cross-range at the aperture centre: how far
         along track an image focused with the estimate may put it (sizes the BPA search grid)."""
-        mid = iv["p"].shape[1] // 2
-        nav = NavState(p=iv["p"][:, mid], v=iv["v"][:, mid], q=self.fl.nav.q, ba=self.fl.nav.ba, bg=self.fl.nav.bg,
+        mid = iv.p.shape[1] // 2
+        nav = NavState(p=iv.p[:, mid], v=iv.v[:, mid], q=self.fl.nav.q, ba=self.fl.nav.ba, bg=self.fl.nav.bg,
                        bm=self.fl.nav.bm)
         pred = self.models(u, iv, 0)[1].predict(nav)
         S = update.innovation_covariance(self.fl.P, pred.replace(R=np.zeros_like(pred.R), C=None))
@@ -637,15 +638,15 @@ def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
                 pred = pred.replace(C=np.zeros((R, L.n, pred.dim)))
             z = np.concatenate([z_alt, z_sar], axis=1)
             rec["stage_seconds"][:, u, -1] += (_time.perf_counter() - t0) / R
-            status = _screen(prm, fl.P, pred, z, sar.status)
+            status = _screen(prm, fl.navigator, pred, z, sar.status)
             first = np.where(status != 0, status, 0)
             rec["update_rejected"][:, u] = np.array([next((c for c in row if c), 0) for row in first])
             rec["pairs_fused"][:, u] = np.sum(status == 0, axis=1)
-        _fuse(fl, iv["j"], pred, z, status, rec, u)
+        _fuse(fl, pred, z, status, rec, u)
     return _records(prm, fl, run_ids, rec, image=sar is not None and sar.imager is not None), rec
 
 
-def _screen(prm: RdaNavParams, P, pred: Prediction, z, status) -> np.ndarray:
+def _screen(prm: RdaNavParams, navigator, pred: Prediction, z, status) -> np.ndarray:
     """(R, T) rejection code of each run's SAR pairs: the image's own (``measurements.sar_image.FAILURES``), else the
     chi-square innovation gate of the pair (``sar.gate_probability``), else 0 (fused)."""
     code = np.asarray(status, dtype=np.int64).copy()
@@ -653,27 +654,22 @@ def _screen(prm: RdaNavParams, P, pred: Prediction, z, status) -> np.ndarray:
         T = code.shape[1]
         ok = np.repeat(code == 0, 2, axis=1)
         zz = np.where(np.concatenate([np.ones((z.shape[0], 1), bool), ok], axis=1), z, pred.z_hat)
-        _, accepted = update.chi2_gate(P, pred, zz, [[1 + 2 * k, 2 + 2 * k] for k in range(T)], prm.gate_probability)
+        accepted = navigator.gate(pred, zz, [[1 + 2 * k, 2 + 2 * k] for k in range(T)], prm.gate_probability)
         code[(code == 0) & ~accepted] = REJECTIONS.index("innovation gate")
     return code
 
 
-def _fuse(fl: ErrorStateFlight, j: int, pred: Prediction, z, status, rec: dict, u: int) -> None:
-    """The update with the rejected SAR pairs taken out (``Prediction.masked``), feedback, and the record."""
+def _fuse(fl: ErrorStateFlight, pred: Prediction, z, status, rec: dict, u: int) -> None:
+    """The navigator's update with the rejected SAR pairs left out (``keep``), and the record."""
     keep = np.ones(pred.z_hat.shape, dtype=bool)
     if status is not None:
         keep[:, 1:] = np.repeat(status == 0, 2, axis=1)
+    fused = fl.navigator.update(pred, z, keep)
+    fl.record_update()
     cols = slice(0, pred.dim)
-    if keep.all():
-        up = update.correlated(fl.P, pred, z)
-        nis = up.nis
-    else:
-        up = update.correlated(fl.P, pred.masked(keep), np.where(keep, z, pred.z_hat))
-        nis, _ = update.present_nis(up.residual, up.S, keep)
-    fl.after_update(j, up.dx, up.P)
-    rec["residual"][:, u, cols] = np.where(keep, up.residual, np.nan)
-    rec["residual_sigma"][:, u, cols] = np.where(keep, up.residual_sigma, np.nan)
-    rec["nis"][:, u], rec["nis_dof"][:, u] = nis, keep.sum(axis=1)
+    rec["residual"][:, u, cols] = fused.residual
+    rec["residual_sigma"][:, u, cols] = fused.residual_sigma
+    rec["nis"][:, u], rec["nis_dof"][:, u] = fused.nis, fused.dof
 
 
 def _records(prm, fl, run_ids, rec, image: bool) -> list[RunRecord]:

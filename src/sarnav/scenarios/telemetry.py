@@ -26,10 +26,9 @@ import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError
-from sarnav.filters import ErrorStateLayout, apply_feedback, update
-from sarnav.filters.gaussian_sum import GaussianSum, gaussian_sum_update, nonlinearity
+from sarnav.filters import ErrorStateLayout
+from sarnav.filters.gaussian_sum import GaussianSum, nonlinearity
 from sarnav.filters.prediction import stack_predictions
-from sarnav.ins import NavState
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
@@ -252,26 +251,24 @@ def simulate_runs(prm: TelemetryParams, run_ids, seeds) -> list[RunRecord]:
     ]
     slots = prm.max_components if prm.strategy == "gaussian-sum" else 1
     mix = GaussianSum.single(fl.P, slots) if mixture else None
+    nv = fl.navigator
 
     def predict_at(run, dx):  # the measurements predicted from run[i]'s estimate corrected by dx[i]
-        nav = NavState(*(getattr(fl.nav, f)[run] for f in ("p", "v", "q", "ba", "bg", "bm")))
-        return stack_predictions([mk.predict(apply_feedback(nav, dx, L)) for mk in meas])
+        return stack_predictions([mk.predict(nv.corrected(run, dx)) for mk in meas])
 
     res, res_sig = np.empty((R, n_upd, 3)), np.empty((R, n_upd, 3))
     nis, comps, nonlin = np.empty((R, n_upd)), np.ones((R, n_upd), dtype=np.int64), np.empty((R, n_upd, 3))
     for u in range(n_upd):
         iv = fl.fly_interval(u)
         z = np.concatenate([mk.simulate(fl.truth, fl.rngs) for mk in meas], axis=1)
-        pred = stack_predictions([mk.predict(fl.nav) for mk in meas])
-        nonlin[:, u] = nonlinearity(pred, fl.P)  # under the filter's (mixture) covariance at its estimate
+        pred = stack_predictions([mk.predict(nv.nav) for mk in meas])
+        nonlin[:, u] = nonlinearity(pred, nv.P)  # under the filter's (mixture) covariance at its estimate
         if mixture:
-            mix.propagate(iv["Phi"], iv["Qd"], fl.P)
-            gs = gaussian_sum_update(mix, predict_at, z, prm.split_threshold)
-            up, comps[:, u] = gs.update, gs.components
+            fused, comps[:, u] = nv.update_mixture(mix, predict_at, z, prm.split_threshold, iv)
         else:
-            up = update.joseph(fl.P, pred, z)
-        fl.after_update(iv["j"], up.dx, up.P)
-        res[:, u], res_sig[:, u], nis[:, u] = up.residual, up.residual_sigma, up.nis
+            fused = nv.update(pred, z)
+        fl.record_update()
+        res[:, u], res_sig[:, u], nis[:, u] = fused.residual, fused.residual_sigma, fused.nis
     err, sig, nees = fl.err, fl.sig, fl.nees
 
     t_upd = t_out[steps::steps]

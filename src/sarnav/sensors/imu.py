@@ -112,6 +112,16 @@ def imu_grade(name: str) -> ImuGrade:
         raise ConfigError("imu.grade", f"must be one of {sorted(IMU_GRADES)} or 'custom', got {name!r}") from None
 
 
+@dataclass(frozen=True)
+class ImuSpec:
+    """An IMU error model: 1-sigma figures (``grade``) and bias correlation times [s] (SI). The truth sensor
+    (``sarnav.simulation``) and the filter's belief about it (``sarnav.navigation``) are each one of these."""
+
+    grade: ImuGrade
+    tau_accel: float
+    tau_gyro: float
+
+
 class ImuModel:
     """White noise + FOGM biases, batched over runs with one Generator per run.
 

@@ -1,4 +1,8 @@
-"""The spine that every error-state Monte Carlo kind shares (``telemetry``, ``rda-nav``).
+"""The simulated world that every error-state Monte Carlo kind flies (``telemetry``, ``rda-nav``, ``quality-nav``).
+
+The world holds the truth (trajectory, truth IMU, measurement biases, initial-error draw) and is the navigator's
+source of IMU samples; the filter itself is a :class:`~sarnav.navigation.Navigator`, which never sees the truth.
+The world compares the navigator's estimate with the truth (error, 1-sigma, NEES at every output epoch).
 
 The truth sensor and the filter's belief about it are two objects (pyins' practice): :class:`ImuSpec` ``truth``
 corrupts the true kinematics (white noise + FOGM biases, ``sensors.ImuModel``); ``filter`` is what the INS and the
@@ -8,50 +12,33 @@ sets ``[filter.imu]`` (a model-mismatch study).
 One batch of runs flies the same analytic truth; per run, from its own Generator and in this order: IMU
 biases (6), measurement biases and initial error (k + n, k = 3 or 0 measurement biases), the measurement-bias drive (one 3-vector per
 covariance step), the kind's extra draws (``extra_draws``), IMU sample 0; then per update interval the IMU
-block. Between updates the strapdown INS (``ins.mechanize``) and the covariance (``ErrorStateModel``, Van
-Loan, F held over one covariance step) advance together; the error, the filter 1-sigma and the NEES are
-recorded at every output epoch. A kind makes its measurements at the end of each interval, updates
-(``nav``, ``P``) and calls :meth:`ErrorStateFlight.after_update`.
+block. Between updates the navigator's strapdown INS and covariance advance through the truth IMU's block
+(``Navigator.propagate``); the error, the filter 1-sigma and the NEES are recorded at every output epoch. A kind
+makes its measurements at the end of each interval, fuses them through ``flight.navigator.update`` (or
+``update_mixture``) and calls :meth:`ErrorStateFlight.record_update`.
 
-The covariance of a step uses T_b^n at the step's start (``covariance_attitude="start"``) or the normalised
-mean of the start and end quaternions (``"mid"``); f^n is the step mean of the INS either way. With
+``covariance_attitude`` ("start" or "mid") is the navigator's (``sarnav.navigation.navigator``). With
 ``interval_transition=True`` :meth:`ErrorStateFlight.fly_interval` also returns the transition and process noise of
 the whole interval (the product of the steps'), for filters that carry more than one covariance (Gaussian sums).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from sarnav.errors import ConfigError
-from sarnav.filters import (
-    ErrorStateLayout,
-    ErrorStateModel,
-    apply_feedback,
-    corrupt_state,
-    error_state,
-    normalized_squared,
-    propagate_covariance,
-)
-from sarnav.ins import NavState, mechanize
-from sarnav.rotations import quat_normalize, quat_to_dcm
+from sarnav.filters import ErrorStateLayout, corrupt_state, error_state, normalized_squared
+from sarnav.ins import NavState
+from sarnav.navigation import Interval, Navigator, error_model
+from sarnav.navigation.navigator import COVARIANCE_ATTITUDES
 from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
-from sarnav.sensors.imu import ImuBlocks, ImuGrade, ImuModel
+from sarnav.sensors.imu import ImuBlocks, ImuModel, ImuSpec
 from sarnav.trajectory.base import Trajectory
 
-COVARIANCE_ATTITUDES = ("start", "mid")
-
-
-@dataclass(frozen=True)
-class ImuSpec:
-    """An IMU error model: 1-sigma figures and bias correlation times [s] (SI)."""
-
-    grade: ImuGrade
-    tau_accel: float
-    tau_gyro: float
+__all__ = ["ErrorStateFlight", "FlightSpec", "ImuSpec", "COVARIANCE_ATTITUDES"]
 
 
 @dataclass(frozen=True)
@@ -85,11 +72,12 @@ class FlightSpec:
 
 
 class ErrorStateFlight:
-    """Truth, INS, covariance and the error record of one batch of runs (module docstring).
+    """Truth, the truth IMU, the navigator and the error record of one batch of runs (module docstring).
 
-    Attributes a kind reads or sets: ``nav`` (NavState, R runs), ``P`` (R, n, n), ``truth`` (NavState at the
-    last epoch flown), ``bm_truth`` (R, T, 3) the truth measurement biases at every output epoch, ``t_out``,
-    ``truth_out``, ``model``, ``rngs``, ``extra`` (what ``extra_draws`` returned), ``err``, ``sig``, ``nees``.
+    Attributes a kind reads: ``navigator`` (the filter: ``nav``, ``P``, ``model``), ``truth`` (NavState at the last
+    epoch flown), ``bm_truth`` (R, T, 3) the truth measurement biases at every output epoch, ``t_out``,
+    ``truth_out``, ``rngs``, ``extra`` (what ``extra_draws`` returned), ``err``, ``sig``, ``nees``; ``nav``, ``P``
+    and ``model`` read the navigator's.
     """
 
     def __init__(self, spec: FlightSpec, layout: ErrorStateLayout, seeds,
@@ -99,7 +87,7 @@ class ErrorStateFlight:
         m, c = int(spec.samples_per_update), int(spec.samples_per_step)
         if c < 1 or m % c:
             raise ConfigError("samples_per_step", f"must divide samples_per_update = {m}, got {c}")
-        self.spec, self.layout, self.attitude = spec, layout, covariance_attitude
+        self.spec, self.layout = spec, layout
         self.interval_transition = bool(interval_transition)
         self.rngs = [np.random.default_rng(s) for s in seeds]
         R, L = len(self.rngs), layout
@@ -114,9 +102,7 @@ class ErrorStateFlight:
         self.truth_out = traj.state(self.t_out)
         tr, fi = spec.imu_truth, spec.filter_imu
         imu = ImuModel(tr.grade, spec.imu_rate, tr.tau_accel, tr.tau_gyro)
-        g = fi.grade
-        self.model = ErrorStateModel(L, g.vrw, g.arw, g.accel_bias, g.gyro_bias, fi.tau_accel, fi.tau_gyro,
-                                     spec.bias_sigma, spec.bias_tau, earth_rate=spec.filter_earth)
+        model = error_model(L, fi, spec.bias_sigma, spec.bias_tau, earth_rate=spec.filter_earth)
         # --- per-run draws, fixed order ---
         ba, bg = imu.initial_biases(self.rngs)
         nb = len(spec.bias_sigma)  # 3 for telemetry and rda-nav; 0 for a filter without measurement biases
@@ -131,14 +117,31 @@ class ErrorStateFlight:
         ba_k, bg_k = self._imu.first[2], self._imu.first[3]
 
         self.truth = self.truth_at(0, ba_k[:, 0], bg_k[:, 0])
-        self.nav = corrupt_state(self.truth, dx0, L)  # x_hat = m(x, dx0), thesis eq. A.5
-        self.P = np.broadcast_to(np.diag(spec.p0_sigma**2), (R, L.n, L.n)).copy()
+        nav0 = corrupt_state(self.truth, dx0, L)  # x_hat = m(x, dx0), thesis eq. A.5
+        P0 = np.broadcast_to(np.diag(spec.p0_sigma**2), (R, L.n, L.n)).copy()
+        self.navigator = Navigator(nav0, P0, model, L, tau_accel=fi.tau_accel, tau_gyro=fi.tau_gyro,
+                                   bias_tau=spec.bias_tau, earth_rate=spec.filter_earth,
+                                   covariance_attitude=covariance_attitude)
         T_out = len(self.t_out)
         self.err = np.empty((R, T_out, L.n))
         self.sig = np.empty((R, T_out, L.n))
         self.nees = np.empty((R, T_out))
-        self._history = None
         self.record(0, self.truth)
+
+    @property
+    def nav(self) -> NavState:
+        """The navigator's estimate now."""
+        return self.navigator.nav
+
+    @property
+    def P(self) -> np.ndarray:
+        """The navigator's covariance now."""
+        return self.navigator.P
+
+    @property
+    def model(self):
+        """The navigator's error model."""
+        return self.navigator.model
 
     def truth_at(self, j: int, ba_now, bg_now) -> NavState:
         """Truth NavState of every run at output epoch j (IMU biases at that epoch, measurement biases)."""
@@ -146,56 +149,35 @@ class ErrorStateFlight:
         return NavState(p=np.broadcast_to(tr.position[j], (R, 3)).copy(), v=np.broadcast_to(tr.velocity[j], (R, 3)).copy(),
                         q=np.broadcast_to(tr.quaternion[j], (R, 4)).copy(), ba=ba_now, bg=bg_now, bm=self.bm_truth[:, j])
 
-    def record(self, j: int, truth_now: NavState) -> None:
-        e = error_state(truth_now, self.nav, self.layout)
+    def record(self, j: int, truth_now: NavState, estimate=None) -> None:
+        """Error, 1-sigma and NEES at output epoch j of ``estimate`` (nav, P), default the navigator's now."""
+        nav, P = (self.navigator.nav, self.navigator.P) if estimate is None else estimate
+        e = error_state(truth_now, nav, self.layout)
         self.err[:, j] = e
-        self.sig[:, j] = np.sqrt(np.einsum("rii->ri", self.P))
-        self.nees[:, j] = normalized_squared(e, self.P)
+        self.sig[:, j] = np.sqrt(np.einsum("rii->ri", P))
+        self.nees[:, j] = normalized_squared(e, P)
 
-    def fly_interval(self, u: int) -> dict:
-        """INS + covariance over update interval u; records every epoch but the last (recorded by
-        :meth:`after_update`). Returns {"j": index of the last epoch, "t": (steps + 1,) epochs, "p", "v":
-        (R, steps + 1, 3) the INS position and velocity at them, "q": (R, steps + 1, 4) its attitude, "f_mean": (R, 3)
-        f^n of the last step}; with ``interval_transition`` also "Phi", "Qd": (R, n, n) transition and process noise
-        over the interval."""
-        m, c, steps = self.m, self.c, self.steps
+    def fly_interval(self, u: int) -> Interval:
+        """The navigator through the truth IMU's block of update interval u; records every epoch but the last
+        (recorded by :meth:`record_update`). Returns the navigator's :class:`~sarnav.navigation.Interval` (with
+        ``interval_transition``, its ``Phi`` and ``Qd``); ``self.j`` is the index of its last epoch."""
+        m, steps = self.m, self.steps
         k0 = u * m
         nu_blk, om_blk, ba_blk, bg_blk = self._imu.next(m)
-        p_hist = np.empty((self.R, steps + 1, 3))
-        v_hist = np.empty((self.R, steps + 1, 3))
-        q_hist = np.empty((self.R, steps + 1, 4))
-        p_hist[:, 0], v_hist[:, 0], q_hist[:, 0] = self.nav.p, self.nav.v, self.nav.q
-        f_mean = None
-        if self.interval_transition:
-            n = self.layout.n
-            Phi_i, Qd_i = np.broadcast_to(np.eye(n), (self.R, n, n)).copy(), np.zeros((self.R, n, n))
-        for s in range(steps):
-            a, b = s * c, (s + 1) * c
-            q_start = self.nav.q
-            self.nav, f_mean, self._history = mechanize(
-                self.nav, self.t_imu[k0 + a:k0 + b + 1], nu_blk[:, a:b + 1], om_blk[:, a:b + 1],
-                self.spec.filter_imu.tau_accel, self.spec.filter_imu.tau_gyro, self.spec.bias_tau, self._history,
-                earth_rate=self.spec.filter_earth)
-            q_cov = q_start if self.attitude == "start" else quat_normalize(q_start + self.nav.q)
-            Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, c * self.dt)
-            self.P = propagate_covariance(self.P, Phi, Qd)
-            if self.interval_transition:
-                Phi_i, Qd_i = Phi @ Phi_i, propagate_covariance(Qd_i, Phi, Qd)
-            j = u * steps + s + 1
-            p_hist[:, s + 1], v_hist[:, s + 1], q_hist[:, s + 1] = self.nav.p, self.nav.v, self.nav.q
-            if s < steps - 1:
-                self.record(j, self.truth_at(j, ba_blk[:, b], bg_blk[:, b]))
-        j = (u + 1) * steps
-        self.truth = self.truth_at(j, ba_blk[:, m], bg_blk[:, m])
-        out = {"j": j, "t": self.t_out[u * steps:j + 1], "p": p_hist, "v": v_hist, "q": q_hist, "f_mean": f_mean}
-        if self.interval_transition:
-            out.update(Phi=Phi_i, Qd=Qd_i)
-        return out
+        iv = self.navigator.propagate(self.t_imu[k0:k0 + m + 1], nu_blk, om_blk, self.c,
+                                      transition=self.interval_transition, step_seconds=self.c * self.dt)
+        for s in range(steps - 1):
+            j, b = u * steps + s + 1, (s + 1) * self.c
+            self.record(j, self.truth_at(j, ba_blk[:, b], bg_blk[:, b]), iv.estimates[s])
+        self.j = (u + 1) * steps
+        self.truth = self.truth_at(self.j, ba_blk[:, m], bg_blk[:, m])
+        return replace(iv, t=self.t_out[u * steps:self.j + 1])  # the step epochs on the output clock (i c dt)
+
+    def record_update(self) -> None:
+        """Record the last epoch flown (after the kind's update, or with none)."""
+        self.record(self.j, self.truth)
 
     def after_update(self, j: int, dx, P_post) -> None:
-        """Feed the error-state estimate back into the INS (eq. 3.23), take the posterior covariance, restart
-        the three-point integration rule and record epoch j."""
-        self.nav = apply_feedback(self.nav, dx, self.layout)
-        self.P = P_post
-        self._history = None
+        """Feed a correction back through the navigator (``Navigator.feedback``) and record epoch j."""
+        self.navigator.feedback(dx, P_post)
         self.record(j, self.truth)
