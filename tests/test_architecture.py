@@ -14,7 +14,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "sarnav"
 #: lowest first; a package may import only from layers strictly below its own (and from itself)
 LAYERS = [
     ("errors",),
-    ("units", "tomlio"),
+    ("units", "tomlio", "record"),
     ("rotations", "frames"),
     ("signal",),
     ("trajectory", "sensors"),

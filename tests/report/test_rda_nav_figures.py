@@ -9,6 +9,7 @@ from sarnav.montecarlo.seeding import run_seeds
 from sarnav.scenarios import rda_nav as rn
 from sarnav.scenarios.rda_nav import RdaNavKind
 from sarnav.scenarios.registry import get_scenario
+from sarnav.simulation import rda_nav as rda_sim
 
 
 def _short_cfg():
@@ -22,7 +23,7 @@ def test_capture_keeps_the_run_bit_identical_and_holds_the_images():
     cfg = _short_cfg()
     seed0 = run_seeds(cfg["campaign"]["seed"], 2)[0]
     plain = RdaNavKind().simulate(cfg, [0], [seed0])[0]
-    records, rec = rn._simulate(rn.parse(cfg), [0], [seed0], capture_aperture=3)
+    records, rec = rda_sim._simulate(rn.parse(cfg), [0], [seed0], capture_aperture=3)
     np.testing.assert_array_equal(plain.error, records[0].error)
     np.testing.assert_array_equal(plain.residual, records[0].residual)
     cap = rec["capture"]

@@ -245,7 +245,7 @@ def test_image_mode_is_reproducible():
 
 def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
     from sarnav.measurements.sar_image import SubApertureImager
-    from sarnav.scenarios import rda_nav_world as world
+    from sarnav.simulation import rda_nav_world as world
 
     cfg = rn.default_config()
     cfg["trajectory"]["duration"] = 2.0

@@ -12,7 +12,7 @@ import pytest
 
 from sarnav.measurements.sar_image import SubApertureImager
 from sarnav.scenarios import rda_nav as rn
-from sarnav.scenarios import rda_nav_world as world
+from sarnav.simulation import rda_nav_world as world
 from sarnav.scenarios.config import load_scenario
 from sarnav.trajectory.base import TrajectoryState
 from sarnav.trajectory.sampled import along_rate, closest_approach

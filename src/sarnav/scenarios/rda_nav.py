@@ -1,31 +1,15 @@
 """The ``rda-nav`` scenario kind: INS + altimeter + SAR range/cross-range from 1-s RDA sub-apertures.
 
 Lindstrom et al., NAVIGATION 69(3) (extraction seed-001) and thesis ch. 5; design and gap decisions in
-docs/scenarios/rda-nav.md. Scenarios ``rda-nav`` (paper sim, Tables 1-3) and ``rda-nav-flexsar``
-(simulated FlexSAR-like flight, Tables 4-6). Configuration and wiring only; the physics is in the library:
-
-* the flight (truth, IMU, strapdown INS, covariance per 0.1-s step, feedback, record): ``simulation.flight``;
-* the measurements: ``measurements.telemetry.AltimeterMeasurement`` and ``measurements.sar`` (range, cross-range
-  at the reference target's time of closest approach, TOC), made from images by ``measurements.sar_image``
-  (``sar.measurement = "image"``) or synthesised from truth (``"oracle"``, the only mode in which truth enters a
-  measurement: the truth state at the true TOC plus the truth FOGM bias and Table 2's white noise);
-* the update strategies: ``filters.delayed`` (``sar.delayed_state``: H mapped from the TOC to the update epoch,
-  eq. 57, with the process noise after the TOC as correlated noise), ``filters.second_order``
-  (``sar.second_order``: Gaussian second-order terms under the TOC covariance) and ``filters.update.correlated``.
-
-``sar.enabled = false`` flies with the altimeter only.
-
-Random draws, per run from its own Generator, in this order: IMU biases (6), measurement biases (3), initial error
-(18), measurement-bias drive (cov steps x 3), the clutter seed (1 integer), IMU sample 0; then per update the IMU
-block, the altimeter noise and (SAR enabled) the two SAR noises. Run i depends only on cfg and seeds[i]; the
-reference targets are drawn from ``scene.seed`` (the same world for every run), the clutter from the run's clutter
-seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
+docs/scenarios/rda-nav.md. Scenarios ``rda-nav`` (paper sim, Tables 1-3), ``rda-nav-flexsar`` (simulated
+FlexSAR-like flight, Tables 4-6) and ``rda-nav-terrain``. Configuration and wiring only: the defaults, ``parse``
+(TOML -> :class:`~sarnav.simulation.rda_nav.RdaNavParams`, every bad key named) and the kind; the experiment is
+``sarnav.simulation.rda_nav`` (the world, the navigator of ``sarnav.navigation``, the records).
 """
 
 from __future__ import annotations
 
 import math
-import time as _time
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,20 +17,12 @@ import numpy as np
 from sarnav import units
 from sarnav.analysis.covariance import sar_covariance_study
 from sarnav.errors import ConfigError, require_finite
-from sarnav.filters import ErrorStateLayout, ErrorStateModel, delayed, second_order, update
-from sarnav.filters.ekf import directional_sigma
-from sarnav.filters.prediction import Prediction, stack_predictions
-from sarnav.ins import NavState
-from sarnav.measurements.sar import (CROSS_RANGE_MODELS, SarCrossRangeMeasurement, SarRangeMeasurement,
-                                     target_position_noise)
-from sarnav.measurements.sar_image import ALGORITHMS, FAILURES, FOCUS, ImagingSettings, SubApertureImager
-from sarnav.measurements.sar_image import STAGES as IMAGE_STAGES
-from sarnav.measurements.telemetry import AltimeterMeasurement
+from sarnav.measurements.sar import CROSS_RANGE_MODELS
+from sarnav.measurements.sar_image import ALGORITHMS, FOCUS, ImagingSettings
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
+from sarnav.navigation import error_model
 from sarnav.radar.params import RadarParams
-from sarnav.rotations import quat_to_dcm
-from sarnav.scenarios import rda_nav_world as world
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import get as _get
@@ -56,19 +32,18 @@ from sarnav.scenarios.fields import vector as _vector
 from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
-from sarnav.navigation import Interval
-from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
+from sarnav.simulation import rda_nav_world as world
+from sarnav.simulation.rda_nav import (COV_STEP, MEASUREMENT_MODES, REJECTIONS, STAGES, STATE_LAYOUT, RdaNavParams,
+                                       capture_images, extra_attrs, meas_names, measurement_sigma,
+                                       reference_targets, simulate_runs)
 from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.base import Trajectory
-from sarnav.trajectory.sampled import along_rate, closest_approach, interpolate_state
 
-#: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
-COV_STEP = 0.1
-STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
-MEASUREMENT_MODES = ("oracle", "image")
-STAGES = IMAGE_STAGES + ("update",)
-#: why a SAR pair was not fused (``update_rejected``): the image's own failures, then the innovation gate
-REJECTIONS = FAILURES + ("innovation gate",)
+__all__ = ["RdaNavKind", "default_config", "flexsar_config", "terrain_config", "optional_keys", "parse",
+           # the experiment's names, kept importable from here (sarnav 0.2)
+           "RdaNavParams", "STATE_LAYOUT", "COV_STEP", "STAGES", "REJECTIONS", "MEASUREMENT_MODES", "simulate_runs",
+           "capture_images", "covariance_study", "reference_targets", "measurement_sigma", "meas_names", "extra_attrs"]
+
 #: slant-range margin of the receive window beyond the imaged scene [m] (``radar.range_margin_m``)
 DEFAULT_RANGE_MARGIN_M = 30.0
 #: largest echo block of one sub-aperture (pulses x range samples): refused beyond it before anything is allocated
@@ -76,38 +51,6 @@ MAX_ECHO_SAMPLES = 2.0e7
 #: [scene] keys of the terrain scene (in every configuration; used with scene.type = "terrain")
 TERRAIN_KEYS = ("terrain_relief_m", "terrain_scale_m", "clutter_density_m2", "clutter_power_m2", "bright_features",
                 "bright_amplitude", "reference_coherence")
-
-
-def meas_names(targets: int) -> list[str]:
-    """``alt, range, cross`` and, for several reference targets per image, ``range2, cross2, ...``."""
-    out = ["alt"]
-    for k in range(targets):
-        out += [f"range{k + 1 if k else ''}", f"cross{k + 1 if k else ''}"]
-    return out
-
-
-def extra_attrs() -> dict:
-    """Units and descriptions of the extra results.nc variables."""
-    reasons = "; ".join(f"{i}: {r}" for i, r in enumerate(REJECTIONS) if i)
-    return {
-        "toc": {"units": "s", "description": "time of closest approach of the (first) reference target each SAR "
-                                             "update refers to: measured from the image (image mode) or the truth"},
-        "registration_error": {"units": "m", "description": "image-derived minus geometric truth: range of closest "
-                                                            "approach (range), along-track TOC error x the rate of "
-                                                            "the along-track offset (V on a straight track: "
-                                                            "trajectory.sampled.along_rate) less the modelled focusing shift "
-                                                            "(cross); NaN for the altimeter"},
-        "registration_sigma": {"units": "m", "description": "1-sigma of the registration predicted from each image "
-                                                            "(imaging.registration.magnitude_shift_precision and the "
-                                                            "focus sensitivity): range, along-track; the R of the update"},
-        "autofocus_dk": {"units": "Hz/s", "description": "mapdrift correction of the azimuth FM rate, K_a - K_amf"},
-        "stage_seconds": {"units": "s", "description": "wall time per stage of each image and update (per run)"},
-        "update_rejected": {"units": "1", "description": "0 when every SAR pair of the update was fused, else why "
-                                                         f"the first one was not: {reasons}",
-                            "flag_values": list(range(len(REJECTIONS))), "flag_meanings": " ".join(
-                                r.replace(" ", "_").replace("(", "").replace(")", "") or "fused" for r in REJECTIONS)},
-        "pairs_fused": {"units": "1", "description": "SAR (range, cross-range) pairs fused in the update"},
-    }
 
 
 # --- configuration ------------------------------------------------------------------------------
@@ -222,57 +165,6 @@ def optional_keys() -> list[str]:
     radar fields over the preset and the receive window, a constant registration sigma."""
     return ([f"imu.{k}" for k in IMU_OVERRIDES] + filter_imu_keys() + [f"radar.{k}" for k in RADAR_KEYS]
             + ["radar.near_range_m", "radar.n_range_samples", "sar.registration_sigma_m", "trajectory.turn_rate_deg_s"])
-
-
-@dataclass(frozen=True)
-class RdaNavParams:
-    """Validated, SI-converted content of an rda-nav scenario."""
-
-    runs: int
-    trajectory: Trajectory
-    altitude: float
-    imu: ImuSpec  # the truth sensor
-    imu_filter: ImuSpec  # the filter's model of it
-    imu_rate: float
-    alt_sigma: float
-    sar_enabled: bool
-    measurement: str
-    cross_model: str
-    delayed_state: bool
-    second_order: bool
-    sar_sigma: np.ndarray  # (2,) range, cross [m]
-    registration_sigma: np.ndarray | None  # (2,) image mode override of the predicted 1-sigma: range, along-track [m]
-    image_added_noise: bool
-    gate_probability: float
-    imaging: ImagingSettings
-    bias_sigma: np.ndarray  # (3,) b_alt, b_range, b_cross steady-state sigma [m]
-    bias_tau: np.ndarray  # (3,)
-    radar: RadarParams
-    snr_db: float  # receiver noise: per-sample SNR of the reflector [dB]
-    scene: dict
-    p0_sigma: np.ndarray  # (18,)
-    earth_rate: np.ndarray | None = None  # [earth]: omega_ie^t when earth.rotation, else None
-    filter_earth_rate: np.ndarray | None = None  # what the INS / filter assume (None unless earth.modelled)
-
-    @property
-    def n_updates(self) -> int:
-        return int(math.floor(self.trajectory.duration + 1e-9))
-
-    @property
-    def samples_per_update(self) -> int:
-        return int(round(self.imu_rate))
-
-    @property
-    def samples_per_step(self) -> int:
-        return int(round(self.imu_rate * COV_STEP))
-
-    @property
-    def targets_per_image(self) -> int:
-        return self.scene["targets_per_image"]
-
-    @property
-    def focus(self) -> str:
-        return self.imaging.focus
 
 
 def _parse_sar(cfg: dict) -> dict:
@@ -425,282 +317,12 @@ def parse(cfg: dict) -> RdaNavParams:
                         radar=radar, snr_db=float(snr), scene=scene, p0_sigma=p0, **read_earth(cfg), **sar)
 
 
-def measurement_sigma(prm: RdaNavParams, image: bool):
-    """(sigma (2,) [range, cross] of R before the images are made, 0/1 factor of Table 2's white noise added to z).
-
-    Oracle: Table 2's noise is the measurement's only error and R = its variance. Image: R comes from each image's
-    predicted registration sigma (``sar.registration_sigma_m`` replaces it with constants); ``sar.image_added_noise``
-    adds Table 2's noise on top (and to R).
-    """
-    if not image:
-        return prm.sar_sigma.copy(), 1.0
-    reg = np.ones(2) if prm.registration_sigma is None else prm.registration_sigma  # replaced by each image's
-    if prm.image_added_noise:
-        return np.hypot(prm.sar_sigma, reg), 1.0
-    return reg.copy(), 0.0
-
-
-def reference_targets(prm: RdaNavParams) -> np.ndarray:
-    """(U, 3) the first geolocated reference target of each sub-aperture (``rda_nav_world.reference_targets`` gives
-    all of them, (U, T, 3))."""
-    return world.reference_targets(prm)[:, 0]
-
-
-# --- the Monte Carlo ------------------------------------------------------------------------------
-
-def _toc_state(nav: NavState, iv: Interval, eta) -> NavState:
-    """The INS estimate at each run's TOC ``eta`` (R,): position and velocity interpolated in the aperture's
-    history, the bias estimates of the update epoch."""
-    p = np.stack([interpolate_state(iv.t, iv.p[r], eta[r]) for r in range(len(eta))])
-    v = np.stack([interpolate_state(iv.t, iv.v[r], eta[r]) for r in range(len(eta))])
-    return NavState(p=p, v=v, q=nav.q, ba=nav.ba, bg=nav.bg, bm=nav.bm)
-
-
-class _Sar:
-    """The SAR pairs of one sub-aperture (one per reference target): predictions, the delayed-state, map-geolocation
-    and second-order strategies, z, and which runs have a measurement of which target (an image that failed, or a
-    match refused, gives none)."""
-
-    def __init__(self, prm: RdaNavParams, fl: ErrorStateFlight, imager):
-        self.prm, self.fl, self.imager = prm, fl, imager
-        self.T = prm.targets_per_image
-        self.targets = world.reference_targets(prm)  # (U, T, 3) truth
-        self.map = self.targets[None] + world.map_errors(prm, fl.extra)  # (R, U, T, 3) what the map says
-        sig, self.add_white = measurement_sigma(prm, image=imager is not None)
-        self.sigma = np.broadcast_to(sig, (fl.R, self.T, 2)).copy()
-        self.sensitivity = self.focus_offset = None
-        self.status = np.zeros((fl.R, self.T), dtype=np.int64)
-        self.D = np.diag(np.asarray(prm.scene["geolocation_sigma"], dtype=np.float64) ** 2)
-
-    def models(self, u: int, iv: Interval, k: int):
-        L, targ = self.fl.layout, self.map[:, u, k]
-        kw = {}
-        if self.prm.cross_model == "paper":  # eq. 49: u_c and r_orig from each run's estimated aperture
-            kw = dict(u_c=iv.p[:, -1] - iv.p[:, 0], r_orig=iv.p[:, 0])
-        elif self.sensitivity is not None:
-            kw = dict(focus_sensitivity=self.sensitivity[:, k], focus_offset=self.focus_offset[:, k])
-        return (SarRangeMeasurement(targ, self.sigma[:, k, 0], L),
-                SarCrossRangeMeasurement(targ, self.sigma[:, k, 1], L, model=self.prm.cross_model, **kw))
-
-    def predict(self, u: int, iv: Interval, eta) -> Prediction:
-        """The stacked prediction of every target's pair, each referred to its own TOC ``eta[:, k]`` and mapped to the
-        update epoch (the process noise shared between two targets' TOC intervals is not correlated across pairs:
-        docs §3)."""
-        return stack_predictions([self._predict_one(u, iv, eta[:, k], k) for k in range(self.T)])
-
-    def _predict_one(self, u, iv, eta, k) -> Prediction:
-        fl, prm = self.fl, self.prm
-        pred = stack_predictions([m.predict(_toc_state(fl.nav, iv, eta)) for m in self.models(u, iv, k)])
-        if np.any(self.D > 0):
-            pred = target_position_noise(pred, fl.layout, self.D, (0, 1))
-        if prm.delayed_state:
-            Phi_inv, Qd = delayed.back_transition(fl.model, quat_to_dcm(fl.nav.q), iv.f_mean, iv.t[-1] - eta)
-            if prm.second_order:
-                pred = second_order.with_second_order(pred, delayed.covariance_at(fl.P, Phi_inv, Qd))
-            return delayed.map_to_update_epoch(pred, Phi_inv, Qd)
-        if prm.second_order:
-            pred = second_order.with_second_order(pred, fl.P)
-        return pred.replace(hessians=None)
-
-    def measure(self, u: int, iv: Interval, noise, record: dict):
-        """(z (R, 2T), TOC each pair's prediction refers to (R, T)): from the images, or the oracle's truth."""
-        fl, prm, R = self.fl, self.prm, self.fl.R
-        j, steps = fl.j, fl.steps
-        bm = fl.bm_truth[:, j]
-        truth_track = fl.truth_out.position[u * steps:j + 1]
-        true_toc = [closest_approach(self.targets[u, k], iv.t, truth_track) for k in range(self.T)]
-        if self.imager is None:
-            z, eta = [], np.empty((R, self.T))
-            for k, (eta_true, _, p_true) in enumerate(true_toc):
-                v_true = prm.trajectory.state(np.array([eta_true])).velocity[0]
-                truth_toc = NavState(p=np.broadcast_to(p_true, (R, 3)), v=np.broadcast_to(v_true, (R, 3)),
-                                     q=fl.nav.q, ba=fl.nav.ba, bg=fl.nav.bg, bm=bm)
-                # the oracle measures the true target (the map's error enters only through the prediction)
-                ms = [SarRangeMeasurement(self.targets[u, k], self.sigma[:, k, 0], fl.layout),
-                      SarCrossRangeMeasurement(self.targets[u, k], self.sigma[:, k, 1], fl.layout,
-                                               model=prm.cross_model, **(dict(u_c=iv.p[:, -1] - iv.p[:, 0],
-                                                                              r_orig=iv.p[:, 0])
-                                                                         if prm.cross_model == "paper" else {}))]
-                z += [m.simulate(truth_toc, noise=noise[:, 2 * k + i:2 * k + i + 1]) for i, m in enumerate(ms)]
-                eta[:, k] = eta_true
-            return np.concatenate(z, axis=1), eta
-        speed_sigma = directional_sigma(fl.P, fl.layout.slice("v"), fl.nav.v)
-        am = self.imager.measure(u, iv.t, iv.p, iv.v, speed_sigma, map_targets=self.map[:, u],
-                                 along_sigma=self._along_sigma(u, iv), ap_q=iv.q)
-        self._take(am)
-        n_add = (prm.sar_sigma[None, None, :] * noise.reshape(R, self.T, 2)) * self.add_white
-        z = np.stack([am.range + bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # cross: 0 at zero Doppler
-        self._record(u, am, true_toc, record)
-        centre = 0.5 * (iv.t[0] + iv.t[-1])
-        return z.reshape(R, 2 * self.T), np.where(self.status == 0, am.toc, centre)
-
-    def _along_sigma(self, u: int, iv: Interval) -> np.ndarray:
-        """(R,) the filter's 1-sigma of the first target's zero-Doppler cross-range at the aperture centre: how far
-        along track an image focused with the estimate may put it (sizes the BPA search grid)."""
-        mid = iv.p.shape[1] // 2
-        nav = NavState(p=iv.p[:, mid], v=iv.v[:, mid], q=self.fl.nav.q, ba=self.fl.nav.ba, bg=self.fl.nav.bg,
-                       bm=self.fl.nav.bm)
-        pred = self.models(u, iv, 0)[1].predict(nav)
-        S = update.innovation_covariance(self.fl.P, pred.replace(R=np.zeros_like(pred.R), C=None))
-        return np.sqrt(np.maximum(S[:, 0, 0], 0.0))
-
-    def _record(self, u, am, true_toc, record) -> None:
-        V = self.prm.trajectory.speed
-        for k, (eta_true, r_true, _) in enumerate(true_toc):
-            record["registration_error"][:, u, 1 + 2 * k] = am.range[:, k] - r_true
-            # along track: what the image's TOC says beyond the truth, in the metres of the cross-range measurement
-            # (the along-track offset of the target at the TOC, which moves at the rate along_rate: V on a straight
-            # track), less the modelled shift of focusing with a speed that is not the true one (sensitivity x
-            # (V_focus - V), §2): the registration error proper
-            shift = (np.nan_to_num(am.sensitivity[:, k]) * (am.speed - V) + np.nan_to_num(am.focus_offset[:, k])
-                     if self.prm.focus == "estimate" else 0.0)
-            rate = along_rate(self.prm.trajectory, self.targets[u, k], eta_true)
-            record["registration_error"][:, u, 2 + 2 * k] = rate * (am.toc[:, k] - eta_true) - shift
-            record["registration_sigma"][:, u, 1 + 2 * k:3 + 2 * k] = am.sigma[:, k]
-        record["autofocus_dk"][:, u] = am.autofocus_dk
-        record["stage_seconds"][:, u, :len(IMAGE_STAGES)] += am.seconds
-        if am.capture is not None:
-            record["capture"] = am.capture
-
-    def _take(self, am) -> None:
-        """Per run and target: the noise the filter assumes (the image's own prediction, or the configured override,
-        plus the added white noise where asked), the focus sensitivity, which pairs have a measurement."""
-        prm = self.prm
-        self.status = am.status.copy()
-        ok = self.status == 0
-        sigma = am.sigma if prm.registration_sigma is None else np.broadcast_to(prm.registration_sigma, am.sigma.shape)
-        sigma = np.where(ok[..., None] & np.isfinite(sigma) & (sigma > 0), sigma, 1.0)
-        if prm.image_added_noise:
-            sigma = np.hypot(prm.sar_sigma, sigma)
-        self.sigma = sigma
-        if prm.focus == "estimate":
-            self.sensitivity = np.where(ok, np.nan_to_num(am.sensitivity), 0.0)
-            self.focus_offset = np.where(ok, np.nan_to_num(am.focus_offset), 0.0)
-
-
-def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
-    if not (prm.sar_enabled and prm.measurement == "image"):
-        return None
-    seeds = fl.extra  # the per-run clutter seeds (also keying the in-flight receiver noise)
-    targets = world.reference_targets(prm)
-    return SubApertureImager(
-        radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=world.scene_factory(prm, targets),
-        reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
-        noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-        reference_truth=world.reference_track(prm), settings=prm.imaging, capture_aperture=capture_aperture)
-
-
-def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
-    """The batched Monte Carlo of :class:`RdaNavKind` (module docstring)."""
-    return _simulate(prm, run_ids, seeds)[0]
-
-
-def capture_images(prm: RdaNavParams, seed, aperture: int) -> dict:
-    """The images of sub-aperture ``aperture`` of the run with ``seed`` (reference, in flight before and after
-    mapdrift, correlation surface; ``measurements.sar_image.SubApertureImager``), for figures. The run's numbers
-    are the same as without the capture."""
-    return _simulate(prm, [0], [seed], capture_aperture=aperture)[1].get("capture")
-
-
-def _new_record(R: int, n_upd: int, M: int) -> dict:
-    nan = lambda *s: np.full(s, np.nan)  # noqa: E731
-    return {"residual": nan(R, n_upd, M), "residual_sigma": nan(R, n_upd, M), "nis": np.empty((R, n_upd)),
-            "nis_dof": np.zeros((R, n_upd), dtype=np.int64), "toc": nan(R, n_upd),
-            "update_rejected": np.zeros((R, n_upd), dtype=np.int64), "pairs_fused": np.zeros((R, n_upd), dtype=np.int64),
-            "registration_error": nan(R, n_upd, M), "registration_sigma": nan(R, n_upd, M),
-            "autofocus_dk": nan(R, n_upd), "stage_seconds": np.zeros((R, n_upd, len(STAGES)))}
-
-
-def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
-    L = STATE_LAYOUT
-    spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma,
-                      prm.n_updates, prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter,
-                      earth_rate=prm.earth_rate, filter_earth_rate=prm.filter_earth_rate)
-    # the clutter seed is drawn after the bias drive, before IMU sample 0; F at the step's start attitude
-    fl = ErrorStateFlight(spec, L, seeds, extra_draws=lambda rngs: [int(g.integers(2**63)) for g in rngs],
-                          covariance_attitude="start")
-    R, n_upd, T = fl.R, prm.n_updates, prm.targets_per_image
-    alt = AltimeterMeasurement(prm.alt_sigma, L)
-    sar = _Sar(prm, fl, _imager(prm, fl, capture_aperture)) if prm.sar_enabled else None
-    rec = _new_record(R, n_upd, 1 + 2 * T)
-    for u in range(n_upd):
-        iv = fl.fly_interval(u)
-        z_alt = alt.simulate(fl.truth, fl.rngs)
-        pred = alt.predict(fl.nav).replace(hessians=None, C=np.zeros((R, L.n, 1)))
-        z, status = z_alt, None
-        if sar is not None:
-            noise = np.stack([g.standard_normal(2 * T) for g in fl.rngs])  # (R, 2T), drawn in every mode
-            z_sar, eta = sar.measure(u, iv, noise, rec)
-            rec["toc"][:, u] = eta[:, 0]
-            t0 = _time.perf_counter()
-            pred = stack_predictions([pred.replace(C=None), sar.predict(u, iv, eta)])
-            if pred.C is None:
-                pred = pred.replace(C=np.zeros((R, L.n, pred.dim)))
-            z = np.concatenate([z_alt, z_sar], axis=1)
-            rec["stage_seconds"][:, u, -1] += (_time.perf_counter() - t0) / R
-            status = _screen(prm, fl.navigator, pred, z, sar.status)
-            first = np.where(status != 0, status, 0)
-            rec["update_rejected"][:, u] = np.array([next((c for c in row if c), 0) for row in first])
-            rec["pairs_fused"][:, u] = np.sum(status == 0, axis=1)
-        _fuse(fl, pred, z, status, rec, u)
-    return _records(prm, fl, run_ids, rec, image=sar is not None and sar.imager is not None), rec
-
-
-def _screen(prm: RdaNavParams, navigator, pred: Prediction, z, status) -> np.ndarray:
-    """(R, T) rejection code of each run's SAR pairs: the image's own (``measurements.sar_image.FAILURES``), else the
-    chi-square innovation gate of the pair (``sar.gate_probability``), else 0 (fused)."""
-    code = np.asarray(status, dtype=np.int64).copy()
-    if prm.gate_probability > 0:
-        T = code.shape[1]
-        ok = np.repeat(code == 0, 2, axis=1)
-        zz = np.where(np.concatenate([np.ones((z.shape[0], 1), bool), ok], axis=1), z, pred.z_hat)
-        accepted = navigator.gate(pred, zz, [[1 + 2 * k, 2 + 2 * k] for k in range(T)], prm.gate_probability)
-        code[(code == 0) & ~accepted] = REJECTIONS.index("innovation gate")
-    return code
-
-
-def _fuse(fl: ErrorStateFlight, pred: Prediction, z, status, rec: dict, u: int) -> None:
-    """The navigator's update with the rejected SAR pairs left out (``keep``), and the record."""
-    keep = np.ones(pred.z_hat.shape, dtype=bool)
-    if status is not None:
-        keep[:, 1:] = np.repeat(status == 0, 2, axis=1)
-    fused = fl.navigator.update(pred, z, keep)
-    fl.record_update()
-    cols = slice(0, pred.dim)
-    rec["residual"][:, u, cols] = fused.residual
-    rec["residual_sigma"][:, u, cols] = fused.residual_sigma
-    rec["nis"][:, u], rec["nis_dof"][:, u] = fused.nis, fused.dof
-
-
-def _records(prm, fl, run_ids, rec, image: bool) -> list[RunRecord]:
-    t_out = fl.t_out
-    t_upd = t_out[fl.steps::fl.steps]
-    records = []
-    for i in range(fl.R):
-        extras = {"toc": (("update",), rec["toc"][i])}
-        if prm.sar_enabled:
-            extras["update_rejected"] = (("update",), rec["update_rejected"][i])
-            extras["pairs_fused"] = (("update",), rec["pairs_fused"][i])
-        if image:
-            extras["registration_error"] = (("update", "meas"), rec["registration_error"][i])
-            extras["registration_sigma"] = (("update", "meas"), rec["registration_sigma"][i])
-            extras["autofocus_dk"] = (("update",), rec["autofocus_dk"][i])
-            extras["stage_seconds"] = (("update", "stage"), rec["stage_seconds"][i])
-        records.append(RunRecord(
-            run=int(run_ids[i]), time=t_out.copy(), error=fl.err[i], sigma=fl.sig[i], nees=fl.nees[i],
-            update_time=t_upd.copy(), residual=rec["residual"][i], residual_sigma=rec["residual_sigma"][i],
-            nis=rec["nis"][i], nis_dof=rec["nis_dof"][i], extras=extras))
-    return records
-
-
 def covariance_study(prm: RdaNavParams, range_sigma: float, cross_sigma: float, ground_ranges=None,
                      cross_model: str | None = None) -> dict:
     """The truth-linearised covariance study of this scenario's filter (``analysis.covariance.sar_covariance_study``)
     for a given SAR noise: its IMU model, altimeter, biases, P0, trajectory and (first) reference targets;
     ``cross_model`` defaults to ``sar.cross_range_model``; ``ground_ranges``: several targets per aperture."""
-    g, fi = prm.imu_filter.grade, prm.imu_filter
-    model = ErrorStateModel(STATE_LAYOUT, g.vrw, g.arw, g.accel_bias, g.gyro_bias, fi.tau_accel, fi.tau_gyro,
-                            prm.bias_sigma, prm.bias_tau)
+    model = error_model(STATE_LAYOUT, prm.imu_filter, prm.bias_sigma, prm.bias_tau)
     return sar_covariance_study(model, prm.trajectory, prm.p0_sigma, prm.alt_sigma, reference_targets(prm),
                                 range_sigma, cross_sigma, ground_ranges=ground_ranges,
                                 cross_model=prm.cross_model if cross_model is None else cross_model, step=COV_STEP)

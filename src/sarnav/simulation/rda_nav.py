@@ -1,0 +1,346 @@
+"""The ``rda-nav`` experiment: an INS + altimeter + SAR range/cross-range navigator flown through a simulated world.
+
+Lindstrom et al., NAVIGATION 69(3) (extraction seed-001) and thesis ch. 5; design and gap decisions in
+docs/scenarios/rda-nav.md. ``run(prm, seeds)`` flies a batch of runs and returns their records; the scenario kind
+(``scenarios.rda_nav``) only parses the TOML into :class:`RdaNavParams` and calls it.
+
+* the world (truth, truth IMU, initial error, measurement biases, error record): ``simulation.flight``; the scene of
+  each sub-aperture and the reference pass: ``simulation.rda_nav_world``;
+* the navigator (INS + covariance, one update path): ``navigation.Navigator``; its SAR events (models at the TOC,
+  delayed state, second order, map noise, gate): ``navigation.sar_aiding.SarAiding``;
+* the measurements: the altimeter (``measurements.telemetry``) and the SAR pairs, made from images by
+  ``measurements.sar_image.SubApertureImager`` (echoes simulated along the true track, imaged along the navigator's
+  track; ``sar.measurement = "image"``) or synthesised from truth (``"oracle"``, the only mode in which truth enters a
+  measurement: the truth state at the true TOC plus the truth FOGM bias and Table 2's white noise).
+
+``sar.enabled = false`` flies with the altimeter only.
+
+Random draws, per run from its own Generator, in this order: IMU biases (6), measurement biases (3), initial error
+(18), measurement-bias drive (cov steps x 3), the clutter seed (1 integer), IMU sample 0; then per update the IMU
+block, the altimeter noise and (SAR enabled) the two SAR noises. Run i depends only on prm and seeds[i]; the
+reference targets are drawn from ``scene.seed`` (the same world for every run), the clutter from the run's clutter
+seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+
+from sarnav.filters import ErrorStateLayout
+from sarnav.filters.ekf import directional_sigma
+from sarnav.filters.prediction import Prediction, stack_predictions
+from sarnav.ins import NavState
+from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
+from sarnav.measurements.sar_image import ImagingSettings, SubApertureImager
+from sarnav.measurements.sar_image import STAGES as IMAGE_STAGES
+from sarnav.measurements.telemetry import AltimeterMeasurement
+from sarnav.navigation import Interval
+from sarnav.navigation.sar_aiding import REJECTIONS, SarAiding, SarUpdateSettings
+from sarnav.navigation.sar_aiding import measurement_sigma as _aiding_sigma
+from sarnav.record import RunRecord
+from sarnav.radar.params import RadarParams
+from sarnav.simulation import rda_nav_world as world
+from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
+from sarnav.trajectory.base import Trajectory
+from sarnav.trajectory.sampled import along_rate, closest_approach
+
+__all__ = ["RdaNavParams", "run", "simulate_runs", "capture_images", "reference_targets",
+           "measurement_sigma", "meas_names", "extra_attrs", "STATE_LAYOUT", "COV_STEP", "STAGES", "REJECTIONS",
+           "MEASUREMENT_MODES"]
+
+#: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
+COV_STEP = 0.1
+STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
+MEASUREMENT_MODES = ("oracle", "image")
+STAGES = IMAGE_STAGES + ("update",)
+
+
+def meas_names(targets: int) -> list[str]:
+    """``alt, range, cross`` and, for several reference targets per image, ``range2, cross2, ...``."""
+    out = ["alt"]
+    for k in range(targets):
+        out += [f"range{k + 1 if k else ''}", f"cross{k + 1 if k else ''}"]
+    return out
+
+
+def extra_attrs() -> dict:
+    """Units and descriptions of the extra results.nc variables."""
+    reasons = "; ".join(f"{i}: {r}" for i, r in enumerate(REJECTIONS) if i)
+    return {
+        "toc": {"units": "s", "description": "time of closest approach of the (first) reference target each SAR "
+                                             "update refers to: measured from the image (image mode) or the truth"},
+        "registration_error": {"units": "m", "description": "image-derived minus geometric truth: range of closest "
+                                                            "approach (range), along-track TOC error x the rate of "
+                                                            "the along-track offset (V on a straight track: "
+                                                            "trajectory.sampled.along_rate) less the modelled focusing shift "
+                                                            "(cross); NaN for the altimeter"},
+        "registration_sigma": {"units": "m", "description": "1-sigma of the registration predicted from each image "
+                                                            "(imaging.registration.magnitude_shift_precision and the "
+                                                            "focus sensitivity): range, along-track; the R of the update"},
+        "autofocus_dk": {"units": "Hz/s", "description": "mapdrift correction of the azimuth FM rate, K_a - K_amf"},
+        "stage_seconds": {"units": "s", "description": "wall time per stage of each image and update (per run)"},
+        "update_rejected": {"units": "1", "description": "0 when every SAR pair of the update was fused, else why "
+                                                         f"the first one was not: {reasons}",
+                            "flag_values": list(range(len(REJECTIONS))), "flag_meanings": " ".join(
+                                r.replace(" ", "_").replace("(", "").replace(")", "") or "fused" for r in REJECTIONS)},
+        "pairs_fused": {"units": "1", "description": "SAR (range, cross-range) pairs fused in the update"},
+    }
+
+
+@dataclass(frozen=True)
+class RdaNavParams:
+    """Validated, SI-converted content of an rda-nav scenario."""
+
+    runs: int
+    trajectory: Trajectory
+    altitude: float
+    imu: ImuSpec  # the truth sensor
+    imu_filter: ImuSpec  # the filter's model of it
+    imu_rate: float
+    alt_sigma: float
+    sar_enabled: bool
+    measurement: str
+    cross_model: str
+    delayed_state: bool
+    second_order: bool
+    sar_sigma: np.ndarray  # (2,) range, cross [m]
+    registration_sigma: np.ndarray | None  # (2,) image mode override of the predicted 1-sigma: range, along-track [m]
+    image_added_noise: bool
+    gate_probability: float
+    imaging: ImagingSettings
+    bias_sigma: np.ndarray  # (3,) b_alt, b_range, b_cross steady-state sigma [m]
+    bias_tau: np.ndarray  # (3,)
+    radar: RadarParams
+    snr_db: float  # receiver noise: per-sample SNR of the reflector [dB]
+    scene: dict
+    p0_sigma: np.ndarray  # (18,)
+    earth_rate: np.ndarray | None = None  # [earth]: omega_ie^t when earth.rotation, else None
+    filter_earth_rate: np.ndarray | None = None  # what the INS / filter assume (None unless earth.modelled)
+
+    @property
+    def n_updates(self) -> int:
+        return int(math.floor(self.trajectory.duration + 1e-9))
+
+    @property
+    def samples_per_update(self) -> int:
+        return int(round(self.imu_rate))
+
+    @property
+    def samples_per_step(self) -> int:
+        return int(round(self.imu_rate * COV_STEP))
+
+    @property
+    def targets_per_image(self) -> int:
+        return self.scene["targets_per_image"]
+
+    @property
+    def focus(self) -> str:
+        return self.imaging.focus
+
+    @property
+    def sar_update(self) -> SarUpdateSettings:
+        """How the navigator models and screens the SAR pairs (``navigation.sar_aiding``)."""
+        return SarUpdateSettings(sar_sigma=self.sar_sigma, cross_model=self.cross_model,
+                                 delayed_state=self.delayed_state, second_order=self.second_order,
+                                 gate_probability=self.gate_probability, registration_sigma=self.registration_sigma,
+                                 image_added_noise=self.image_added_noise,
+                                 geolocation_sigma=np.asarray(self.scene["geolocation_sigma"], dtype=np.float64),
+                                 focus=self.imaging.focus)
+
+
+def measurement_sigma(prm: RdaNavParams, image: bool):
+    """(sigma (2,) [range, cross] of R before the images are made, 0/1 factor of Table 2's white noise added to z):
+    ``navigation.sar_aiding.measurement_sigma`` of the scenario's settings."""
+    return _aiding_sigma(prm.sar_update, image)
+
+
+def reference_targets(prm: RdaNavParams) -> np.ndarray:
+    """(U, 3) the first geolocated reference target of each sub-aperture (``rda_nav_world.reference_targets`` gives
+    all of them, (U, T, 3))."""
+    return world.reference_targets(prm)[:, 0]
+
+
+# --- the Monte Carlo ------------------------------------------------------------------------------
+
+class _Sar:
+    """The world's side of the SAR pairs of one sub-aperture (one per reference target): the true targets and what
+    the map says of them, the measurements (from the images, or the oracle's truth), the navigator's
+    :class:`~sarnav.navigation.sar_aiding.SarAiding`, and the comparison of each image with the geometric truth."""
+
+    def __init__(self, prm: RdaNavParams, fl: ErrorStateFlight, imager):
+        self.prm, self.fl, self.imager = prm, fl, imager
+        self.T = prm.targets_per_image
+        self.targets = world.reference_targets(prm)  # (U, T, 3) truth
+        self.map = self.targets[None] + world.map_errors(prm, fl.extra)  # (R, U, T, 3) what the map says
+        self.aid = SarAiding(prm.sar_update, fl.layout, fl.R, self.T, image=imager is not None)
+
+    def predict(self, u: int, iv: Interval, eta) -> Prediction:
+        return self.aid.predict(self.fl.navigator, iv, eta, self.map[:, u])
+
+    def measure(self, u: int, iv: Interval, noise, record: dict):
+        """(z (R, 2T), TOC each pair's prediction refers to (R, T)): from the images, or the oracle's truth."""
+        fl, prm, R, aid = self.fl, self.prm, self.fl.R, self.aid
+        j, steps = fl.j, fl.steps
+        bm = fl.bm_truth[:, j]
+        truth_track = fl.truth_out.position[u * steps:j + 1]
+        true_toc = [closest_approach(self.targets[u, k], iv.t, truth_track) for k in range(self.T)]
+        if self.imager is None:
+            return self._oracle(u, iv, noise, bm, true_toc)
+        speed_sigma = directional_sigma(fl.P, fl.layout.slice("v"), fl.nav.v)
+        am = self.imager.measure(u, iv.t, iv.p, iv.v, speed_sigma, map_targets=self.map[:, u],
+                                 along_sigma=aid.along_sigma(fl.navigator, iv, self.map[:, u, 0]), ap_q=iv.q)
+        aid.take(am)
+        n_add = (prm.sar_sigma[None, None, :] * noise.reshape(R, self.T, 2)) * aid.add_white
+        z = np.stack([am.range + bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # cross: 0 at zero Doppler
+        self._record(u, am, true_toc, record)
+        centre = 0.5 * (iv.t[0] + iv.t[-1])
+        return z.reshape(R, 2 * self.T), np.where(aid.status == 0, am.toc, centre)
+
+    def _oracle(self, u: int, iv: Interval, noise, bm, true_toc):
+        """The oracle: the models at the truth state of the true TOC, plus the truth bias and Table 2's noise."""
+        fl, prm, R = self.fl, self.prm, self.fl.R
+        z, eta = [], np.empty((R, self.T))
+        for k, (eta_true, _, p_true) in enumerate(true_toc):
+            v_true = prm.trajectory.state(np.array([eta_true])).velocity[0]
+            truth_toc = NavState(p=np.broadcast_to(p_true, (R, 3)), v=np.broadcast_to(v_true, (R, 3)),
+                                 q=fl.nav.q, ba=fl.nav.ba, bg=fl.nav.bg, bm=bm)
+            # the oracle measures the true target (the map's error enters only through the prediction)
+            sigma = self.aid.sigma
+            ms = [SarRangeMeasurement(self.targets[u, k], sigma[:, k, 0], fl.layout),
+                  SarCrossRangeMeasurement(self.targets[u, k], sigma[:, k, 1], fl.layout,
+                                           model=prm.cross_model, **(dict(u_c=iv.p[:, -1] - iv.p[:, 0],
+                                                                          r_orig=iv.p[:, 0])
+                                                                     if prm.cross_model == "paper" else {}))]
+            z += [m.simulate(truth_toc, noise=noise[:, 2 * k + i:2 * k + i + 1]) for i, m in enumerate(ms)]
+            eta[:, k] = eta_true
+        return np.concatenate(z, axis=1), eta
+
+    def _record(self, u, am, true_toc, record) -> None:
+        V = self.prm.trajectory.speed
+        for k, (eta_true, r_true, _) in enumerate(true_toc):
+            record["registration_error"][:, u, 1 + 2 * k] = am.range[:, k] - r_true
+            # along track: what the image's TOC says beyond the truth, in the metres of the cross-range measurement
+            # (the along-track offset of the target at the TOC, which moves at the rate along_rate: V on a straight
+            # track), less the modelled shift of focusing with a speed that is not the true one (sensitivity x
+            # (V_focus - V), §2): the registration error proper
+            shift = (np.nan_to_num(am.sensitivity[:, k]) * (am.speed - V) + np.nan_to_num(am.focus_offset[:, k])
+                     if self.prm.focus == "estimate" else 0.0)
+            rate = along_rate(self.prm.trajectory, self.targets[u, k], eta_true)
+            record["registration_error"][:, u, 2 + 2 * k] = rate * (am.toc[:, k] - eta_true) - shift
+            record["registration_sigma"][:, u, 1 + 2 * k:3 + 2 * k] = am.sigma[:, k]
+        record["autofocus_dk"][:, u] = am.autofocus_dk
+        record["stage_seconds"][:, u, :len(IMAGE_STAGES)] += am.seconds
+        if am.capture is not None:
+            record["capture"] = am.capture
+
+
+def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
+    if not (prm.sar_enabled and prm.measurement == "image"):
+        return None
+    seeds = fl.extra  # the per-run clutter seeds (also keying the in-flight receiver noise)
+    targets = world.reference_targets(prm)
+    return SubApertureImager(
+        radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=world.scene_factory(prm, targets),
+        reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
+        noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
+        reference_truth=world.reference_track(prm), settings=prm.imaging, capture_aperture=capture_aperture)
+
+
+def run(prm: RdaNavParams, seeds, run_ids=None) -> list[RunRecord]:
+    """The records of the runs with ``seeds`` (numbered ``run_ids``, default 0, 1, ...), flown as one batch (module
+    docstring)."""
+    return _simulate(prm, range(len(seeds)) if run_ids is None else run_ids, seeds)[0]
+
+
+def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
+    """:func:`run` in the argument order of the scenario kinds."""
+    return run(prm, seeds, run_ids)
+
+
+def capture_images(prm: RdaNavParams, seed, aperture: int) -> dict:
+    """The images of sub-aperture ``aperture`` of the run with ``seed`` (reference, in flight before and after
+    mapdrift, correlation surface; ``measurements.sar_image.SubApertureImager``), for figures. The run's numbers
+    are the same as without the capture."""
+    return _simulate(prm, [0], [seed], capture_aperture=aperture)[1].get("capture")
+
+
+def _new_record(R: int, n_upd: int, M: int) -> dict:
+    nan = lambda *s: np.full(s, np.nan)  # noqa: E731
+    return {"residual": nan(R, n_upd, M), "residual_sigma": nan(R, n_upd, M), "nis": np.empty((R, n_upd)),
+            "nis_dof": np.zeros((R, n_upd), dtype=np.int64), "toc": nan(R, n_upd),
+            "update_rejected": np.zeros((R, n_upd), dtype=np.int64), "pairs_fused": np.zeros((R, n_upd), dtype=np.int64),
+            "registration_error": nan(R, n_upd, M), "registration_sigma": nan(R, n_upd, M),
+            "autofocus_dk": nan(R, n_upd), "stage_seconds": np.zeros((R, n_upd, len(STAGES)))}
+
+
+def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
+    L = STATE_LAYOUT
+    spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma,
+                      prm.n_updates, prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter,
+                      earth_rate=prm.earth_rate, filter_earth_rate=prm.filter_earth_rate)
+    # the clutter seed is drawn after the bias drive, before IMU sample 0; F at the step's start attitude
+    fl = ErrorStateFlight(spec, L, seeds, extra_draws=lambda rngs: [int(g.integers(2**63)) for g in rngs],
+                          covariance_attitude="start")
+    R, n_upd, T = fl.R, prm.n_updates, prm.targets_per_image
+    alt = AltimeterMeasurement(prm.alt_sigma, L)
+    sar = _Sar(prm, fl, _imager(prm, fl, capture_aperture)) if prm.sar_enabled else None
+    rec = _new_record(R, n_upd, 1 + 2 * T)
+    for u in range(n_upd):
+        iv = fl.fly_interval(u)
+        z_alt = alt.simulate(fl.truth, fl.rngs)
+        pred = alt.predict(fl.nav).replace(hessians=None, C=np.zeros((R, L.n, 1)))
+        z, status = z_alt, None
+        if sar is not None:
+            noise = np.stack([g.standard_normal(2 * T) for g in fl.rngs])  # (R, 2T), drawn in every mode
+            z_sar, eta = sar.measure(u, iv, noise, rec)
+            rec["toc"][:, u] = eta[:, 0]
+            t0 = _time.perf_counter()
+            pred = stack_predictions([pred.replace(C=None), sar.predict(u, iv, eta)])
+            if pred.C is None:
+                pred = pred.replace(C=np.zeros((R, L.n, pred.dim)))
+            z = np.concatenate([z_alt, z_sar], axis=1)
+            rec["stage_seconds"][:, u, -1] += (_time.perf_counter() - t0) / R
+            status = sar.aid.screen(fl.navigator, pred, z)
+            first = np.where(status != 0, status, 0)
+            rec["update_rejected"][:, u] = np.array([next((c for c in row if c), 0) for row in first])
+            rec["pairs_fused"][:, u] = np.sum(status == 0, axis=1)
+        _fuse(fl, pred, z, status, rec, u)
+    return _records(prm, fl, run_ids, rec, image=sar is not None and sar.imager is not None), rec
+
+
+def _fuse(fl: ErrorStateFlight, pred: Prediction, z, status, rec: dict, u: int) -> None:
+    """The navigator's update with the rejected SAR pairs left out (``keep``), and the record."""
+    keep = np.ones(pred.z_hat.shape, dtype=bool)
+    if status is not None:
+        keep[:, 1:] = np.repeat(status == 0, 2, axis=1)
+    fused = fl.navigator.update(pred, z, keep)
+    fl.record_update()
+    cols = slice(0, pred.dim)
+    rec["residual"][:, u, cols] = fused.residual
+    rec["residual_sigma"][:, u, cols] = fused.residual_sigma
+    rec["nis"][:, u], rec["nis_dof"][:, u] = fused.nis, fused.dof
+
+
+def _records(prm, fl, run_ids, rec, image: bool) -> list[RunRecord]:
+    t_out = fl.t_out
+    t_upd = t_out[fl.steps::fl.steps]
+    records = []
+    for i in range(fl.R):
+        extras = {"toc": (("update",), rec["toc"][i])}
+        if prm.sar_enabled:
+            extras["update_rejected"] = (("update",), rec["update_rejected"][i])
+            extras["pairs_fused"] = (("update",), rec["pairs_fused"][i])
+        if image:
+            extras["registration_error"] = (("update", "meas"), rec["registration_error"][i])
+            extras["registration_sigma"] = (("update", "meas"), rec["registration_sigma"][i])
+            extras["autofocus_dk"] = (("update",), rec["autofocus_dk"][i])
+            extras["stage_seconds"] = (("update", "stage"), rec["stage_seconds"][i])
+        records.append(RunRecord(
+            run=int(run_ids[i]), time=t_out.copy(), error=fl.err[i], sigma=fl.sig[i], nees=fl.nees[i],
+            update_time=t_upd.copy(), residual=rec["residual"][i], residual_sigma=rec["residual_sigma"][i],
+            nis=rec["nis"][i], nis_dof=rec["nis_dof"][i], extras=extras))
+    return records
