@@ -19,7 +19,7 @@ from sarnav.filters import ErrorStateLayout
 from sarnav.frames.ned import GRAVITY_NED
 from sarnav.filters.prediction import Prediction
 from sarnav.ins import NavState
-from sarnav.navigation import Navigator, error_model
+from sarnav.navigation import Navigator, error_model, fuse
 from sarnav.sensors.imu import IMU_GRADES, ImuSpec
 from sarnav.trajectory import StraightLevel
 
@@ -168,3 +168,23 @@ def test_the_navigation_package_never_imports_the_world():
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
             bad += [f"{f.name}: {n}" for n in names if n.startswith(forbidden) or n == "sarnav.trajectory"]
     assert not bad, bad
+
+
+def test_fuse_with_underweighting_inflates_the_gain_covariance_by_one_plus_beta():
+    """Lear's underweighting (spacecraft paper eqs. 35-43): the gain of S = (1 + beta) H P H^T + R, Joseph form with
+    R' = beta H P H^T + R; beta = 0 is the plain update."""
+    nv, _ = _navigator()
+    pred, z = _prediction(nv, m=2)
+    beta = np.array([0.0, 0.2])
+    fused = fuse(nv.P, pred, z, beta=beta)
+    plain = fuse(nv.P, pred, z)
+    np.testing.assert_allclose(fused.update.dx[0], plain.update.dx[0], rtol=1e-12, atol=1e-15)
+    P, H, Rm = nv.P[1], pred.H[1], pred.R[1]
+    r = z[1] - pred.z_hat[1]
+    dx, P_post, S = _textbook(P, H, beta[1] * H @ P @ H.T + Rm, r)
+    np.testing.assert_allclose(S, (1 + beta[1]) * H @ P @ H.T + Rm, rtol=1e-12)
+    np.testing.assert_allclose(fused.update.dx[1], dx, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(fused.update.P[1], P_post, rtol=1e-8, atol=1e-12)
+    assert fused.nis[1] == pytest.approx(r @ np.linalg.solve(S, r), rel=1e-9)
+    with pytest.raises(InputDataError, match="^beta"):
+        fuse(nv.P, pred, z, keep=np.ones((2, 2), bool), beta=beta)

@@ -29,8 +29,9 @@ import numpy as np
 from sarnav.errors import ConfigError, require_positive
 from sarnav.filters.ekf import normalized_squared
 from sarnav.filters.mekf import STATE_NAMES, MekfModel, disperse, error_state, propagate, reset
-from sarnav.filters.underweighting import LearUnderweighting, underweighted_update
+from sarnav.filters.underweighting import LearUnderweighting
 from sarnav.ins.orbital import OrbitalNavState
+from sarnav.navigation import fuse
 from sarnav.measurements.spacecraft import MEASUREMENT_NAMES, SarMeasurementNoise, boresight_intersection, simulate_image
 from sarnav.rotations import quat_multiply, quat_normalize, rotvec_to_quat
 from sarnav.trajectory.orbit import STEERING, KeplerElements, OrbitTruth, antenna_dcm, body_dcm, lvlh_dcm, table2_elements
@@ -237,15 +238,14 @@ def _update(u, truth, est, P, T_bs, params, rngs, out):
     T_eb = body_dcm(truth.r, truth.v, params.steering)  # perfect ADS (G4)
     meas, y, _ = simulate_image(truth, T_eb, T_bs, params.noise, rngs)
     pred = meas.predict(est)
-    residual = y - pred.z_hat
     beta = np.zeros(est.runs) if params.underweighting is None else params.underweighting.beta_for(u, P)
     out.sigma_prior[:, u] = np.sqrt(np.diagonal(P, axis1=1, axis2=2))
-    dx, P, S = underweighted_update(P, pred, residual, beta)
-    out.residual[:, u] = residual
-    out.residual_sigma[:, u] = np.sqrt(np.diagonal(S, axis1=1, axis2=2))
-    out.nis[:, u] = normalized_squared(residual, S)
+    fused = fuse(P, pred, y, beta=beta)  # the navigator's update (Lear's underweighting), the MEKF's own reset
+    out.residual[:, u] = fused.residual
+    out.residual_sigma[:, u] = fused.residual_sigma
+    out.nis[:, u] = fused.nis
     out.beta[:, u] = beta
-    return reset(est, dx), P
+    return reset(est, fused.update.dx), fused.update.P
 
 
 def orbit_frame_dcm(r, v):

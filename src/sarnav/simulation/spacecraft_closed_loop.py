@@ -20,7 +20,7 @@ import numpy as np
 
 from sarnav.filters.ekf import normalized_squared
 from sarnav.filters.mekf import disperse, error_state, propagate, reset
-from sarnav.filters.underweighting import underweighted_update
+from sarnav.navigation import fuse
 from sarnav.ins.orbital import OrbitalNavState
 from sarnav.measurements.spacecraft import CenterPixelMeasurement, effective_velocity
 from sarnav.measurements.spacecraft_image import STAGES, ImagingConfig, SpacecraftImager
@@ -219,9 +219,8 @@ def _update(params, u, t_m, truth, est, P, T_bs, rng, imager, out):
     T_eb = body_dcm(truth.r, truth.v, b.steering)  # perfect ADS
     meas = CenterPixelMeasurement(T_eb, T_bs, r_f[None], b.noise, velocity_model="effective")
     pred = meas.predict(est)
-    residual = (y - pred.z_hat[0])[None]
     beta = np.zeros(1) if b.underweighting is None else b.underweighting.beta_for(u, P)
-    dx, P_new, S = underweighted_update(P, pred, residual, beta)
-    out.res[u], out.res_sig[u] = residual[0], np.sqrt(np.diag(S[0]))
-    out.nis[u] = normalized_squared(residual, S)[0]
-    return reset(est, dx), P_new
+    fused = fuse(P, pred, y[None], beta=beta)  # the navigator's update (Lear's underweighting), the MEKF's reset
+    out.res[u], out.res_sig[u] = fused.residual[0], fused.residual_sigma[0]
+    out.nis[u] = fused.nis[0]
+    return reset(est, fused.update.dx), fused.update.P
