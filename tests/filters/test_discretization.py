@@ -36,7 +36,8 @@ def test_random_model_matches_the_integral_it_defines():
     for k in range(3):
         np.testing.assert_allclose(Phi[k], expm(F[k] * dt), rtol=1e-12)
         x, w = np.polynomial.legendre.leggauss(16)
-        integral = sum(0.5 * dt * wi * expm(F[k] * s) @ BQBt[k] @ expm(F[k] * s).T for s, wi in zip(0.5 * dt * (x + 1), w))
+        integral = sum(0.5 * dt * wi * expm(F[k] * s) @ BQBt[k] @ expm(F[k] * s).T
+                       for s, wi in zip(0.5 * dt * (x + 1), w))
         np.testing.assert_allclose(Qd[k], integral, rtol=1e-9, atol=1e-12)
         np.testing.assert_array_equal(Qd[k], Qd[k].T)
         assert np.all(np.linalg.eigvalsh(Qd[k]) > 0)

@@ -17,8 +17,9 @@ L = ErrorStateLayout(("b_alt", "b_range"))
 def truth_and_dx():
     rng = np.random.default_rng(4)
     R = 5
-    truth = NavState(rng.normal(size=(R, 3)) * 100, rng.normal(size=(R, 3)) * 10, quat_normalize(rng.normal(size=(R, 4))),
-                     rng.normal(size=(R, 3)) * 1e-3, rng.normal(size=(R, 3)) * 1e-5, rng.normal(size=(R, 2)))
+    truth = NavState(rng.normal(size=(R, 3)) * 100, rng.normal(size=(R, 3)) * 10,
+                     quat_normalize(rng.normal(size=(R, 4))), rng.normal(size=(R, 3)) * 1e-3,
+                     rng.normal(size=(R, 3)) * 1e-5, rng.normal(size=(R, 2)))
     dx = rng.normal(size=(R, L.n)) * 0.01
     return truth, dx
 

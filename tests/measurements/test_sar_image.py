@@ -42,9 +42,10 @@ AP_T = U + np.linspace(0.0, 1.0, 21)  # the epochs of the estimated track over t
 def _imager(runs, algorithm="rda", snr_db=SNR_DB, per_run_reference=False, **settings) -> SubApertureImager:
     scene = point_targets(TARGET, AMPLITUDE)
     seeds = list(range(100, 100 + runs))
-    return SubApertureImager(RADAR, TRUTH, np.broadcast_to(TARGET, (3, 1, 3)), lambda u, s: AperturePasses(scene, scene),
-                             AMPLITUDE, snr_db, 7, seeds, clutter_seeds=[s + 100 for s in seeds] if per_run_reference
-                             else None, settings=ImagingSettings(algorithm=algorithm, **settings))
+    clutter_seeds = [s + 100 for s in seeds] if per_run_reference else None  # per run: its own reference noise
+    return SubApertureImager(RADAR, TRUTH, np.broadcast_to(TARGET, (3, 1, 3)),
+                             lambda u, s: AperturePasses(scene, scene), AMPLITUDE, snr_db, 7, seeds,
+                             clutter_seeds=clutter_seeds, settings=ImagingSettings(algorithm=algorithm, **settings))
 
 
 def _track(runs, offset=(0.0, 0.0, 0.0), dv=0.0):
