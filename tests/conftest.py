@@ -1,5 +1,6 @@
 """Shared fixtures. The tests folder mirrors the package (tests/filters/ for sarnav.filters, ...); this folder is on
-``sys.path`` (pytest's rootdir conftest), so helper modules here (``toy_kind``) import from any test.
+``sys.path`` (pytest's rootdir conftest), so helper modules here (``toy_kind``; ``helpers``: per-run generators and
+seeds, NavStates from a truth or level, child process ids) import from any test.
 
 Fixtures
 --------

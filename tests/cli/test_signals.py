@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import pytest
+from helpers import child_pids
 from toy_kind import TESTS, toy_cfg
 
 from sarnav.tomlio import dump_toml
@@ -31,19 +32,6 @@ pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="ne
 #: the console script next to the interpreter (what a user runs), else ``python -m sarnav.cli.main``
 _SCRIPT = Path(sys.executable).with_name("sarnav")
 COMMAND = [str(_SCRIPT)] if _SCRIPT.exists() else [sys.executable, "-m", "sarnav.cli.main"]
-
-
-def _children(pid: int) -> list[int]:
-    out = []
-    for p in Path("/proc").iterdir():
-        if p.name.isdigit():
-            try:
-                fields = (p / "stat").read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[1]) == pid:
-                out.append(int(p.name))
-    return out
 
 
 def _env() -> dict:
@@ -69,7 +57,7 @@ def _trial(cmd, sig: int, after: float, group: bool = False, timeout: float = 30
     proc = subprocess.Popen(cmd, env=_env(), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
                             start_new_session=group)
     time.sleep(after)
-    workers = _children(proc.pid)
+    workers = child_pids(proc.pid)
     t0 = time.time()
     _send(proc, sig, group)
     try:
@@ -192,7 +180,7 @@ def test_pool_workers_do_not_catch_sigterm(tmp_path):
         deadline, workers = time.time() + 30, []
         while time.time() < deadline and len(workers) < 2:
             time.sleep(0.2)
-            workers = [w for w in _children(proc.pid)
+            workers = [w for w in child_pids(proc.pid)
                        if b"spawn_main" in Path(f"/proc/{w}/cmdline").read_bytes() and _imported_sarnav(w)]
         assert len(workers) == 2, "the pool's workers did not start"
         assert not [w for w in workers if _handles_sigterm(w)], "a worker catches SIGTERM"

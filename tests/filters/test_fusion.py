@@ -19,10 +19,7 @@ from sarnav.filters.fusion import (
     virtual_imu,
 )
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
-
-
-def _rngs(n, seed):
-    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(n)]
+from helpers import spawn_rngs
 
 
 def test_mean_of_iid_sensors_attains_the_crlb_T14():
@@ -68,13 +65,13 @@ def test_sir_draws_follow_the_sensor_weights():
     w = np.exp(-0.5 * ((fix[:, None] - est) / sigma) ** 2)
     np.testing.assert_allclose(np.exp(lw), w / w.sum(axis=1, keepdims=True), rtol=1e-12)
     reps = 3000
-    res = sir_fuse(np.repeat(est, reps, 0), np.repeat(fix, reps, 0), sigma, 50, _rngs(reps, 2))
+    res = sir_fuse(np.repeat(est, reps, 0), np.repeat(fix, reps, 0), sigma, 50, spawn_rngs(reps, 2))
     expect = np.sum(np.exp(lw) * est, axis=1)[0]
     se = np.sqrt(np.sum(np.exp(lw) * (est - expect) ** 2, axis=1)[0] / 50 / reps)
     assert np.all(np.abs(res.estimate.mean(0) - expect) < 4.5 * se)
     joint = sensor_log_weights(est, fix, sigma, per_axis=False)
     assert joint.shape == (1, 3) and np.exp(joint).sum() == pytest.approx(1.0)
-    idx = draw_sensors(joint, 20, _rngs(1, 3))
+    idx = draw_sensors(joint, 20, spawn_rngs(1, 3))
     assert np.all(idx[..., 0] == idx[..., 1])  # joint: one sensor per cloud member
     with pytest.raises(InputDataError, match="fusion.estimates"):
         sensor_log_weights(est[0], fix, sigma)

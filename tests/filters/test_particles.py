@@ -22,10 +22,7 @@ from sarnav.filters.particles import (
     sir_update,
     unique_count,
 )
-
-
-def _rngs(n, seed=0):
-    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(n)]
+from helpers import spawn_rngs
 
 
 def test_one_sir_step_matches_stone_soup_particle_updater():
@@ -97,12 +94,12 @@ def test_particle_count_must_be_positive_integer(bad):
     with pytest.raises(ConfigError, match="particles.count"):
         check_particle_count(bad)
     with pytest.raises(ConfigError):
-        ParticleCloud.from_gaussian(np.zeros((1, 2)), np.eye(2), bad, _rngs(1))
+        ParticleCloud.from_gaussian(np.zeros((1, 2)), np.eye(2), bad, spawn_rngs(1))
 
 
 def test_unknown_resampler_is_named():
     with pytest.raises(ConfigError, match="particles.resampling"):
-        resampling_indices(np.zeros((1, 3)), _rngs(1), "bogus")
+        resampling_indices(np.zeros((1, 3)), spawn_rngs(1), "bogus")
 
 
 @settings(max_examples=60, deadline=None)
@@ -127,7 +124,7 @@ def test_resamplers_are_unbiased(method):
     w = np.array([0.02, 0.3, 0.005, 0.175, 0.5])
     n, reps = w.size, 4000
     lw = np.log(np.tile(w, (reps, 1)))
-    idx = resampling_indices(lw, _rngs(reps, 3), method)
+    idx = resampling_indices(lw, spawn_rngs(reps, 3), method)
     counts = np.stack([np.bincount(i, minlength=n) for i in idx])
     se = np.sqrt(n * w * (1 - w) / reps)  # multinomial standard error: an upper bound for the others
     assert np.all(np.abs(counts.mean(0) - n * w) < 4.5 * se + 1e-12)
@@ -145,13 +142,13 @@ def test_one_multinomial_resampling_keeps_the_expected_number_of_distinct_partic
     n, reps = 200, 400
     lw, _ = normalize_log_weights(rng.normal(scale=1.5, size=(1, n)))
     expected = np.sum(1.0 - (1.0 - np.exp(lw[0])) ** n)
-    idx = resampling_indices(np.repeat(lw, reps, 0), _rngs(reps, 9), "multinomial")
+    idx = resampling_indices(np.repeat(lw, reps, 0), spawn_rngs(reps, 9), "multinomial")
     got = np.array([np.unique(i).size for i in idx])
     assert abs(got.mean() - expected) < 4.0 * got.std() / np.sqrt(reps)
 
 
 def _static_sir(k, iters=6, n=1000, d=2, sigma_z=0.2, seed=0):
-    rngs = _rngs(1, seed)
+    rngs = spawn_rngs(1, seed)
     cloud = ParticleCloud.from_gaussian(np.zeros((1, d)), np.eye(d), n, rngs)
     out = []
     for it in range(iters):
@@ -204,7 +201,7 @@ def test_runs_are_batch_independent_bit_for_bit():
 def test_resample_threshold_draws_only_for_degenerate_runs():
     lw = np.log(np.array([[0.25, 0.25, 0.25, 0.25], [0.97, 0.01, 0.01, 0.01]]))
     cloud = ParticleCloud(np.arange(8.0).reshape(2, 4, 1), lw)
-    rngs = _rngs(2)
+    rngs = spawn_rngs(2)
     state0 = rngs[0].bit_generator.state
     out, mask = resample(cloud, rngs, "systematic", threshold=0.5)
     assert mask.tolist() == [False, True]
@@ -217,7 +214,7 @@ def test_kernel_shrinkage_keeps_mean_and_covariance_and_restores_diversity():
     rng = np.random.default_rng(2)
     base = rng.multivariate_normal([1.0, -2.0, 0.5], [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 0.5]], 50)
     parts = np.repeat(base[None], 400, axis=0)[:, rng.integers(0, 50, 1000)]  # 400 impoverished clouds
-    out = kernel_shrinkage(parts, _rngs(400, 4), h=0.3)
+    out = kernel_shrinkage(parts, spawn_rngs(400, 4), h=0.3)
     assert np.all(unique_count(out) == 1000)
     m_in, m_out = parts.mean(1), out.mean(1)
     c_in = np.einsum("rni,rnj->rij", parts - m_in[:, None], parts - m_in[:, None]) / 1000
@@ -225,7 +222,7 @@ def test_kernel_shrinkage_keeps_mean_and_covariance_and_restores_diversity():
     np.testing.assert_allclose(m_out.mean(0), m_in.mean(0), atol=0.01)
     np.testing.assert_allclose(c_out.mean(0), c_in.mean(0), atol=0.01)
     with pytest.raises(ConfigError, match="particles.kernel_h"):
-        kernel_shrinkage(parts[:1], _rngs(1), h=1.0)
+        kernel_shrinkage(parts[:1], spawn_rngs(1), h=1.0)
 
 
 def test_tempering_exponent_keeps_the_target_effective_sample_size():
@@ -251,7 +248,7 @@ def _static_pf(n, runs, seed):
     cov = np.eye(6)
     cov[0, 3] = cov[3, 0] = 0.8  # p_N and v_N correlated a priori
     pf = GridParticleFilter(NavFrame(), n, 0.0, ess_threshold=0.5, kernel_h=0.3)
-    return pf.initialize(0.0, np.zeros((runs, 3)), np.zeros((runs, 3)), [1.0, 0, 0, 0], cov, _rngs(runs, seed))
+    return pf.initialize(0.0, np.zeros((runs, 3)), np.zeros((runs, 3)), [1.0, 0, 0, 0], cov, spawn_rngs(runs, seed))
 
 
 def test_tempered_update_matches_the_kalman_posterior_where_one_sir_step_collapses():
@@ -292,7 +289,7 @@ def test_tempered_update_with_zero_likelihood_everywhere_is_named_or_rejected():
 
     def make(mode):
         pf = GridParticleFilter(NavFrame(), 200, 0.0, on_collapse=mode)
-        return pf.initialize(0.0, np.zeros((2, 3)), np.zeros((2, 3)), [1.0, 0, 0, 0], np.eye(6), _rngs(2, 3))
+        return pf.initialize(0.0, np.zeros((2, 3)), np.zeros((2, 3)), [1.0, 0, 0, 0], np.eye(6), spawn_rngs(2, 3))
 
     dead = lambda p, v: np.where(np.arange(2)[:, None] == 0, -np.inf, -0.5 * p[..., 0] ** 2)  # noqa: E731
     with pytest.raises(InputDataError, match=r"log_likelihood: .*runs \[0\]"):

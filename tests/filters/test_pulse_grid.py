@@ -13,14 +13,11 @@ from sarnav.filters.pulse_grid import FixStream, ImuStream, NavFrame, build_grid
 from sarnav.sensors import ImuModel
 from sarnav.sensors.imu import ImuGrade
 from sarnav.trajectory import Maneuvering, StraightLevel
+from helpers import spawn_rngs
 
 FLAT = NavFrame()
 SIG = np.array([0.3, 0.3, 0.5])
 G = 9.81
-
-
-def _rngs(n, seed):
-    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(n)]
 
 
 def _data(traj, runs, seed, vrw=0.0, grade=None, t_end=None, imu_rate=200.0):
@@ -28,7 +25,7 @@ def _data(traj, runs, seed, vrw=0.0, grade=None, t_end=None, imu_rate=200.0):
     t_end = traj.duration if t_end is None else t_end
     ti, tf = uniform_times(0, t_end, imu_rate), uniform_times(0, t_end, 20.0)
     grade = grade or ImuGrade("white", vrw, 0.0, 0.0, 0.0)
-    rngs = _rngs(runs, seed)
+    rngs = spawn_rngs(runs, seed)
     imu = ImuModel(grade, imu_rate, 3600.0, 3600.0)
     ba, bg = imu.initial_biases(rngs)
     nu, om, *_ = imu.measure(traj.specific_force(ti), traj.angular_rate(ti), ba, bg, rngs)
@@ -39,7 +36,7 @@ def _data(traj, runs, seed, vrw=0.0, grade=None, t_end=None, imu_rate=200.0):
 def _init(filt, traj, fixes, runs, **kw):
     s0 = traj.state(0.0)
     p0 = np.diag(np.r_[SIG**2, [0.01] * 3])
-    v0 = s0.velocity + 0.1 * np.stack([g.standard_normal(3) for g in _rngs(runs, 99)])
+    v0 = s0.velocity + 0.1 * np.stack([g.standard_normal(3) for g in spawn_rngs(runs, 99)])
     return filt.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, **kw), p0
 
 
@@ -100,7 +97,7 @@ def test_upsampled_pf_rms_at_imu_epochs_is_no_worse_T10():
     imu, fixes = _data(traj, 6, 2, grade=ImuGrade("t", 1e-3, 1e-3, 1e-5, 1e-6))
     rms = []
     for rate in (200.0, 3000.0):
-        pf, _ = _init(GridParticleFilter(FLAT, 300, 0.05), traj, fixes, 6, rngs=_rngs(6, 5))
+        pf, _ = _init(GridParticleFilter(FLAT, 300, 0.05), traj, fixes, 6, rngs=spawn_rngs(6, 5))
         out = pf.run(imu, 20.0, fixes, uniform_times(0.0, 20.0, rate))
         at_imu = out.position[:, :: int(rate // 200)]
         rms.append(np.sqrt(np.mean((at_imu - traj.state(uniform_times(0, 20.0, 200.0)).position) ** 2)))
@@ -114,7 +111,7 @@ def _nees_case(runs, seed, pf=False):
     imu, fixes = _data(traj, runs, seed, vrw=vrw)
     if pf:
         filt = GridParticleFilter(FLAT, 1500, vrw**2, noise_at="fix", ess_threshold=0.5, kernel_h=0.3)
-        filt, _ = _init(filt, traj, fixes, runs, rngs=_rngs(runs, seed + 1))
+        filt, _ = _init(filt, traj, fixes, runs, rngs=spawn_rngs(runs, seed + 1))
     else:
         filt, _ = _init(GridKalmanFilter(FLAT, vrw**2), traj, fixes, runs)
     out = filt.run(imu, 15.0, fixes)
@@ -146,7 +143,7 @@ def test_pf_matches_kf_on_a_linear_gaussian_problem():
     imu, fixes = _data(traj, 4, 6, vrw=0.05)
     kf, _ = _init(GridKalmanFilter(FLAT, 0.05**2), traj, fixes, 4)
     pf = GridParticleFilter(FLAT, 2000, 0.05**2, noise_at="fix", ess_threshold=0.5, kernel_h=0.3)
-    pf, _ = _init(pf, traj, fixes, 4, rngs=_rngs(4, 8))
+    pf, _ = _init(pf, traj, fixes, 4, rngs=spawn_rngs(4, 8))
     ok, op = kf.run(imu, 20.0, fixes), pf.run(imu, 20.0, fixes)
     truth = traj.state(ok.fix_times).position
     rms_k = np.sqrt(np.mean((ok.fix_position - truth)[:, 40:] ** 2))
@@ -211,15 +208,15 @@ def test_pf_far_fix_raises_or_is_rejected_without_nan():
     traj = StraightLevel([0.0, 0.0, -500.0], 40.0, 0.0, 2.0)
     imu, fixes = _data(traj, 2, 9, vrw=0.01)
     off = FixStream(fixes.times, fixes.position + np.array([1e5, 0.0, 0.0]), SIG)
-    pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01), traj, fixes, 2, rngs=_rngs(2, 1))
+    pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01), traj, fixes, 2, rngs=spawn_rngs(2, 1))
     out = pf.run(imu, 2.0, off)
     assert np.all(np.isfinite(out.fix_position))
     assert np.abs(out.fix_position - traj.state(out.fix_times).position).max() < 5.0
     far = FixStream(fixes.times, fixes.position + np.array([1e200, 0.0, 0.0]), SIG)
-    pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01), traj, fixes, 2, rngs=_rngs(2, 1))
+    pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01), traj, fixes, 2, rngs=spawn_rngs(2, 1))
     with pytest.raises(InputDataError, match="zero likelihood"):
         pf.run(imu, 2.0, far)
-    pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01, on_collapse="keep-prior"), traj, fixes, 2, rngs=_rngs(2, 1))
+    pf, _ = _init(GridParticleFilter(FLAT, 100, 0.01, on_collapse="keep-prior"), traj, fixes, 2, rngs=spawn_rngs(2, 1))
     out = pf.run(imu, 2.0, far)
     assert pf.collapsed.all() and np.all(np.isfinite(out.position))
 

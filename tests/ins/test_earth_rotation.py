@@ -10,29 +10,24 @@ from sarnav.errors import ConfigError
 from sarnav.filters import ErrorStateLayout, ErrorStateModel
 from sarnav.frames import earth_rate_tangent
 from sarnav.frames.wgs84 import geodetic_difference_ned
-from sarnav.ins import NavState, mechanize
+from sarnav.ins import mechanize
 from sarnav.ins.geodetic import GeodeticNavState, mechanize_geodetic
 from sarnav.rotations import attitude_error, quat_normalize, quat_to_dcm
 from sarnav.scenarios import registry
 from sarnav.scenarios.config import apply_overrides
 from sarnav.trajectory import Maneuvering, StraightLevel
+from helpers import nav_at
 
 RATE = 100.0
 LAT = np.radians(40.0)
 W = earth_rate_tangent(LAT)
 
 
-def _nav(s, runs=1):
-    rep = lambda a: np.repeat(a[:1], runs, axis=0)  # noqa: E731
-    z = np.zeros((runs, 3))
-    return NavState(rep(s.position), rep(s.velocity), rep(s.quaternion), z.copy(), z.copy())
-
-
 def _fly(traj, t, imu_rate, mech_rate, chunk=10):
     """Largest position / velocity / attitude error of the INS on the ideal IMU over ``t``."""
     s = traj.state(t)
     nu, om = traj.specific_force(t, imu_rate)[None], traj.angular_rate(t, imu_rate)[None]
-    out, hist, errs = _nav(s), None, []
+    out, hist, errs = nav_at(s), None, []
     for k0 in range(0, t.size - 1, chunk):
         sl = slice(k0, k0 + chunk + 1)
         out, _, hist = mechanize(out, t[sl], nu[:, sl], om[:, sl], 3600.0, 3600.0, history=hist, earth_rate=mech_rate)
@@ -65,8 +60,8 @@ def test_chunked_with_history_equals_one_call_on_the_rotating_frame():
     t = np.arange(2401) / RATE
     nu, om = traj.specific_force(t, W)[None], traj.angular_rate(t, W)[None]
     s = traj.state(t)
-    one, f1, _ = mechanize(_nav(s), t, nu, om, 3600.0, 3600.0, earth_rate=W)
-    out, hist = _nav(s), None
+    one, f1, _ = mechanize(nav_at(s), t, nu, om, 3600.0, 3600.0, earth_rate=W)
+    out, hist = nav_at(s), None
     for k0 in range(0, t.size - 1, 48):
         out, _, hist = mechanize(out, t[k0:k0 + 49], nu[:, k0:k0 + 49], om[:, k0:k0 + 49], 3600.0, 3600.0,
                                  history=hist, earth_rate=W)
@@ -79,7 +74,7 @@ def test_mean_specific_force_excludes_the_coriolis_term():
     traj = StraightLevel([0.0, 0.0, -500.0], 100.0, 0.7, 2.0)
     t = np.arange(201) / RATE
     s = traj.state(t)
-    _, f_mean, _ = mechanize(_nav(s), t, traj.specific_force(t, W)[None], traj.angular_rate(t, W)[None],
+    _, f_mean, _ = mechanize(nav_at(s), t, traj.specific_force(t, W)[None], traj.angular_rate(t, W)[None],
                              3600.0, 3600.0, earth_rate=W)
     want = np.array([0.0, 0.0, -9.81]) + np.cross(2 * W, s.velocity[0])
     np.testing.assert_allclose(f_mean[0], want, atol=1e-9)
@@ -93,7 +88,7 @@ def test_earth_rate_effect_agrees_with_the_geodetic_mechanization():
     t = np.arange(6001) / RATE
     sf = flat.state(t)
     nu, om = flat.specific_force(t)[None], flat.angular_rate(t)[None]
-    ends = {w is None: mechanize(_nav(sf), t, nu, om, 1e9, 1e9, earth_rate=w)[0].p[0] for w in (W, None)}
+    ends = {w is None: mechanize(nav_at(sf), t, nu, om, 1e9, 1e9, earth_rate=w)[0].p[0] for w in (W, None)}
     d_tangent = ends[False] - ends[True]
     g0 = GeodeticNavState(np.array([LAT]), np.array([0.3]), np.array([1000.0]), sf.velocity[:1].copy(),
                           sf.quaternion[:1].copy())

@@ -7,14 +7,9 @@ from sarnav.errors import InputDataError
 from sarnav.ins import NavState, mechanize
 from sarnav.rotations import attitude_error, corrupt_attitude
 from sarnav.trajectory import Maneuvering, StraightLevel
+from helpers import nav_at
 
 RATE = 100.0  # IMU rate [Hz] at which the 1 mm / 60 s requirement is met (docs/navigation.md)
-
-
-def _nav(state, i, runs=1):
-    rep = lambda a: np.repeat(a[i:i + 1], runs, axis=0)  # noqa: E731
-    z = np.zeros((runs, 3))
-    return NavState(rep(state.position), rep(state.velocity), rep(state.quaternion), z.copy(), z.copy())
 
 
 def _run(traj, nav, t, nu, om, chunk):
@@ -33,7 +28,7 @@ def test_ideal_imu_stays_within_1mm_over_60s_maneuver():
     traj = Maneuvering.s_turn_climb([0.0, -200.0, -500.0], 50.0, 0.0, 60.0)
     t = np.arange(int(60 * RATE) + 1) / RATE
     nu, om = traj.specific_force(t)[None], traj.angular_rate(t)[None]
-    _, (ep, ev, eth) = _run(traj, _nav(traj.state(t), 0), t, nu, om, chunk=10)
+    _, (ep, ev, eth) = _run(traj, nav_at(traj.state(t), 0), t, nu, om, chunk=10)
     assert ep < 1e-3  # requirement (measured: ~3e-7 m)
     assert ev < 1e-4 and eth < 1e-7
 
@@ -42,8 +37,8 @@ def test_chunked_with_history_equals_one_call():
     traj = Maneuvering.s_turn_climb([0.0, 0.0, -500.0], 50.0, 0.0, 24.0)
     t = np.arange(2401) / RATE
     nu, om = traj.specific_force(t)[None], traj.angular_rate(t)[None]
-    one, _, _ = mechanize(_nav(traj.state(t), 0), t, nu, om, 3600.0, 3600.0)
-    many, _ = _run(traj, _nav(traj.state(t), 0), t, nu, om, chunk=48)
+    one, _, _ = mechanize(nav_at(traj.state(t), 0), t, nu, om, 3600.0, 3600.0)
+    many, _ = _run(traj, nav_at(traj.state(t), 0), t, nu, om, chunk=48)
     np.testing.assert_allclose(many.p, one.p, rtol=0, atol=1e-9)
 
 
@@ -53,7 +48,7 @@ def test_tilt_error_gives_half_g_theta_t_squared():
     t = np.arange(1001) / RATE
     s = traj.state(t)
     nu, om = np.repeat(traj.specific_force(t)[None], 3, 0), np.repeat(traj.angular_rate(t)[None], 3, 0)
-    nav = _nav(s, 0, runs=3)
+    nav = nav_at(s, 0, runs=3)
     dth = np.array([[0.0, 0.02, 0.0], [0.001, 0.0, 0.0], [0.0, 0.0, 0.1]])  # pitch, roll, yaw errors
     nav.q = corrupt_attitude(nav.q, dth)  # estimate = m(truth, dth), eq. A.5
     out, _, _ = mechanize(nav, t, nu, om, 3600.0, 3600.0)
@@ -75,7 +70,7 @@ def test_known_biases_are_compensated():
     decay_a, decay_g = np.exp(-t / tau_a)[None, :, None], np.exp(-t / tau_g)[None, :, None]
     nu = traj.specific_force(t)[None] + ba0[:, None] * decay_a
     om = traj.angular_rate(t)[None] + bg0[:, None] * decay_g
-    nav = _nav(s, 0)
+    nav = nav_at(s, 0)
     nav.ba, nav.bg = ba0.copy(), bg0.copy()
     out, _, _ = mechanize(nav, t, nu, om, tau_a, tau_g)
     np.testing.assert_allclose(out.p, s.position[-1:], atol=1e-8)
@@ -88,7 +83,7 @@ def test_batch_does_not_change_a_runs_numbers():
     rng = np.random.default_rng(0)
     nu = traj.specific_force(t)[None] + 0.01 * rng.standard_normal((5, t.size, 3))
     om = traj.angular_rate(t)[None] + 1e-4 * rng.standard_normal((5, t.size, 3))
-    nav = _nav(traj.state(t), 0, runs=5)
+    nav = nav_at(traj.state(t), 0, runs=5)
     nav.q = corrupt_attitude(nav.q, 0.01 * rng.standard_normal((5, 3)))
     full, fm, _ = mechanize(nav, t, nu, om, 100.0, 100.0)
     for i in (0, 3):
@@ -102,7 +97,7 @@ def test_bad_samples_raise_input_data_error():
     traj = StraightLevel([0.0, 0.0, -500.0], 50.0, 0.0, 1.0)
     t = np.arange(11) / RATE
     nu, om = traj.specific_force(t)[None], traj.angular_rate(t)[None]
-    nav = _nav(traj.state(t), 0)
+    nav = nav_at(traj.state(t), 0)
     bad = nu.copy()
     bad[0, 4, 2] = np.nan
     with pytest.raises(InputDataError, match="imu.specific_force"):

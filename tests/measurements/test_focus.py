@@ -12,17 +12,15 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters.layout import ErrorStateLayout
 from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.range_compression import range_compress
-from sarnav.ins.state import NavState
 from sarnav.measurements.focus import FocusVelocityMeasurement, calibrate_kappa, extract_focus_velocity
 from sarnav.radar.quality_scenes import QualityGeometry, point_clutter_scene, simulate_pulses
+from helpers import level_nav
 
 LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"))
 
 
 def _state(v):
-    r = v.shape[0]
-    return NavState(np.zeros((r, 3)), v, np.tile([1.0, 0, 0, 0], (r, 1)), np.zeros((r, 3)), np.zeros((r, 3)),
-                    np.zeros((r, 3)))
+    return level_nav(np.zeros_like(v), v)
 
 
 def _aperture(seed, n_pulses=1200, snr_db=None, clutter=0.0):

@@ -7,9 +7,9 @@ import pytest
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters import ErrorStateLayout, apply_feedback, delayed, second_order, stack_predictions
-from sarnav.ins import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.trajectory.sampled import closest_approach
+from helpers import level_nav
 
 L = ErrorStateLayout(("b_alt", "b_range", "b_cross"))
 S = L.n
@@ -18,17 +18,8 @@ P_HAT = np.array([118.0, 3.0, -1000.0])  # vehicle at 1 km altitude
 V_HAT = np.array([10.0, 0.07, -0.02])
 
 
-def _nav(p, v, b=0.0):
-    p, v = np.atleast_2d(p).astype(float), np.atleast_2d(v).astype(float)
-    runs = p.shape[0]
-    bm = np.zeros((runs, 3))
-    bm[:, 1:] = b
-    z = np.zeros((runs, 3))
-    return NavState(p, v, np.tile([1.0, 0, 0, 0], (runs, 1)), z, z, bm)
-
-
 def test_range_value_bias_and_noise():
-    pred = SarRangeMeasurement(P_TARG, 0.25, L).predict(_nav(P_HAT, V_HAT, 0.1))
+    pred = SarRangeMeasurement(P_TARG, 0.25, L).predict(level_nav(P_HAT, V_HAT, [0.0, 0.1, 0.1]))
     assert pred.z_hat[0, 0] == pytest.approx(np.linalg.norm(P_TARG - P_HAT) + 0.1, rel=1e-15)
     assert pred.R[0, 0, 0] == pytest.approx(0.0625)
     assert pred.H[0, 0, L.index("b_range")] == 1.0 and np.all(pred.H[0, 0, 3:16] == 0)
@@ -37,7 +28,7 @@ def test_range_value_bias_and_noise():
 @pytest.mark.parametrize("model", ["zero-doppler", "paper"])
 def test_cross_range_rows(model):
     kw = dict(u_c=V_HAT[None], r_orig=(P_HAT - [5.0, 0, 0])[None]) if model == "paper" else {}
-    H = SarCrossRangeMeasurement(P_TARG, 0.25, L, model=model, **kw).predict(_nav(P_HAT, V_HAT)).H[0, 0]
+    H = SarCrossRangeMeasurement(P_TARG, 0.25, L, model=model, **kw).predict(level_nav(P_HAT, V_HAT)).H[0, 0]
     assert H[L.index("b_cross")] == 1.0
     if model == "paper":  # eq. 56: position row and bias only
         assert np.all(H[3:17] == 0)
@@ -54,7 +45,7 @@ def test_zero_doppler_truth_is_zero_at_toc_and_residual_is_azimuth_geolocation_s
     m = SarCrossRangeMeasurement(P_TARG, 0.25, L)
     assert m.value(0, p0, [10.0, 0, 0]) == pytest.approx(0.0, abs=1e-9)
     dv = 0.05
-    pred = m.predict(_nav(p0, [10.0, -dv, 0.0]))
+    pred = m.predict(level_nav(p0, [10.0, -dv, 0.0]))
     # thesis §4.3.2 / extraction §11.5: a cross-track velocity error moves the target by y_t dv / V
     assert pred.z_hat[0, 0] == pytest.approx(1850.0 * dv / np.hypot(10.0, dv), rel=1e-12)
     # truth z = 0, so the residual -z_hat must equal H dx with dx = truth - estimate (dv_E = +dv)
@@ -65,7 +56,7 @@ def test_delayed_state_jacobian_is_the_toc_jacobian_through_the_back_transition(
     """z = h(x(t_c)) with dx(t_c) = Phi^-1 dx(t_k) (no process noise): H Phi^-1 against central differences."""
     rng = np.random.default_rng(5)
     phi_inv = np.eye(S) + 0.05 * rng.standard_normal((S, S))
-    nav = _nav(P_HAT, V_HAT)
+    nav = level_nav(P_HAT, V_HAT)
     for m in (SarRangeMeasurement(P_TARG, 0.25, L), SarCrossRangeMeasurement(P_TARG, 0.25, L)):
         H = delayed.map_to_update_epoch(m.predict(nav), phi_inv[None], np.zeros((1, S, S))).H[0, 0]
         J, step = np.zeros(S), 1e-3
@@ -80,7 +71,7 @@ def test_zero_doppler_remainder_is_the_speed_scaled_lever_and_second_order_terms
     """h(x) - h(x_hat) - H dx = -(l_perp . dv)(u . dv) / V^2 to leading order: an along-track speed error
     scales the 185-s lever. The Gaussian second-order terms give its mean and variance (Monte Carlo)."""
     m = SarCrossRangeMeasurement(P_TARG, 0.25, L)
-    pred = m.predict(_nav(P_HAT, V_HAT))
+    pred = m.predict(level_nav(P_HAT, V_HAT))
     z0, H = pred.z_hat[0, 0], pred.H[0, 0]
     dv = np.array([0.3, 0.05, 0.0])
     exact = m.value(0, P_HAT, V_HAT + dv) - z0 - H[3:6] @ dv
@@ -102,7 +93,7 @@ def test_zero_doppler_remainder_is_the_speed_scaled_lever_and_second_order_terms
     assert abs(rem.mean() - dz) < 4 * rem.std() / np.sqrt(rem.size) + 0.02 * abs(dz)
     assert rem.var() == pytest.approx(var, rel=0.1)
     # stacked with the range: the cross-range terms are unchanged, the covariance block is symmetric
-    both = stack_predictions([SarRangeMeasurement(P_TARG, 0.25, L).predict(_nav(P_HAT, V_HAT)), pred])
+    both = stack_predictions([SarRangeMeasurement(P_TARG, 0.25, L).predict(level_nav(P_HAT, V_HAT)), pred])
     stacked = second_order.with_second_order(both, P[None])
     assert stacked.z_hat[0, 1] - z0 == pytest.approx(dz) and stacked.R[0, 1, 1] - 0.0625 == pytest.approx(var)
     np.testing.assert_allclose(stacked.R[0], stacked.R[0].T)
@@ -122,4 +113,4 @@ def test_bad_input_names_the_field():
     with pytest.raises(InputDataError, match="p_targ"):
         SarRangeMeasurement([1.0, np.nan, 0.0], 0.25, L)
     with pytest.raises(InputDataError, match="v_hat"):
-        SarCrossRangeMeasurement(P_TARG, 0.25, L).predict(_nav(P_HAT, [0.0, 0.0, 0.0]))
+        SarCrossRangeMeasurement(P_TARG, 0.25, L).predict(level_nav(P_HAT, [0.0, 0.0, 0.0]))

@@ -30,6 +30,7 @@ from sarnav.montecarlo.assemble import open_results
 from sarnav.montecarlo.campaign import run_campaign
 from sarnav.montecarlo.seeding import make_chunks, run_seeds
 from sarnav.tomlio import dump_toml
+from helpers import child_pids
 
 VARS = ("error", "sigma", "nees", "residual", "residual_sigma", "nis", "nis_dof", "truth_x_final")
 
@@ -139,19 +140,6 @@ def test_resume_completes_partial_store_and_rejects_other_scenario(tmp_path):
         run_campaign(cfg, part, TOY, executor="serial", quiet=True, resume=True)
 
 
-def _children(pid: int) -> list[int]:
-    """Process ids whose parent is ``pid`` (Linux /proc)."""
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            out.append(int(stat.parent.name))
-    return out
-
-
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_path):
     """A real ``sarnav run`` subprocess, killed with SIGTERM once some runs are stored."""
@@ -167,7 +155,7 @@ def test_sigterm_midway_leaves_incomplete_then_resume_equals_uninterrupted(tmp_p
     while time.time() < deadline and len(store.stored_runs(out)) < 3:
         time.sleep(0.05)
     assert len(store.stored_runs(out)) >= 3, proc.stderr.read() if proc.poll() is not None else "no runs stored"
-    workers = _children(proc.pid)
+    workers = child_pids(proc.pid)
     assert workers, "expected worker processes"
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)

@@ -16,6 +16,7 @@ from scipy.stats import chi2
 
 from sarnav.errors import ConfigError
 from sarnav.scenarios import quality_nav as qn
+from helpers import spawn_seeds
 
 KIND = qn.QualityNavKind()
 
@@ -29,14 +30,10 @@ def _tiny(**focus):
     return cfg
 
 
-def _seeds(n, seed=5):
-    return np.random.SeedSequence(seed).spawn(n)
-
-
 @pytest.fixture(scope="module")
 def tiny_records():
     cfg = _tiny()
-    return cfg, KIND.simulate(cfg, [0, 1], _seeds(2))
+    return cfg, KIND.simulate(cfg, [0, 1], spawn_seeds(2, 5))
 
 
 def test_records_follow_the_contract(tiny_records):
@@ -55,7 +52,7 @@ def test_records_follow_the_contract(tiny_records):
 
 def test_a_run_does_not_depend_on_its_batch(tiny_records):
     cfg, recs = tiny_records
-    alone = KIND.simulate(cfg, [1], _seeds(2)[1:])[0]
+    alone = KIND.simulate(cfg, [1], spawn_seeds(2, 5)[1:])[0]
     np.testing.assert_array_equal(alone.error, recs[1].error)
     np.testing.assert_array_equal(alone.extras["focus_error"][1], recs[1].extras["focus_error"][1])
 
@@ -66,7 +63,7 @@ def test_oracle_mode_is_consistent():
     cfg = qn.default_config()
     cfg["trajectory"]["duration"] = 10.0
     cfg["focus"]["measurement"] = "oracle"
-    recs = KIND.simulate(cfg, list(range(40)), _seeds(40, 11))
+    recs = KIND.simulate(cfg, list(range(40)), spawn_seeds(40, 11))
     nees = np.stack([r.nees for r in recs])[:, 1:]
     lo, hi = chi2.ppf([0.005, 0.995], 15 * 40) / 40
     assert lo <= nees.mean(axis=0).mean() <= hi
@@ -85,10 +82,10 @@ def test_the_fixes_reduce_the_along_track_velocity_uncertainty_against_the_free_
     cfg = qn.default_config()
     cfg["trajectory"]["duration"] = 10.0
     cfg["focus"]["measurement"] = "oracle"
-    aided = KIND.simulate(cfg, [0], _seeds(1))[0]
+    aided = KIND.simulate(cfg, [0], spawn_seeds(1, 5))[0]
     off = copy.deepcopy(cfg)
     off["focus"]["enabled"] = False
-    free = KIND.simulate(off, [0], _seeds(1))[0]
+    free = KIND.simulate(off, [0], spawn_seeds(1, 5))[0]
     j = KIND.state_names(cfg).index("vN")
     assert np.all(free.nis_dof == 0)
     assert aided.sigma[-1, j] < 0.5 * free.sigma[-1, j]
@@ -149,7 +146,7 @@ def test_campaign_of_100_runs_is_consistent_and_beats_the_free_ins(tmp_path):
     # along-track velocity 3-sigma against the free INS (same seeds, no fixes)
     off = copy.deepcopy(cfg)
     off["focus"]["enabled"] = False
-    free = KIND.simulate(off, [0], _seeds(1))[0]
+    free = KIND.simulate(off, [0], spawn_seeds(1, 5))[0]
     j = KIND.state_names(cfg).index("vN")
     aided = ds["sigma"].values[:, -1, j].mean()
     print("vN final 3 sigma: focus-aided", 3 * aided, "free INS", 3 * free.sigma[-1, j])

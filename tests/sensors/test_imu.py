@@ -5,10 +5,7 @@ import pytest
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.sensors import IMU_GRADES, ImuGrade, ImuModel, fogm_coefficients, fogm_path, imu_grade
-
-
-def _rngs(seed, n):
-    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(n)]
+from helpers import spawn_rngs
 
 
 def test_tactical_preset_in_si():
@@ -32,7 +29,7 @@ def test_white_noise_std_matches_sigma_over_root_dt():
     grade = ImuGrade("t", vrw=1e-3, accel_bias=0.0, arw=2e-5, gyro_bias=0.0)
     imu = ImuModel(grade, rate_hz=200.0, tau_accel=100.0, tau_gyro=100.0)
     n = 20000
-    rngs = _rngs(1, 4)
+    rngs = spawn_rngs(4, 1)
     z = np.zeros((n, 3))
     nu, om, *_ = imu.measure(z, z, np.zeros((4, 3)), np.zeros((4, 3)), rngs)
     N = nu.size
@@ -80,13 +77,13 @@ def test_gauss_markov_recursion_matches_explicit_loop():
 
 def test_initial_biases_have_steady_state_sigma_and_runs_are_independent():
     imu = ImuModel(IMU_GRADES["consumer"], 100.0, 3600.0, 3600.0)
-    ba, bg = imu.initial_biases(_rngs(11, 3000))
+    ba, bg = imu.initial_biases(spawn_rngs(3000, 11))
     g = IMU_GRADES["consumer"]
     n = ba.size
     assert abs(ba.std() - g.accel_bias) < 4 * g.accel_bias / np.sqrt(2 * n)
     assert abs(bg.std() - g.gyro_bias) < 4 * g.gyro_bias / np.sqrt(2 * n)
     # a run's draws depend only on its own generator
-    ba1, _ = imu.initial_biases(_rngs(11, 3000)[5:6])
+    ba1, _ = imu.initial_biases(spawn_rngs(3000, 11)[5:6])
     np.testing.assert_array_equal(ba1[0], ba[5])
 
 
@@ -94,8 +91,8 @@ def test_measure_is_reproducible_and_adds_biases():
     imu = ImuModel(IMU_GRADES["tactical"], 100.0, 50.0, 60.0)
     nu = np.tile([0.0, 0.0, -9.81], (10, 1))
     om = np.zeros((10, 3))
-    out1 = imu.measure(nu, om, np.ones((2, 3)), np.zeros((2, 3)), _rngs(5, 2))
-    out2 = imu.measure(nu, om, np.ones((2, 3)), np.zeros((2, 3)), _rngs(5, 2))
+    out1 = imu.measure(nu, om, np.ones((2, 3)), np.zeros((2, 3)), spawn_rngs(2, 5))
+    out2 = imu.measure(nu, om, np.ones((2, 3)), np.zeros((2, 3)), spawn_rngs(2, 5))
     for a, b in zip(out1, out2):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(out1[2][:, 0], np.ones((2, 3)))  # bias at sample 0 = given
@@ -115,4 +112,4 @@ def test_validation_names_field():
     bad = np.zeros((5, 3))
     bad[2, 1] = np.nan
     with pytest.raises(InputDataError, match="imu.samples"):
-        imu.measure(bad, np.zeros((5, 3)), np.zeros((1, 3)), np.zeros((1, 3)), _rngs(1, 1))
+        imu.measure(bad, np.zeros((5, 3)), np.zeros((1, 3)), np.zeros((1, 3)), spawn_rngs(1, 1))

@@ -8,16 +8,13 @@ import pytest
 
 from sarnav.errors import ConfigError
 from sarnav.simulation.spacecraft import OpenLoopParams, orbit_frame_dcm, radial_intrack_crosstrack, run_open_loop
-
-
-def _seeds(n, seed=9):
-    return np.random.SeedSequence(seed).spawn(n)
+from helpers import spawn_seeds
 
 
 @pytest.fixture(scope="module")
 def short():
     p = OpenLoopParams.tc1(duration=50.0, truth_misalignment_psd=3.4e-13)
-    return p, run_open_loop(p, _seeds(4))
+    return p, run_open_loop(p, spawn_seeds(4, 9))
 
 
 def test_update_count_g11():
@@ -41,7 +38,7 @@ def test_shapes_and_records(short):
 
 def test_runs_do_not_depend_on_batching(short):
     p, res = short
-    alone = run_open_loop(p, _seeds(4)[2:3])
+    alone = run_open_loop(p, spawn_seeds(4, 9)[2:3])
     for name in ("error", "sigma", "nees", "residual", "nis", "residual_sigma"):
         assert np.array_equal(getattr(alone, name)[0], getattr(res, name)[2]), name
 
@@ -71,4 +68,4 @@ def test_bad_parameters(changes, field):
 
 def test_look_angle_beyond_the_limb_is_a_one_line_error():
     with pytest.raises(ConfigError, match="antenna.look_angle"):
-        run_open_loop(OpenLoopParams.tc2(duration=10.0, look_angle=math.radians(75.0)), _seeds(1))
+        run_open_loop(OpenLoopParams.tc2(duration=10.0, look_angle=math.radians(75.0)), spawn_seeds(1, 9))
