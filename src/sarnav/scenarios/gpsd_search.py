@@ -34,9 +34,9 @@ import numpy as np
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
 from sarnav.measurements import focus_search as fs
-from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
-from sarnav.montecarlo.record import RunRecord
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
+from sarnav.scenarios.kind_base import FileKind
 from sarnav.scenarios.quality_tables import default_scene, default_tables, make_scene, read_geometry, read_scene
 
 __all__ = ["GpsdSearchKind", "default_config", "table41_config", "parse", "run_search_scenario", "SEARCH_METHODS",
@@ -208,28 +208,11 @@ def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = 
     return path
 
 
-class GpsdSearchKind(ScenarioKind):
-    """``gpsd-search``: the search sweep, run by :func:`run_search_scenario` (not through ``simulate``)."""
+class GpsdSearchKind(FileKind):
+    """``gpsd-search``: the search sweep, run by :func:`run_search_scenario` (not through ``simulate``); the
+    realisations run in this process."""
 
     kind = "gpsd-search"
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
-
-    def state_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run gpsd-search``: the realisations run in this process (the compiled kernels use the cores)."""
-        return run_search_scenario(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False),
-                                   quiet=campaign_opts.get("quiet", True))
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        raise ConfigError("scenario.kind", "gpsd-search is a sweep: run it with sarnav run "
-                                           "(sarnav.scenarios.gpsd_search.run_search_scenario)")
+    config, check, write = staticmethod(default_config), staticmethod(parse), staticmethod(run_search_scenario)
+    options = ("figures", "overwrite", "quiet")
+    what = "a sweep"

@@ -27,6 +27,7 @@ from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number, number_list
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.fusion_records import AXES, SourceRecords, source_records
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, PATH1_SIGMAS, run_multi_imu, run_path1, run_upf_flight, \
     spec_accel_psd, survey_flight
@@ -112,8 +113,7 @@ class SourceKind(ScenarioKind):
                 "filter": (self.filters(prm), {"units": "", "description": "filters with a covariance (the states)"})}
 
     def simulate(self, cfg: dict, run_ids: Sequence[int], seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         rec, extras = self.run_batch(self.parse(cfg), list(seeds))

@@ -27,6 +27,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import bounded_vector, integer, number, number_list
 from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind, records
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES, source_records
@@ -179,8 +180,7 @@ class NavFocusKind(SourceKind):
                 "pulse": (pt, {"units": "s", "description": "pulse times"})}
 
     def simulate(self, cfg: dict, run_ids, seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         prm = self.parse(cfg)

@@ -22,10 +22,9 @@ import numpy as np
 from sarnav.analysis import quality_sweep as qs
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
-from sarnav.montecarlo.kind import ScenarioKind
-from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.quality_scenes import point_clutter_scene
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
+from sarnav.scenarios.kind_base import FileKind
 from sarnav.scenarios.quality_tables import default_scene, default_tables, make_scene, read_geometry, read_scene
 
 __all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep"]
@@ -180,28 +179,9 @@ def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> 
     return path
 
 
-class QualitySweepKind(ScenarioKind):
+class QualitySweepKind(FileKind):
     """``quality-sweep``: a deterministic study run by :func:`run_sweep` (not a Monte Carlo campaign)."""
 
     kind = "quality-sweep"
     needs_campaign = False
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
-
-    def state_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run quality-sweep``: executor options do not apply (the compiled kernels use the cores)."""
-        return run_sweep(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False))
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        raise ConfigError("scenario.kind", "quality-sweep is a deterministic study: run it with sarnav run "
-                                           "(sarnav.scenarios.quality_sweep.run_sweep)")
+    config, check, write = staticmethod(default_config), staticmethod(parse), staticmethod(run_sweep)

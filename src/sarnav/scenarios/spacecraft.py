@@ -28,6 +28,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry, radial_intrack_crosstrack, run_open_loop
 from sarnav.trajectory.orbit import MIN_PERIGEE_RADIUS, STEERING, table2_elements
 from sarnav.frames.earth import WGS84_A
@@ -229,8 +230,7 @@ class SpacecraftKind(ScenarioKind):
                 "block": (list(BLOCK_NAMES), {"units": "", "description": "error-state blocks of 3"})}
 
     def simulate(self, cfg: dict, run_ids, seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         return open_loop_records(run_open_loop(parse(cfg), list(seeds)), run_ids)

@@ -22,6 +22,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios import spacecraft as sc
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
 from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop
 
@@ -174,8 +175,7 @@ class ClosedLoopKind(ScenarioKind):
         return out
 
     def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         runs = run_closed_loop(parse(cfg), list(seeds)) if len(seeds) else []
         return [_record(int(i), r) for i, r in zip(run_ids, runs)]
 

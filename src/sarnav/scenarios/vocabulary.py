@@ -21,11 +21,14 @@
                           units in the key:
                           ``carrier_ghz``, ``bandwidth_mhz``, ``sample_rate_mhz``, ``pulse_length_us``,
                           ``prf_hz``, ``antenna_length_m``, ``look_side``, ``range_window``, ``azimuth_window``;
-                          ``snr_db`` (receiver noise), ``range_margin_m`` (receive-window margin) where used
+                          ``snr_db`` (receiver noise), ``receiver_noise`` (bool), ``range_margin_m`` (receive-window
+                          margin), ``near_range_m`` and ``n_range_samples`` (a fixed window) where used
+``[aperture]``            the pulses of one image: ``n_pulses``, or ``duration`` [s] (spacecraft-closed-loop)
 ========================= ==================================================================================
 
 Values are validated where they are used (``RadarParams`` validates the radar, ``StraightLevel`` the track); a
-:class:`~sarnav.errors.ConfigError` always names the user's key.
+:class:`~sarnav.errors.ConfigError` always names the user's key. Every key, shared or a kind's own, is read through
+the typed readers of :mod:`sarnav.scenarios.fields`.
 """
 
 from __future__ import annotations
@@ -120,8 +123,8 @@ def read_altitude(cfg: dict, lo: float, hi: float, over_origin: bool = False) ->
         raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {start[2]}")
     altitude = -float(start[2])
     if not lo <= altitude <= hi:
-        raise ConfigError("trajectory.start_ned[2]", f"must be in [{-hi:g}, {-lo:g}] m (an altitude of {lo:g} to "
-                          f"{hi:g} m), got {start[2]}")
+        raise ConfigError("trajectory.start_ned[2]", f"must be in [{-hi:g}, {0.0 - lo:g}] m (an altitude of {lo:g} "
+                          f"to {hi:g} m), got {start[2]}")
     return altitude
 
 
