@@ -95,7 +95,7 @@ def test_the_fixes_reduce_the_along_track_velocity_uncertainty_against_the_free_
 @pytest.mark.parametrize("key,value,field", [
     ("focus.measurement", "truth", "focus.measurement"),
     ("focus.interval_s", 0.25, "focus.interval_s"),
-    ("focus.aperture_pulses", 5000, "focus.aperture_pulses"),
+    ("aperture.n_pulses", 5000, "aperture.n_pulses"),
     ("focus.n_grid", 10, "focus.n_grid"),
     ("focus.measure", "sharpness", "focus.measure"),
     ("focus.calibration_apertures", 1, "focus.calibration_apertures"),

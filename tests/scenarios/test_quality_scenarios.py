@@ -21,10 +21,10 @@ from sarnav.scenarios import gpsd_search, quality_sweep
 from sarnav.scenarios.config import load_scenario
 from sarnav.scenarios.registry import get_scenario
 
-TINY_SEARCH = ["--set", "geometry.n_pulses=1600", "--set", "geometry.scene_extent=12.0", "--set", "image.size=40",
+TINY_SEARCH = ["--set", "aperture.n_pulses=1600", "--set", "scene.extent=12.0", "--set", "image.size=40",
                "--set", "search.initial_pulses=400", "--set", "search.block_pulses=[400]", "--set", "search.sigmas=2",
                "--set", "search.spacings=2", "--set", 'search.method=["source","source-carry","grid","brent"]']
-TINY_SWEEP = ["--set", "geometry.n_pulses=1200", "--set", "sweep.sizes=[16,32]", "--set", "sweep.steps=3",
+TINY_SWEEP = ["--set", "aperture.n_pulses=1200", "--set", "sweep.sizes=[16,32]", "--set", "sweep.steps=3",
               "--set", "sweep.figure_size=32", "--set", "reliability.scenes=2", "--set", "reliability.size=16"]
 
 
@@ -102,7 +102,14 @@ def test_show_prints_a_file_that_runs_as_the_same_scenario(name, tmp_path, capsy
     ("search.measure", "sharpness", "search.measure"),
     ("search.initial_pulses", 4000, "search.initial_pulses"),
     ("image.size", 1, "image.size"),
-    ("geometry.n_pulses", 10**6, "geometry.n_pulses"),
+    ("aperture.n_pulses", 10**6, "aperture.n_pulses"),
+    ("trajectory.start_ned", [0.0, 5.0, -1000.0], "trajectory.start_ned[1]"),
+    ("trajectory.start_ned", [0.0, 0.0, -5.0], "trajectory.start_ned[2]"),
+    ("trajectory.speed", 200.0, "trajectory.speed"),  # the source's PRF no longer covers the Doppler band
+    ("scene.extent", 900.0, "scene.ground_range"),
+    ("radar.preset", "nav-paper-sim", "radar.preset"),
+    ("radar.prf_hz", 1000.0, "radar.prf_hz"),  # the radar is the thesis' own
+    ("radar.snr_db", 200.0, "radar.snr_db"),
     ("scene.type", "city", "scene.type"),
     ("scene.clutter_density", 1e3, "scene.clutter_density"),
 ])

@@ -68,11 +68,11 @@ SMALL = {
     "nav-source-focus": {("cart", "run_in_s"): 1.0, ("aperture", "n_pulses"): 150, ("navigation", "n_particles"): 50,
                          ("navigation", "adis_particles"): 50, ("image", "chip_half_m"): 0.4},
     "multi-imu-sar": {("flight", "duration"): 2.0, ("filter", "n_particles"): 50, ("filter", "settle_s"): 0.5},
-    "quality-sweep": {("geometry", "n_pulses"): 200, ("sweep", "sizes"): [6], ("sweep", "steps"): 1,
+    "quality-sweep": {("aperture", "n_pulses"): 200, ("sweep", "sizes"): [6], ("sweep", "steps"): 1,
                       ("sweep", "figure_size"): 6, ("reliability", "scenes"): 0, ("sweep", "bins"): [10]},
-    "gpsd-search": {("geometry", "n_pulses"): 400, ("search", "initial_pulses"): 200, ("search", "block_pulses"): [100],
+    "gpsd-search": {("aperture", "n_pulses"): 400, ("search", "initial_pulses"): 200, ("search", "block_pulses"): [100],
                     ("image", "size"): 8, ("search", "sigmas"): 1, ("search", "spacings"): 1,
-                    ("geometry", "scene_extent"): 4.0},
+                    ("scene", "extent"): 4.0},
     "quality-nav": {("trajectory", "duration"): 1.0, ("focus", "calibration_apertures"): 4, ("focus", "pixels"): 32},
 }
 #: run examples per kind in the default test run (bpa-sensitivity's nine injected errors cost ~1 s a file)

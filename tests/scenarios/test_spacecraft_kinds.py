@@ -62,6 +62,11 @@ def test_bad_input_is_one_line_naming_the_key(path, value, field):
 @pytest.mark.parametrize("path,value,field", [
     (("terrain", "half_range_m"), 2000.0, "terrain.half_range_m"),
     (("radar", "sample_rate_mhz"), 20.0, "radar.sample_rate_mhz"),
+    (("radar", "pulse_length_us"), 500.0, "radar.pulse_length_us"),
+    (("radar", "n_range_samples"), 64, "radar.n_range_samples"),
+    (("radar", "n_range_samples"), 384.0, "radar.n_range_samples"),
+    (("radar", "antenna_length_m"), 0.5, "radar.antenna_length_m"),
+    (("aperture", "duration"), 10.0, "aperture.duration"),
     (("registration", "method"), "surf", "registration.method"),
     (("registration", "min_inliers"), 2, "registration.min_inliers"),
     (("autofocus", "refine"), [0.5, 2.0], "autofocus.refine[1]"),

@@ -1,9 +1,11 @@
-"""Renamed scenario keys: the names of sarnav 0.1 accepted for one more release, each with a one-line notice.
+"""Renamed scenario keys: the old names accepted for one more release, each with a one-line notice.
 
-sarnav 0.2 gave every kind one vocabulary (docs/scenarios/vocabulary.md). A scenario file written by ``sarnav show``
-under 0.1 still runs: each old key found (in a file, in a study's ``[base]`` or case ``set`` tables, or in
-``--set``) is moved to its new name (with the value converted where the quantity changed form) and reported as
-``<old> is now <new> (the old name is accepted until sarnav 0.3)``. Giving both the old and the new key is an error.
+sarnav 0.2 gave every kind one vocabulary (docs/scenarios/vocabulary.md): the keys of 0.1, and the kind-local
+spellings that 0.2 still had (``[geometry]`` of the quality kinds, the closed loop's ``[radar]`` keys), moved to the
+shared names. A scenario file written by ``sarnav show`` before the move still runs: each old key found (in a file, in
+a study's ``[base]`` or case ``set`` tables, or in ``--set``) is moved to its new name (with the value converted where
+the quantity changed form) and reported as ``<old> is now <new> (the old name is accepted until sarnav 0.3)``.
+Giving both the old and the new key is an error.
 """
 
 from __future__ import annotations
@@ -48,6 +50,22 @@ RENAMED: tuple[Renamed, ...] = (
     Renamed("bpa-sensitivity", "geometry.target_ground_range", "scene.target_ground_range"),
     Renamed("bpa-sensitivity", "radar.prf", "radar.prf_hz"),
     Renamed("bpa-sensitivity", "radar.range_margin", "radar.range_margin_m"),
+    # sarnav 0.2's own tables of the quality and spacecraft closed-loop kinds, now in the shared vocabulary (issue 25)
+    *(Renamed(kind, old, new, convert) for kind in ("quality-sweep", "gpsd-search") for old, new, convert in (
+        ("geometry.speed", "trajectory.speed", None),
+        ("geometry.altitude", "trajectory.start_ned", _altitude_to_start),
+        ("geometry.ground_range", "scene.ground_range", None),
+        ("geometry.n_pulses", "aperture.n_pulses", None),
+        ("geometry.scene_extent", "scene.extent", None),
+        ("geometry.pulse_length_us", "radar.pulse_length_us", None),
+        ("geometry.range_margin_m", "radar.range_margin_m", None),
+        ("scene.receiver_noise", "radar.receiver_noise", None),
+        ("scene.snr_db", "radar.snr_db", None))),
+    Renamed("quality-nav", "focus.aperture_pulses", "aperture.n_pulses"),
+    Renamed("spacecraft-closed-loop", "radar.pulse_us", "radar.pulse_length_us"),
+    Renamed("spacecraft-closed-loop", "radar.range_samples", "radar.n_range_samples"),
+    Renamed("spacecraft-closed-loop", "radar.antenna_length", "radar.antenna_length_m"),
+    Renamed("spacecraft-closed-loop", "radar.block_s", "aperture.duration"),
 )
 
 

@@ -15,10 +15,11 @@ from pathlib import Path
 
 from sarnav.analysis.bpa_sensitivity import (MAX_PIXEL_PULSES, THESIS_SIM_ERRORS, ImageSettings, image_pixels,
                                              make_geometry, plan_case, run_study)
-from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.montecarlo.kind import ScenarioKind
-from sarnav.montecarlo.record import RunRecord
-from sarnav.scenarios.vocabulary import MAX_SPEED, doppler_prf_check, echo_block_check, make_radar, radar_fields
+from sarnav.errors import ConfigError, require_finite
+from sarnav.scenarios.fields import choice, get, number, positive, table
+from sarnav.scenarios.kind_base import FileKind
+from sarnav.scenarios.vocabulary import (MAX_SPEED, doppler_prf_check, echo_block_check, make_radar, positive_up_to,
+                                         radar_fields, read_altitude)
 from sarnav.units import C
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample")
@@ -42,41 +43,24 @@ def default_config() -> dict:
     }
 
 
-def _table(cfg, name):
-    t = cfg.get(name)
-    if not isinstance(t, dict):
-        raise ConfigError(name, "missing table")
-    return t
-
-
 def validate(cfg: dict) -> None:
     """Raise ConfigError naming the first bad field."""
-    tr, sc, r, im, e = (_table(cfg, t) for t in ("trajectory", "scene", "radar", "image", "errors"))
-    start = tr.get("start_ned")
-    if not (isinstance(start, list) and len(start) == 3):
-        raise ConfigError("trajectory.start_ned", f"must be a list of 3 numbers [m], got {start!r}")
-    for i, v in enumerate(start):
-        require_finite(f"trajectory.start_ned[{i}]", v, unit="m")
-    if not start[2] < 0:
-        raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {start[2]}")
-    if not start[2] >= -MAX_ALTITUDE:
-        raise ConfigError("trajectory.start_ned[2]", f"must be in [-{MAX_ALTITUDE:g}, 0) m, got {start[2]}")
-    _in_range("trajectory.speed", tr.get("speed"), MAX_SPEED, "m/s")
-    require_finite("trajectory.duration", tr.get("duration"), 0.5, 60.0, "s")
-    _in_range("scene.target_ground_range", sc.get("target_ground_range"), MAX_GROUND_RANGE, "m")
+    r, e = table(cfg, "radar"), table(cfg, "errors")
+    read_altitude(cfg, 0.0, MAX_ALTITUDE)
+    positive_up_to("trajectory.speed", get(cfg, "trajectory", "speed"), MAX_SPEED, "m/s")
+    duration = number(cfg, "trajectory", "duration", 0.5, 60.0, "s")
+    positive_up_to("scene.target_ground_range", get(cfg, "scene", "target_ground_range"), MAX_GROUND_RANGE, "m")
     if r.get("preset") != "nav-paper-sim":
         raise ConfigError("radar.preset", f"must be 'nav-paper-sim' (the study's radar), got {r.get('preset')!r}")
-    require_positive("radar.prf_hz", r.get("prf_hz"), "Hz")
-    n_pulses = float(tr["duration"]) * float(r["prf_hz"])
+    n_pulses = duration * positive(cfg, "radar", "prf_hz", "Hz")
     if not MIN_PULSES <= n_pulses <= MAX_PULSES:
         raise ConfigError("radar.prf_hz", f"trajectory.duration x radar.prf_hz must give {MIN_PULSES} to {MAX_PULSES} "
                           f"pulses, got {n_pulses:g}")
-    require_finite("radar.pulse_length_us", r.get("pulse_length_us"), 0.01, 10.0, "us")
-    require_finite("radar.range_margin_m", r.get("range_margin_m"), 5.0, 500.0, "m")
-    require_finite("image.spacing", im.get("spacing"), 0.01, 1.0, "m")
-    require_finite("image.margin", im.get("margin"), 0.5, 50.0, "m")
-    if im.get("interpolation") not in INTERPOLATIONS:
-        raise ConfigError("image.interpolation", f"must be one of {INTERPOLATIONS}, got {im.get('interpolation')!r}")
+    number(cfg, "radar", "pulse_length_us", 0.01, 10.0, "us")
+    number(cfg, "radar", "range_margin_m", 5.0, 500.0, "m")
+    number(cfg, "image", "spacing", 0.01, 1.0, "m")
+    number(cfg, "image", "margin", 0.5, 50.0, "m")
+    choice(cfg, "image", "interpolation", INTERPOLATIONS)
     for name in e:
         if name not in THESIS_SIM_ERRORS:
             raise ConfigError(f"errors.{name}", f"unknown error; known: {', '.join(THESIS_SIM_ERRORS)}")
@@ -84,13 +68,6 @@ def validate(cfg: dict) -> None:
     if not e:
         raise ConfigError("errors", "needs at least one injected error")
     _validate_physics(cfg)
-
-
-def _in_range(field: str, value, hi: float, unit: str) -> float:
-    v = require_positive(field, value, unit)
-    if v > hi:
-        raise ConfigError(field, f"must be in (0, {hi:g}] {unit}, got {v!r}")
-    return v
 
 
 def _validate_physics(cfg: dict) -> None:
@@ -155,28 +132,9 @@ def run_sensitivity(cfg: dict, out_dir, figures: bool = True, overwrite: bool = 
     return path
 
 
-class BpaSensitivityKind(ScenarioKind):
-    """Registry entry for the study; it is run by :func:`run_sensitivity`, not by the Monte Carlo engine."""
+class BpaSensitivityKind(FileKind):
+    """Registry entry for the study; ``sarnav run bpa-sensitivity`` runs :func:`run_sensitivity` (the deterministic
+    study: ``sensitivity.csv`` and, unless ``--no-figures``, ``sensitivity.png``), not the Monte Carlo engine."""
 
     kind = "bpa-sensitivity"
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def validate(self, cfg: dict) -> None:
-        validate(cfg)
-
-    def state_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run bpa-sensitivity``: the deterministic study (executor options do not apply);
-        writes ``sensitivity.csv`` and, unless ``figures`` is False, ``sensitivity.png``."""
-        return run_sensitivity(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False))
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        raise ConfigError("scenario.kind", "bpa-sensitivity is a deterministic study: run it with "
-                                           "sarnav.scenarios.bpa_sensitivity.run_sensitivity(cfg, out_dir)")
+    config, check, write = staticmethod(default_config), staticmethod(validate), staticmethod(run_sensitivity)

@@ -38,52 +38,33 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- overrides
+#: the TOML value types in the order they are told apart (a bool is an int to Python) and their names in messages
+_TYPES = ((bool, "boolean"), (int, "integer"), (float, "number"), (str, "string"), (list, "list"), (dict, "table"))
+
+
 def _type_name(value: Any) -> str:
-    if isinstance(value, bool):
-        return "boolean"
-    if isinstance(value, int):
-        return "integer"
-    if isinstance(value, float):
-        return "number"
-    if isinstance(value, str):
-        return "string"
-    if isinstance(value, list):
-        return "list"
-    if isinstance(value, dict):
-        return "table"
-    return type(value).__name__
+    return next((name for t, name in _TYPES if isinstance(value, t)), type(value).__name__)
 
 
 def _coerce(field: str, old: Any, new: Any) -> Any:
     """Return ``new`` converted to the type of ``old`` or raise ConfigError (type mismatch)."""
-    if isinstance(old, bool):
-        if isinstance(new, bool):
-            return new
-    elif isinstance(old, int):
-        if isinstance(new, int) and not isinstance(new, bool):
-            return new
-    elif isinstance(old, float):
-        if isinstance(new, (int, float)) and not isinstance(new, bool):
-            return float(new)
-    elif isinstance(old, str):
-        if isinstance(new, str):
-            return new
-    elif isinstance(old, list):
-        if isinstance(new, list):
-            numeric = [isinstance(v, (int, float)) and not isinstance(v, bool) for v in old]
-            if old and all(numeric):
-                for i, v in enumerate(new):
-                    if isinstance(v, bool) or not isinstance(v, (int, float)):
-                        raise ConfigError(f"{field}[{i}]", f"must be a number, got {_type_name(v)} {v!r}")
-                return [float(v) if any(isinstance(o, float) for o in old) else v for v in new]
-            return new
-    elif isinstance(old, dict):
+    want, got = _type_name(old), _type_name(new)
+    if want == "table":
         raise ConfigError(field, "is a table; set one of its keys instead, e.g. " + f"{field}.{next(iter(old), 'key')}")
-    else:
+    if want == "number" and got in ("integer", "number"):
+        return float(new)
+    if want == "list" and got == "list":
+        numeric = [isinstance(v, (int, float)) and not isinstance(v, bool) for v in old]
+        if old and all(numeric):
+            for i, v in enumerate(new):
+                if isinstance(v, bool) or not isinstance(v, (int, float)):
+                    raise ConfigError(f"{field}[{i}]", f"must be a number, got {_type_name(v)} {v!r}")
+            return [float(v) if any(isinstance(o, float) for o in old) else v for v in new]
         return new
-    want = _type_name(old)
+    if want == got or want not in {name for _, name in _TYPES}:
+        return new
     article = "an" if want[0] in "aeiou" else "a"
-    raise ConfigError(field, f"must be {article} {want} (like the default {old!r}), got {_type_name(new)} {new!r}")
+    raise ConfigError(field, f"must be {article} {want} (like the default {old!r}), got {got} {new!r}")
 
 
 def parse_override(item: str) -> tuple[str, str]:

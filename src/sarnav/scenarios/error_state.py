@@ -14,6 +14,7 @@ from numpy.linalg import LinAlgError  # the exception only (a filter's singular 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.record import RunRecord
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.scenarios.vocabulary import doppler_prf_check
 
 
@@ -54,8 +55,7 @@ class ErrorStateKind(ScenarioKind):
         """Simulate the runs as one batch; run i depends only on cfg and seeds[i]. A covariance that lost positive
         definiteness (NaN sigma, a singular innovation covariance) is a ConfigError naming ``initial``, never NaN in
         the results."""
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         prm = self.parse(cfg)

@@ -31,14 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
 from sarnav.measurements import focus_search as fs
-from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
-from sarnav.montecarlo.record import RunRecord
-from sarnav.scenarios.fields import get, table
-from sarnav.scenarios.quality_tables import (default_geometry, default_scene, int_list, integer, make_scene,
-                                             read_geometry, read_scene, str_list)
+from sarnav.montecarlo.kind import validate_campaign
+from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
+from sarnav.scenarios.kind_base import FileKind
+from sarnav.scenarios.quality_tables import default_scene, default_tables, make_scene, read_geometry, read_scene
 
 __all__ = ["GpsdSearchKind", "default_config", "table41_config", "parse", "run_search_scenario", "SEARCH_METHODS",
            "SEARCH_CONTROLS"]
@@ -57,7 +56,7 @@ def default_config() -> dict:
         "scenario": {"name": "gpsd-search", "kind": "gpsd-search",
                      "description": "Hathaway 2023 Alg. 3.3 reduced Table 4.1 sweep, controls and searches that work"},
         "campaign": {"runs": 1, "seed": 0},
-        "geometry": default_geometry(),
+        **default_tables(),
         "scene": default_scene("point-clutter"),
         "image": {"size": 200},
         "search": {"method": ["source", "grid", "brent"], "controls": ["one", "oracle", "random"],
@@ -75,23 +74,20 @@ def table41_config() -> dict:
 
 
 def _parse_search(cfg: dict, geo) -> dict:
-    table(cfg, "search")
-    s = {"methods": str_list("search.method", get(cfg, "search", "method"), SEARCH_METHODS, allow_empty=True),
-         "controls": str_list("search.controls", get(cfg, "search", "controls"), SEARCH_CONTROLS, allow_empty=True),
-         "candidates": int_list("search.candidates", get(cfg, "search", "candidates"), 1, 200),
-         "block_pulses": int_list("search.block_pulses", get(cfg, "search", "block_pulses"), 1, 100_000),
-         "initial_pulses": integer("search.initial_pulses", get(cfg, "search", "initial_pulses"), 1, 100_000),
-         "sigmas": integer("search.sigmas", get(cfg, "search", "sigmas"), 1, 100),
-         "spacings": integer("search.spacings", get(cfg, "search", "spacings"), 1, 300),
-         "bias": require_finite("search.bias", get(cfg, "search", "bias"), -1e-3, 1e-3, "m/sample"),
-         "span_sigmas": require_finite("search.span_sigmas", get(cfg, "search", "span_sigmas"), 0.0, 100.0),
-         "measure": get(cfg, "search", "measure")}
-    if s["measure"] not in QUALITY_MEASURES:
-        raise ConfigError("search.measure", f"must be one of {sorted(QUALITY_MEASURES)}, got {s['measure']!r}")
+    s = {"methods": name_list(cfg, "search", "method", SEARCH_METHODS, allow_empty=True),
+         "controls": name_list(cfg, "search", "controls", SEARCH_CONTROLS, allow_empty=True),
+         "candidates": int_list(cfg, "search", "candidates", 1, 200),
+         "block_pulses": int_list(cfg, "search", "block_pulses", 1, 100_000),
+         "initial_pulses": integer(cfg, "search", "initial_pulses", 1, 100_000),
+         "sigmas": integer(cfg, "search", "sigmas", 1, 100),
+         "spacings": integer(cfg, "search", "spacings", 1, 300),
+         "bias": number(cfg, "search", "bias", -1e-3, 1e-3, "m/sample"),
+         "span_sigmas": number(cfg, "search", "span_sigmas", 0.0, 100.0),
+         "measure": choice(cfg, "search", "measure", sorted(QUALITY_MEASURES))}
     if not s["methods"] and not s["controls"]:
         raise ConfigError("search.method", "and search.controls are both empty: nothing to run")
     if s["initial_pulses"] >= geo.n_pulses:
-        raise ConfigError("search.initial_pulses", f"must be < geometry.n_pulses = {geo.n_pulses}, "
+        raise ConfigError("search.initial_pulses", f"must be < aperture.n_pulses = {geo.n_pulses}, "
                           f"got {s['initial_pulses']}")
     left = geo.n_pulses - s["initial_pulses"]
     for i, si in enumerate(s["block_pulses"]):
@@ -108,7 +104,7 @@ def parse(cfg: dict) -> dict:
     runs, seed = validate_campaign(cfg)
     geo = read_geometry(cfg)
     prm = {"runs": runs, "seed": seed, "geometry": geo, "scene": read_scene(cfg, geo),
-           "size": integer("image.size", get(cfg, "image", "size"), 2, 400), "search": _parse_search(cfg, geo)}
+           "size": integer(cfg, "image", "size", 2, 400), "search": _parse_search(cfg, geo)}
     s = prm["search"]
     per = s["sigmas"] * (s["spacings"] * sum(m.startswith("source") for m in s["methods"])
                          + sum(m in ("grid", "brent") for m in s["methods"]))
@@ -212,28 +208,11 @@ def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = 
     return path
 
 
-class GpsdSearchKind(ScenarioKind):
-    """``gpsd-search``: the search sweep, run by :func:`run_search_scenario` (not through ``simulate``)."""
+class GpsdSearchKind(FileKind):
+    """``gpsd-search``: the search sweep, run by :func:`run_search_scenario` (not through ``simulate``); the
+    realisations run in this process."""
 
     kind = "gpsd-search"
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
-
-    def state_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run gpsd-search``: the realisations run in this process (the compiled kernels use the cores)."""
-        return run_search_scenario(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False),
-                                   quiet=campaign_opts.get("quiet", True))
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        raise ConfigError("scenario.kind", "gpsd-search is a sweep: run it with sarnav run "
-                                           "(sarnav.scenarios.gpsd_search.run_search_scenario)")
+    config, check, write = staticmethod(default_config), staticmethod(parse), staticmethod(run_search_scenario)
+    options = ("figures", "overwrite", "quiet")
+    what = "a sweep"

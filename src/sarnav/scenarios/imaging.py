@@ -42,7 +42,7 @@ import numpy as np
 from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
-from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.scenarios.kind_base import FileKind
 from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
@@ -414,27 +414,12 @@ def _image_files(cfg: dict, out: Path, cphd: bool = False, sicd: bool = False) -
     return report
 
 
-class ImageKind(ScenarioKind):
-    """Kind ``"image"``: one simulated block of echoes focused into one image (not a Monte Carlo campaign)."""
+class ImageKind(FileKind):
+    """Kind ``"image"``: one simulated block of echoes focused into one image (not a Monte Carlo campaign);
+    ``sarnav run point-target`` is ``sarnav image point-target``."""
 
     kind = "image"
     needs_campaign = False
-
-    def default_config(self) -> dict:
-        return point_target_config()
-
-    def validate(self, cfg: dict) -> None:
-        validate(cfg)
-
-    def state_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def simulate(self, cfg, run_ids, seeds):
-        raise ConfigError("scenario.kind", "an image scenario forms one image: `sarnav image NAME` or run_image(cfg, out)")
-
-    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> dict:
-        """``sarnav run point-target``: the same as ``sarnav image point-target`` (executor options do not apply)."""
-        return run_image(cfg, out, overwrite=campaign_opts.get("overwrite", False))
+    config, check, write = staticmethod(point_target_config), staticmethod(validate), staticmethod(run_image)
+    options = ("overwrite",)
+    what = "a single-image kind (sarnav image NAME)"

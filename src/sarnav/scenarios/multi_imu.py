@@ -22,49 +22,23 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from sarnav.analysis.sources import filter_nees_summary, rmse_ratio, source_rmse
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
-from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.fields import vector as _vector
+from sarnav.scenarios.fields import bounded_vector, choice, integer, number, number_list
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.fusion_records import AXES, SourceRecords, source_records
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, PATH1_SIGMAS, run_multi_imu, run_path1, run_upf_flight, \
     spec_accel_psd, survey_flight
 
-__all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "integer", "number", "records"]
+__all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "records"]
 
 #: largest particle count of any filter (memory: runs x particles x 6 floats per filter)
 MAX_PARTICLES = 100_000
 #: smallest particle count: the filters use the cloud's covariance (the Gaussian-PF update and the NEES of the
 #: 6-D [p, v] cloud), which is singular below d + 1 = 7 particles
 MIN_PARTICLES = 7
-
-
-def integer(cfg: dict, name: str, key: str, lo: int, hi: int) -> int:
-    """``name.key`` as an integer in [lo, hi] (no booleans, no floats)."""
-    v = _get(cfg, name, key)
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise ConfigError(f"{name}.{key}", f"must be an integer in [{lo}, {hi}], got {v!r}")
-    return v
-
-
-def number(cfg: dict, name: str, key: str, lo: float, hi: float, unit: str = "") -> float:
-    """``name.key`` as a finite number in [lo, hi]."""
-    return require_finite(f"{name}.{key}", _get(cfg, name, key), lo, hi, unit)
-
-
-def bounded_vector(cfg: dict, name: str, key: str, lo: float, hi: float, n: int = 3, unit: str = "m") -> tuple:
-    """``name.key`` as a list of ``n`` finite numbers, each in [lo, hi]."""
-    v = _vector(cfg, name, key, n=n, unit=unit)
-    return tuple(require_finite(f"{name}.{key}[{i}]", x, lo, hi, unit) for i, x in enumerate(v))
-
-
-def choice(cfg: dict, name: str, key: str, options) -> str:
-    v = _get(cfg, name, key)
-    if v not in options:
-        raise ConfigError(f"{name}.{key}", f"must be one of {list(options)}, got {v!r}")
-    return v
 
 
 def records(rec: SourceRecords, run_ids, extras=None, sources: bool = True) -> list[RunRecord]:
@@ -139,8 +113,7 @@ class SourceKind(ScenarioKind):
                 "filter": (self.filters(prm), {"units": "", "description": "filters with a covariance (the states)"})}
 
     def simulate(self, cfg: dict, run_ids: Sequence[int], seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         rec, extras = self.run_batch(self.parse(cfg), list(seeds))
@@ -207,10 +180,7 @@ class MultiImuPath1Kind(SourceKind):
         runs, _ = validate_campaign(cfg)
         duration = number(cfg, "path", "duration", 1.0, 600.0, "s")
         rate = number(cfg, "sensors", "rate_hz", 1.0, 100.0, "Hz")
-        sig = _get(cfg, "sensors", "sigma_m")
-        if not isinstance(sig, list) or not 1 <= len(sig) <= 10:
-            raise ConfigError("sensors.sigma_m", f"must be a list of 1 to 10 standard deviations [m], got {sig!r}")
-        sig = tuple(require_finite(f"sensors.sigma_m[{i}]", v, 1e-4, 100.0, "m") for i, v in enumerate(sig))
+        sig = number_list(cfg, "sensors", "sigma_m", 1e-4, 100.0, "m")
         settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
         if settle > duration - 1.0 / rate:
             raise ConfigError("filter.settle_s", f"must leave at least one epoch before path.duration = {duration} s, "
@@ -298,8 +268,8 @@ class MultiImuKind(SourceKind):
         stride = round(20.0 / rec)
         if abs(20.0 / rec - stride) > 1e-9:
             raise ConfigError("output.record_rate_hz", f"must divide the 20 Hz fix rate (20, 10, 5, 4, 2, 1, ...), got {rec}")
-        sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0)
-        bias = bounded_vector(cfg, "fix", "bias_m", -100.0, 100.0)
+        sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0, unit="m")
+        bias = bounded_vector(cfg, "fix", "bias_m", -100.0, 100.0, unit="m")
         return MultiImuParams(runs, duration, number(cfg, "flight", "speed", 5.0, 150.0, "m/s"),
                               integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)), sig, bias,
                               _bool(cfg, "fix", "shared"), integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
@@ -397,7 +367,7 @@ class UpfFlightKind(SourceKind):
             raise ConfigError("output.record_rate_hz", f"must divide fix.rate_hz = {fix_rate} Hz, got {rec}")
         if duration * fix_rate > 1e6 or duration * max(out_rate, imu_rate) > 1e9:
             raise ConfigError("flight.duration", f"{duration} s at these rates is too long (at most 1e6 fixes, 1e9 epochs)")
-        sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0)
+        sig = bounded_vector(cfg, "fix", "sigma_m", 1e-3, 100.0, unit="m")
         return UpfParams(runs, duration, number(cfg, "flight", "speed", 5.0, 150.0, "m/s"),
                          number(cfg, "flight", "climb_rate", 0.0, 20.0, "m/s"), choice(cfg, "imu", "preset", IMU_PRESETS),
                          imu_rate, sig, fix_rate, integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),

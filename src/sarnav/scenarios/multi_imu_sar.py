@@ -14,11 +14,11 @@ from __future__ import annotations
 import math
 
 from sarnav.analysis.consistency import registration_statistics
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
-from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SOURCE_ATTRS, SourceKind, bounded_vector, choice, integer, number
+from sarnav.scenarios.fields import bounded_vector, choice, integer, number
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SOURCE_ATTRS, SourceKind
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS
 from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_UPDATES, SarFixSetup, run_sar_fix, sensor_names
@@ -54,9 +54,7 @@ def default_config() -> dict:
 
 
 def _scene(cfg, altitude, radar):
-    seed = _get(cfg, "scene", "seed")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfigError("scene.seed", f"must be an integer >= 0, got {seed!r}")
+    seed = integer(cfg, "scene", "seed", 0, 2**63 - 1)
     gmin = number(cfg, "scene", "ground_range_min", 1.0, 1e5, "m")
     gmax = number(cfg, "scene", "ground_range_max", 1.0, 1e5, "m")
     if not gmax > gmin:
@@ -93,16 +91,16 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
     settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
     if settle > duration - 1.0:
         raise ConfigError("filter.settle_s", f"must be <= flight.duration - 1 = {duration - 1} s, got {settle}")
-    reg = bounded_vector(cfg, "sar", "registration_sigma_m", 1e-5, 100.0, n=2)
-    p3 = bounded_vector(cfg, "initial", "p_3sigma", 1e-3, 1e4)
-    v3 = bounded_vector(cfg, "initial", "v_3sigma", 1e-4, 100.0)
+    reg = bounded_vector(cfg, "sar", "registration_sigma_m", 1e-5, 100.0, n=2, unit="m")
+    p3 = bounded_vector(cfg, "initial", "p_3sigma", 1e-3, 1e4, unit="m")
+    v3 = bounded_vector(cfg, "initial", "v_3sigma", 1e-4, 100.0, unit="m/s")
     setup = SarFixSetup(
         duration=duration, speed=speed, altitude=altitude, radar=radar,
-        snr_db=require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB"),
+        snr_db=number(cfg, "radar", "snr_db", -60.0, 100.0, "dB"),
         **_scene(cfg, altitude, radar), sar_sigma=reg,
         alt_sigma=number(cfg, "sar", "altimeter_sigma_m", 1e-3, 100.0, "m"),
         fix_source=choice(cfg, "fix", "source", FIX_SOURCES),
-        gps_sigma=bounded_vector(cfg, "fix", "gps_sigma_m", 1e-3, 100.0),
+        gps_sigma=bounded_vector(cfg, "fix", "gps_sigma_m", 1e-3, 100.0, unit="m"),
         gps_rate=number(cfg, "fix", "gps_rate_hz", 1.0, 100.0, "Hz"),
         n_adis=integer(cfg, "imu", "n_adis", 1, len(ADIS_LEVER_ARMS)),
         n_particles=integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),

@@ -21,12 +21,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sarnav.analysis.sources import filter_nees_summary, source_rmse
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
+from sarnav.scenarios.fields import bounded_vector, integer, number, number_list
 from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind, bounded_vector, integer, number, records
+from sarnav.scenarios.kind_base import one_seed_per_run
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind, records
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES, source_records
 from sarnav.simulation.multi_imu import NAV_SOURCES
@@ -78,17 +80,12 @@ class FocusParams:
 
 
 def _reflectors(cfg):
-    along = _get(cfg, "scene", "along_track_m")
-    ground = _get(cfg, "scene", "ground_range_m")
-    for key, v in (("along_track_m", along), ("ground_range_m", ground)):
-        if not isinstance(v, list) or not 1 <= len(v) <= 10:
-            raise ConfigError(f"scene.{key}", f"must be a list of 1 to 10 numbers [m], got {v!r}")
+    along = number_list(cfg, "scene", "along_track_m", -50.0, 50.0, "m")
+    ground = number_list(cfg, "scene", "ground_range_m", 2.0, 500.0, "m")
     if len(ground) != len(along):
         raise ConfigError("scene.ground_range_m", f"must have one entry per scene.along_track_m ({len(along)}), "
                           f"got {len(ground)}")
-    return tuple((require_finite(f"scene.along_track_m[{i}]", a, -50.0, 50.0, "m"),
-                  require_finite(f"scene.ground_range_m[{i}]", g, 2.0, 500.0, "m"))
-                 for i, (a, g) in enumerate(zip(along, ground)))
+    return tuple(zip(along, ground))
 
 
 def _sources(cfg):
@@ -132,8 +129,8 @@ def parse(cfg: dict) -> FocusParams:
     chip = number(cfg, "image", "chip_half_m", 0.05, 20.0, "m")
     if chip / spacing < 8 or chip / spacing > 500:
         raise ConfigError("image.chip_half_m", f"must be 8 to 500 pixels of image.spacing_m = {spacing} m, got {chip}")
-    sig = bounded_vector(cfg, "navigation", "fix_sigma_m", 1e-3, 100.0)
-    corr = bounded_vector(cfg, "navigation", "fix_correlated_sigma_m", 0.0, 100.0)
+    sig = bounded_vector(cfg, "navigation", "fix_sigma_m", 1e-3, 100.0, unit="m")
+    corr = bounded_vector(cfg, "navigation", "fix_correlated_sigma_m", 0.0, 100.0, unit="m")
     tau = number(cfg, "navigation", "fix_correlation_time_s", 1.0, 1e6, "s")
     geo = FocusGeometry(radar=radar, speed=speed, run_in=run_in, n_pulses=n_pulses, reflectors=reflectors,
                         antenna_height=height, chip_half=chip, spacing=spacing)
@@ -183,8 +180,7 @@ class NavFocusKind(SourceKind):
                 "pulse": (pt, {"units": "s", "description": "pulse times"})}
 
     def simulate(self, cfg: dict, run_ids, seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         prm = self.parse(cfg)

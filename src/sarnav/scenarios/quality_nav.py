@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sarnav import units
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.filters import ErrorStateLayout, delayed, update
 from sarnav.filters.ekf import directional_sigma
 from sarnav.imaging.quality import QUALITY_MEASURES
@@ -43,8 +43,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.rotations import quat_to_dcm
 from sarnav.scenarios.error_state import ErrorStateKind
-from sarnav.scenarios.fields import boolean, get, table
-from sarnav.scenarios.quality_tables import integer
+from sarnav.scenarios.fields import boolean, choice, integer, number
 from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, doppler_prf_check, filter_imu_keys,
                                          read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
@@ -99,7 +98,8 @@ def default_config() -> dict:
                   "point_to_clutter_db": 20.0, "clutter_density": 0.5},
         # a fix per second from the last 1200 pulses (0.72 s) on a 64 x 64 grid of 0.125 m; the first search stage
         # spans 4 predicted sigma of the fix (0.5 .. 2.5 m/s); kappa from 200 calibration apertures (relative SE 0.1)
-        "focus": {"enabled": True, "measurement": "image", "interval_s": 1.0, "aperture_pulses": 1200, "pixels": 64,
+        "aperture": {"n_pulses": 1200},
+        "focus": {"enabled": True, "measurement": "image", "interval_s": 1.0, "pixels": 64,
                   "pixel_m": 0.125, "span": 0.5, "span_sigmas": 4.0, "span_max": 2.5, "gate_sigmas": 5.0, "n_grid": 11,
                   "measure": "kurtosis", "calibration_apertures": 200, "calibration_seed": 13, "delayed_state": True,
                   "mapdrift": True, "oracle_sigma": 0.05},
@@ -150,29 +150,22 @@ class QualityNavParams:
         return int(round(self.imu_rate * COV_STEP))
 
 
-def _num(cfg, key, lo, hi, unit=""):
-    return require_finite(f"focus.{key}", get(cfg, "focus", key), lo, hi, unit)
-
-
 def _settings(cfg: dict, prf: float, interval: float) -> FocusSettings:
-    table(cfg, "scene")
-    sc = lambda key, lo, hi, unit="": require_finite(f"scene.{key}", get(cfg, "scene", key), lo, hi, unit)  # noqa: E731
+    sc = lambda key, lo, hi, unit="": number(cfg, "scene", key, lo, hi, unit)  # noqa: E731
     st = FocusSettings(
-        aperture_pulses=integer("focus.aperture_pulses", get(cfg, "focus", "aperture_pulses"), 16, 100_000),
+        aperture_pulses=integer(cfg, "aperture", "n_pulses", 16, 100_000),
         ground_range=sc("ground_range", 10.0, 1e5, "m"), width=sc("width", 0.5, 1000.0, "m"),
         length=sc("length", 0.5, 1000.0, "m"), point_density=sc("point_density", 0.0, 100.0, "1/m^2"),
         point_to_clutter_db=sc("point_to_clutter_db", -40.0, 80.0, "dB"),
         clutter_density=sc("clutter_density", 0.0, 100.0, "1/m^2"),
-        snr_db=require_finite("radar.snr_db", get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB"),
-        pixels=integer("focus.pixels", get(cfg, "focus", "pixels"), 8, 512), pixel_m=_num(cfg, "pixel_m", 0.01, 10.0, "m"),
-        span=_num(cfg, "span", 0.01, 10.0, "m/s"), n_grid=integer("focus.n_grid", get(cfg, "focus", "n_grid"), 3, 51),
-        measure=get(cfg, "focus", "measure"), mapdrift=boolean(cfg, "focus", "mapdrift"))
+        snr_db=number(cfg, "radar", "snr_db", -60.0, 100.0, "dB"),
+        pixels=integer(cfg, "focus", "pixels", 8, 512), pixel_m=number(cfg, "focus", "pixel_m", 0.01, 10.0, "m"),
+        span=number(cfg, "focus", "span", 0.01, 10.0, "m/s"), n_grid=integer(cfg, "focus", "n_grid", 3, 51),
+        measure=choice(cfg, "focus", "measure", sorted(QUALITY_MEASURES)), mapdrift=boolean(cfg, "focus", "mapdrift"))
     if st.n_grid % 2 == 0:
         raise ConfigError("focus.n_grid", f"must be odd, got {st.n_grid}")
-    if st.measure not in QUALITY_MEASURES:
-        raise ConfigError("focus.measure", f"must be one of {sorted(QUALITY_MEASURES)}, got {st.measure!r}")
     if (st.aperture_pulses - 1) / prf > interval + 1e-9:
-        raise ConfigError("focus.aperture_pulses", f"{st.aperture_pulses} pulses at {prf:g} Hz last longer than "
+        raise ConfigError("aperture.n_pulses", f"{st.aperture_pulses} pulses at {prf:g} Hz last longer than "
                           f"focus.interval_s = {interval} s; at most {int(interval * prf) + 1}")
     scatterers = (st.point_density + st.clutter_density) * st.width * st.length
     if scatterers < 1:
@@ -192,7 +185,7 @@ def _radar(cfg: dict, traj: StraightLevel, st_pulses: int, ground_range: float, 
     ``radar.range_margin_m``)."""
     preset, fields = radar_fields(cfg)
     base = make_radar(preset, fields)
-    margin = require_finite("radar.range_margin_m", get(cfg, "radar", "range_margin_m"), 0.0, 1000.0, "m")
+    margin = number(cfg, "radar", "range_margin_m", 0.0, 1000.0, "m")
     h = -float(traj.start[2])
     track = 0.5 * traj.speed * (st_pulses - 1) / base.prf
     pad = C * base.pulse_length / 4.0 + margin
@@ -200,14 +193,14 @@ def _radar(cfg: dict, traj: StraightLevel, st_pulses: int, ground_range: float, 
     far = math.sqrt(h * h + (ground_range + half) ** 2 + (track + half) ** 2) + pad
     n = int(math.ceil((far - near) / (C / (2.0 * base.sample_rate)))) + 1
     if n * st_pulses > 2**24:
-        raise ConfigError("focus.aperture_pulses", f"{st_pulses} pulses x {n} range samples; at most {2**24}")
+        raise ConfigError("aperture.n_pulses", f"{st_pulses} pulses x {n} range samples; at most {2**24}")
     radar = make_radar(preset, fields, near_range=max(near, 1.0), n_range_samples=n)
     doppler_prf_check(radar, traj.speed)
     return radar
 
 
 def _calibration_key(cfg: dict) -> str:
-    keep = {k: cfg[k] for k in ("trajectory", "initial", "radar", "scene", "focus", "filter") if k in cfg}
+    keep = {k: cfg[k] for k in ("trajectory", "initial", "radar", "scene", "aperture", "focus", "filter") if k in cfg}
     return dump_toml(keep)
 
 
@@ -222,18 +215,15 @@ def parse(cfg: dict) -> QualityNavParams:
     whole_number("imu.rate_hz", imu_rate, 1.0 / COV_STEP, f"{1 / COV_STEP:g}-Hz steps (a multiple of 10 Hz)")
     filt = read_filter_imu(cfg, imu)
     ini = read_initial(cfg, filt)
-    table(cfg, "focus")
-    interval = _num(cfg, "interval_s", COV_STEP, 60.0, "s")
+    interval = number(cfg, "focus", "interval_s", COV_STEP, 60.0, "s")
     whole_number("focus.interval_s", interval, COV_STEP, f"{COV_STEP:g}-s covariance steps")
     whole_number("trajectory.duration", traj.duration, interval, "focus.interval_s update intervals")
-    mode = get(cfg, "focus", "measurement")
-    if mode not in MODES:
-        raise ConfigError("focus.measurement", f"must be one of {list(MODES)}, got {mode!r}")
+    mode = choice(cfg, "focus", "measurement", MODES)
     preset, fields = radar_fields(cfg)
     if preset is None:
         raise ConfigError("radar.preset", "is required for quality-nav (e.g. 'flexsar')")
     st = _settings(cfg, make_radar(preset, fields).prf, interval)
-    if _num(cfg, "span_max", 0.01, 10.0, "m/s") < st.span:
+    if number(cfg, "focus", "span_max", 0.01, 10.0, "m/s") < st.span:
         raise ConfigError("focus.span_max", f"must be >= focus.span = {st.span} m/s")
     radar = _radar(cfg, traj, st.aperture_pulses, st.ground_range, 0.5 * max(st.width, st.length))
     p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"]])
@@ -241,12 +231,11 @@ def parse(cfg: dict) -> QualityNavParams:
         runs=runs, trajectory=traj, imu=imu, imu_filter=filt, imu_rate=imu_rate, radar=radar, settings=st,
         p0_sigma=p0, interval=interval, enabled=boolean(cfg, "focus", "enabled"), measurement=mode,
         delayed_state=boolean(cfg, "focus", "delayed_state"),
-        oracle_sigma=_num(cfg, "oracle_sigma", 1e-6, 100.0, "m/s"), span_sigmas=_num(cfg, "span_sigmas", 0.0, 20.0),
-        span_max=_num(cfg, "span_max", 0.01, 10.0, "m/s"),
-        gate_sigmas=_num(cfg, "gate_sigmas", 1.0, 1e6),
-        calibration_apertures=integer("focus.calibration_apertures", get(cfg, "focus", "calibration_apertures"), 2,
-                                      1000),
-        calibration_seed=integer("focus.calibration_seed", get(cfg, "focus", "calibration_seed"), 0, 2**63 - 1),
+        oracle_sigma=number(cfg, "focus", "oracle_sigma", 1e-6, 100.0, "m/s"), span_sigmas=number(cfg, "focus", "span_sigmas", 0.0, 20.0),
+        span_max=number(cfg, "focus", "span_max", 0.01, 10.0, "m/s"),
+        gate_sigmas=number(cfg, "focus", "gate_sigmas", 1.0, 1e6),
+        calibration_apertures=integer(cfg, "focus", "calibration_apertures", 2, 1000),
+        calibration_seed=integer(cfg, "focus", "calibration_seed", 0, 2**63 - 1),
         calibration_key=_calibration_key(cfg), **read_earth(cfg))
 
 

@@ -9,7 +9,7 @@ with a constant velocity error), the measures ``sarnav.imaging.quality``, the fi
 * ``figures/``: ``fig4_1_images.png`` (T3), ``fig4_2_along_100.png``, ``fig4_3-4_6_sizes.png``, ``fig4_7_bins_along.png``,
   ``fig4_8_bins_cross.png``, ``cross_sizes.png`` and (``reliability.scenes`` > 0) ``t16_reliability.png``.
 
-Sizes keep the ground extent (``geometry.scene_extent``) and vary the pixel count (gap 4): 10, 50, 100, 200 pixels
+Sizes keep the ground extent (``scene.extent``) and vary the pixel count (gap 4): 10, 50, 100, 200 pixels
 (the thesis' 300 x 300 is 200 x 200 here).
 """
 
@@ -20,14 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from sarnav.analysis import quality_sweep as qs
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
-from sarnav.montecarlo.kind import ScenarioKind
-from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.quality_scenes import point_clutter_scene
-from sarnav.scenarios.fields import get, table
-from sarnav.scenarios.quality_tables import (default_geometry, default_scene, int_list, integer, make_scene,
-                                             read_geometry, read_scene, str_list)
+from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
+from sarnav.scenarios.kind_base import FileKind
+from sarnav.scenarios.quality_tables import default_scene, default_tables, make_scene, read_geometry, read_scene
 
 __all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep"]
 
@@ -43,7 +41,7 @@ def default_config() -> dict:
     return {
         "scenario": {"name": "quality-sweep", "kind": "quality-sweep",
                      "description": "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs velocity error"},
-        "geometry": default_geometry(),
+        **default_tables(),
         "scene": default_scene("usu"),
         "sweep": {"directions": ["along", "cross"], "sizes": [10, 50, 100, 200], "bins": [10, 100, 1000],
                   "measures": list(MEASURES), "steps": 10, "span_depths": 6.0, "pivot": "first",
@@ -55,32 +53,23 @@ def default_config() -> dict:
 
 
 def _parse_sweep(cfg: dict) -> dict:
-    table(cfg, "sweep")
-    out = {"directions": str_list("sweep.directions", get(cfg, "sweep", "directions"), qs.DIRECTIONS),
-           "sizes": sorted(int_list("sweep.sizes", get(cfg, "sweep", "sizes"), 2, 400)),
-           "bins": sorted(int_list("sweep.bins", get(cfg, "sweep", "bins"), 2, 100_000)),
-           "measures": str_list("sweep.measures", get(cfg, "sweep", "measures"), sorted(QUALITY_MEASURES)),
-           "steps": integer("sweep.steps", get(cfg, "sweep", "steps"), 1, 50),
-           "span_depths": require_finite("sweep.span_depths", get(cfg, "sweep", "span_depths"), 0.1, 100.0,
-                                         "focus depths"),
-           "figure_size": integer("sweep.figure_size", get(cfg, "sweep", "figure_size"), 2, 400)}
-    pivot = get(cfg, "sweep", "pivot")
-    if pivot not in PIVOTS:
-        raise ConfigError("sweep.pivot", f"must be one of {list(PIVOTS)}, got {pivot!r}")
-    out["pivot"] = pivot
-    return out
+    return {"directions": name_list(cfg, "sweep", "directions", qs.DIRECTIONS),
+            "sizes": sorted(int_list(cfg, "sweep", "sizes", 2, 400)),
+            "bins": sorted(int_list(cfg, "sweep", "bins", 2, 100_000)),
+            "measures": name_list(cfg, "sweep", "measures", sorted(QUALITY_MEASURES)),
+            "steps": integer(cfg, "sweep", "steps", 1, 50),
+            "span_depths": number(cfg, "sweep", "span_depths", 0.1, 100.0, "focus depths"),
+            "figure_size": integer(cfg, "sweep", "figure_size", 2, 400),
+            "pivot": choice(cfg, "sweep", "pivot", PIVOTS)}
 
 
 def _parse_reliability(cfg: dict) -> dict:
-    table(cfg, "reliability")
-    return {"scenes": integer("reliability.scenes", get(cfg, "reliability", "scenes"), 0, 200),
-            "size": integer("reliability.size", get(cfg, "reliability", "size"), 2, 400),
-            "bins": integer("reliability.bins", get(cfg, "reliability", "bins"), 2, 100_000),
-            "seed": integer("reliability.seed", get(cfg, "reliability", "seed"), 0, 2**63 - 1),
-            "clutter_density": require_finite("reliability.clutter_density",
-                                              get(cfg, "reliability", "clutter_density"), 0.01, 100.0, "1/m^2"),
-            "measures": str_list("reliability.measures", get(cfg, "reliability", "measures"),
-                                 sorted(QUALITY_MEASURES))}
+    return {"scenes": integer(cfg, "reliability", "scenes", 0, 200),
+            "size": integer(cfg, "reliability", "size", 2, 400),
+            "bins": integer(cfg, "reliability", "bins", 2, 100_000),
+            "seed": integer(cfg, "reliability", "seed", 0, 2**63 - 1),
+            "clutter_density": number(cfg, "reliability", "clutter_density", 0.01, 100.0, "1/m^2"),
+            "measures": name_list(cfg, "reliability", "measures", sorted(QUALITY_MEASURES))}
 
 
 def parse(cfg: dict) -> dict:
@@ -190,28 +179,9 @@ def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> 
     return path
 
 
-class QualitySweepKind(ScenarioKind):
+class QualitySweepKind(FileKind):
     """``quality-sweep``: a deterministic study run by :func:`run_sweep` (not a Monte Carlo campaign)."""
 
     kind = "quality-sweep"
     needs_campaign = False
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
-
-    def state_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def meas_names(self, cfg: dict) -> list[str]:
-        return []
-
-    def run_scenario(self, cfg: dict, out, figures: bool = True, **campaign_opts) -> Path:
-        """``sarnav run quality-sweep``: executor options do not apply (the compiled kernels use the cores)."""
-        return run_sweep(cfg, out, figures=figures, overwrite=campaign_opts.get("overwrite", False))
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        raise ConfigError("scenario.kind", "quality-sweep is a deterministic study: run it with sarnav run "
-                                           "(sarnav.scenarios.quality_sweep.run_sweep)")
+    config, check, write = staticmethod(default_config), staticmethod(parse), staticmethod(run_sweep)

@@ -26,8 +26,9 @@ from sarnav.measurements.spacecraft import MEASUREMENT_NAMES, SarMeasurementNois
 from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
-from sarnav.scenarios.fields import get as _get, table as _table
+from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry, radial_intrack_crosstrack, run_open_loop
 from sarnav.trajectory.orbit import MIN_PERIGEE_RADIUS, STEERING, table2_elements
 from sarnav.frames.earth import WGS84_A
@@ -103,28 +104,28 @@ def tc2_config() -> dict:
 def read_elements(cfg: dict):
     """Keplerian elements of ``[orbit]`` (Table 2 + G1 keys); one-line errors for an orbit that hits the Earth or
     escapes."""
-    ecc = require_finite("orbit.eccentricity", _get(cfg, "orbit", "eccentricity"), 0.0, None)
+    ecc = number(cfg, "orbit", "eccentricity", 0.0, None)
     if not ecc < 1.0:
         raise ConfigError("orbit.eccentricity", f"must be in [0, 1): e >= 1 escapes the Earth, got {ecc!r}")
-    alt = units.km_to_m(require_finite("orbit.altitude_km", _get(cfg, "orbit", "altitude_km"), None, 1e6, "km"))
+    alt = units.km_to_m(number(cfg, "orbit", "altitude_km", None, 1e6, "km"))
     perigee = (WGS84_A + alt) * (1.0 - ecc)
     if perigee < MIN_PERIGEE_RADIUS:
         raise ConfigError("orbit.altitude_km", f"the perigee radius (R_e + altitude)(1 - e) = {perigee:.0f} m is below "
                           f"{MIN_PERIGEE_RADIUS:.0f} m (R_e + 100 km): the orbit intersects the Earth")
-    inc = require_finite("orbit.inclination_deg", _get(cfg, "orbit", "inclination_deg"), 0.0, 180.0, "deg")
-    lat = require_finite("orbit.latitude_deg", _get(cfg, "orbit", "latitude_deg"), -90.0, 90.0, "deg")
+    inc = number(cfg, "orbit", "inclination_deg", 0.0, 180.0, "deg")
+    lat = number(cfg, "orbit", "latitude_deg", -90.0, 90.0, "deg")
     if abs(math.sin(math.radians(lat))) > abs(math.sin(math.radians(inc))) + 1e-12:
         raise ConfigError("orbit.latitude_deg", f"|latitude| must not exceed the inclination's reach "
                           f"({min(inc, 180 - inc):g} deg), got {lat!r}")
-    lon = require_finite("orbit.longitude_deg", _get(cfg, "orbit", "longitude_deg"), -360.0, 360.0, "deg")
-    argp = require_finite("orbit.argp_deg", _get(cfg, "orbit", "argp_deg"), -360.0, 360.0, "deg")
+    lon = number(cfg, "orbit", "longitude_deg", -360.0, 360.0, "deg")
+    argp = number(cfg, "orbit", "argp_deg", -360.0, 360.0, "deg")
     rad = units.deg_to_rad
     return table2_elements(float(alt), float(rad(inc)), ecc, float(rad(lat)), float(rad(lon)), float(rad(argp)))
 
 
 def read_noise(cfg: dict, table: str = "measurement") -> SarMeasurementNoise:
     """Range and speed 1-sigma and the centre-pixel covariance D of ``[table]``."""
-    D = _get(cfg, table, "D")
+    D = get(cfg, table, "D")
     if (not isinstance(D, list) or len(D) != 3 or not all(isinstance(row, list) and len(row) == 3 for row in D)):
         raise ConfigError(f"{table}.D", f"must be a 3 x 3 list of lists [m^2] (ECEF covariance), got {D!r}")
     vals = np.array([[require_finite(f"{table}.D[{i}][{j}]", x, -1e12, 1e12, "m^2") for j, x in enumerate(row)]
@@ -141,34 +142,37 @@ def read_noise(cfg: dict, table: str = "measurement") -> SarMeasurementNoise:
 
 
 def read_mekf(cfg: dict) -> tuple[MekfModel, LearUnderweighting | None]:
-    mk = _table(cfg, "mekf")
-    qa = require_finite("mekf.q_accel", _get(cfg, "mekf", "q_accel"), 0.0, 1.0, "m^2/s^3")
-    qm = require_finite("mekf.q_misalignment", _get(cfg, "mekf", "q_misalignment"), 0.0, 1.0, "rad^2/s")
+    qa = number(cfg, "mekf", "q_accel", 0.0, 1.0, "m^2/s^3")
+    qm = number(cfg, "mekf", "q_misalignment", 0.0, 1.0, "rad^2/s")
     dt = _pos(cfg, "mekf", "dt", "s", lo=1e-4, hi=1.0)
     model = MekfModel(q_accel=qa, q_misalignment=qm, literal_q=_bool(cfg, "mekf", "literal_q"),
                       coriolis=_bool(cfg, "mekf", "coriolis"), dt=dt)
-    beta = require_finite("mekf.underweight_beta", _get(cfg, "mekf", "underweight_beta"), 0.0, 1e3)
-    n = mk.get("underweight_updates")
-    if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= 100_000:
-        raise ConfigError("mekf.underweight_updates", f"must be an integer in [0, 100000], got {n!r}")
+    beta = number(cfg, "mekf", "underweight_beta", 0.0, 1e3)
+    n = integer(cfg, "mekf", "underweight_updates", 0, 100_000)
     return model, (LearUnderweighting(beta=beta, first_updates=n) if beta > 0 and n > 0 else None)
 
 
-def _antenna(cfg: dict) -> dict:
-    look = require_finite("antenna.look_angle_deg", _get(cfg, "antenna", "look_angle_deg"), 0.0, 89.0, "deg")
-    squint = require_finite("antenna.squint_deg", _get(cfg, "antenna", "squint_deg"), -45.0, 45.0, "deg")
-    steering = _get(cfg, "antenna", "steering")
-    if steering not in STEERING:
-        raise ConfigError("antenna.steering", f"must be one of {tuple(STEERING)}, got {steering!r}")
+def read_antenna(cfg: dict) -> dict:
+    """``[antenna]`` as OpenLoopParams fields (look angle and squint [rad], steering)."""
+    look = number(cfg, "antenna", "look_angle_deg", 0.0, 89.0, "deg")
+    squint = number(cfg, "antenna", "squint_deg", -45.0, 45.0, "deg")
+    steering = choice(cfg, "antenna", "steering", STEERING)
     return {"look_angle": float(units.deg_to_rad(look)), "squint": float(units.deg_to_rad(squint)),
             "steering": steering}
 
 
-def _simulation(cfg: dict) -> dict:
+def read_initial(cfg: dict, r_max: float, v_max: float, mu_max_deg: float) -> dict:
+    """``[initial]`` 1-sigma per axis (Table 4) as OpenLoopParams fields: position [m] up to ``r_max``, velocity [m/s]
+    up to ``v_max``, misalignment (``sigma_mu0_deg`` up to ``mu_max_deg``) [rad]."""
+    ini = {k: _pos(cfg, "initial", k, u, hi=hi) for k, u, hi in (("sigma_r0", "m", r_max), ("sigma_v0", "m/s", v_max))}
+    ini["sigma_mu0"] = float(units.deg_to_rad(_pos(cfg, "initial", "sigma_mu0_deg", "deg", hi=mu_max_deg)))
+    return ini
+
+
+def read_simulation(cfg: dict) -> dict:
+    """``[simulation]`` as OpenLoopParams fields (SI; ``n_updates`` None: every update)."""
     dur = _pos(cfg, "simulation", "duration", "s", lo=0.01, hi=MAX_DURATION)
-    n = _get(cfg, "simulation", "n_updates")
-    if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= 100_000:
-        raise ConfigError("simulation.n_updates", f"must be an integer in [0, 100000] (0: every update), got {n!r}")
+    n = integer(cfg, "simulation", "n_updates", 0, 100_000, " (0: every update)")
     rec = _pos(cfg, "simulation", "record_interval", "s", lo=0.01, hi=MAX_DURATION)
     if dur / rec > 200_000:
         raise ConfigError("simulation.record_interval", f"gives {dur / rec:.3g} records per run (at most 200000)")
@@ -181,16 +185,15 @@ def _simulation(cfg: dict) -> dict:
 def parse(cfg: dict) -> OpenLoopParams:
     """Validate ``cfg`` and convert to SI; ConfigError names the first bad field and its range."""
     validate_campaign(cfg)
-    mode = _get(cfg, "measurement", "mode")
+    mode = get(cfg, "measurement", "mode")
     if mode != "oracle":
         raise ConfigError("measurement.mode", f"must be 'oracle' (the paper's open loop synthesises its measurements "
                           f"from the truth; images: kind 'spacecraft-closed-loop'), got {mode!r}")
-    ini = {k: _pos(cfg, "initial", k, u, hi=hi) for k, u, hi in (("sigma_r0", "m", 1e7), ("sigma_v0", "m/s", 1e4))}
-    ini["sigma_mu0"] = float(units.deg_to_rad(_pos(cfg, "initial", "sigma_mu0_deg", "deg", hi=10.0)))
+    ini = read_initial(cfg, 1e7, 1e4, 10.0)
     model, uw = read_mekf(cfg)
-    psd = require_finite("truth.misalignment_psd", _get(cfg, "truth", "misalignment_psd"), 0.0, 1.0, "rad^2/s")
+    psd = number(cfg, "truth", "misalignment_psd", 0.0, 1.0, "rad^2/s")
     params = OpenLoopParams(elements=read_elements(cfg), noise=read_noise(cfg), mekf=model, underweighting=uw,
-                            truth_misalignment_psd=psd, **_antenna(cfg), **_simulation(cfg), **ini)
+                            truth_misalignment_psd=psd, **read_antenna(cfg), **read_simulation(cfg), **ini)
     check_geometry(params)
     return params
 
@@ -227,8 +230,7 @@ class SpacecraftKind(ScenarioKind):
                 "block": (list(BLOCK_NAMES), {"units": "", "description": "error-state blocks of 3"})}
 
     def simulate(self, cfg: dict, run_ids, seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
         return open_loop_records(run_open_loop(parse(cfg), list(seeds)), run_ids)

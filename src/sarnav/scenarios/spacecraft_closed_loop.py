@@ -20,8 +20,9 @@ from sarnav.measurements.spacecraft_image import REGISTRATIONS, STAGES, ImagingC
 from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios import spacecraft as sc
-from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
+from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
 from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop
 
@@ -59,10 +60,10 @@ def default_config() -> dict:
                           "sigma_vic": 0.12,
                           "D": [[126.0, 0.0, 18.0], [0.0, 0.2, 0.3], [18.0, 0.3, 3.1]]}
     cfg["radar"] = {"carrier_ghz": 1.27, "bandwidth_mhz": 28.0,  # ALOS PALSAR FBS
-                    "pulse_us": 1.0,  # shorter than ALOS's 27 us to keep the echo simulation cheap (same bandwidth)
-                    "sample_rate_mhz": 32.0, "prf_hz": 2200.0, "range_samples": 384, "antenna_length": 8.9,
-                    "block_s": 2.0,  # processed aperture (of the ~3 s beam)
+                    "pulse_length_us": 1.0,  # shorter than ALOS's 27 us to keep the echo simulation cheap (same B)
+                    "sample_rate_mhz": 32.0, "prf_hz": 2200.0, "n_range_samples": 384, "antenna_length_m": 8.9,
                     "snr_db": -15.0}  # per-sample SNR of a unit-power clutter scatterer
+    cfg["aperture"] = {"duration": 2.0}  # processed aperture (of the ~3 s beam)
     cfg["terrain"] = {"seed": 11, "relief_m": 60.0, "clutter_spacing_m": 40.0, "bright_scatterers": 15,
                       "bright_amplitude": 8.0, "coherence": 0.7, "half_along_m": 900.0, "half_range_m": 650.0,
                       "map_spacing_m": 7.5}
@@ -73,45 +74,37 @@ def default_config() -> dict:
     return cfg
 
 
-def _int(cfg, table, key, lo, hi):
-    v = _get(cfg, table, key)
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise ConfigError(f"{table}.{key}", f"must be an integer in [{lo}, {hi}], got {v!r}")
-    return v
-
-
 def read_imaging(cfg: dict) -> ImagingConfig:
-    """``[radar]``, ``[terrain]``, ``[autofocus]``, ``[registration]`` -> ImagingConfig (SI)."""
-    rp = lambda k, u, lo=None, hi=None: _pos(cfg, "radar", k, u, lo, hi)  # noqa: E731
-    tp = lambda k, u, lo=None, hi=None: _pos(cfg, "terrain", k, u, lo, hi)  # noqa: E731
-    refine = _get(cfg, "autofocus", "refine")
+    """``[radar]``, ``[aperture]``, ``[terrain]``, ``[autofocus]``, ``[registration]`` -> ImagingConfig (SI)."""
+    refine = get(cfg, "autofocus", "refine")
     if not isinstance(refine, list) or len(refine) > 6:
         raise ConfigError("autofocus.refine", f"must be a list of at most 6 smaller steps [m/s], got {refine!r}")
     step = _pos(cfg, "autofocus", "step", "m/s", 1e-3, 100.0)
     refine = tuple(require_finite(f"autofocus.refine[{i}]", r, 1e-4, step * (1 - 1e-9), "m/s")
                    for i, r in enumerate(refine))
-    method = _get(cfg, "registration", "method")
-    if method not in REGISTRATIONS:
-        raise ConfigError("registration.method", f"must be one of {REGISTRATIONS}, got {method!r}")
     return ImagingConfig(
-        carrier_frequency=float(units.ghz_to_hz(rp("carrier_ghz", "GHz", 0.3, 20.0))),
-        bandwidth=float(units.mhz_to_hz(rp("bandwidth_mhz", "MHz", 1.0, 200.0))),
-        pulse_length=float(units.us_to_s(rp("pulse_us", "us", 0.1, 50.0))),
-        sample_rate=float(units.mhz_to_hz(rp("sample_rate_mhz", "MHz", 1.0, 400.0))),
-        prf=rp("prf_hz", "Hz", 500.0, 10000.0), range_samples=_int(cfg, "radar", "range_samples", 128, 2048),
-        antenna_length=rp("antenna_length", "m", 1.0, 30.0), block=rp("block_s", "s", 0.2, 6.0),
-        snr_db=require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB"),
-        seed=_int(cfg, "terrain", "seed", 0, 2**63 - 1),
-        relief=require_finite("terrain.relief_m", _get(cfg, "terrain", "relief_m"), 0.0, 1000.0, "m"),
-        clutter_spacing=tp("clutter_spacing_m", "m", 10.0, 1000.0),
-        n_bright=_int(cfg, "terrain", "bright_scatterers", 0, 1000),
-        bright_amplitude=tp("bright_amplitude", "", 0.1, 1e3),
-        coherence=require_finite("terrain.coherence", _get(cfg, "terrain", "coherence"), 0.0, 1.0),
-        half_along=tp("half_along_m", "m", 200.0, 5000.0), half_range=tp("half_range_m", "m", 200.0, 5000.0),
-        map_spacing=tp("map_spacing_m", "m", 2.0, 50.0), step=step,
-        max_iter=_int(cfg, "autofocus", "max_iter", 1, 1000), refine=refine, registration=method,
-        min_inliers=_int(cfg, "registration", "min_inliers", 3, 10000),
-        smoothing=require_finite("registration.smoothing_px", _get(cfg, "registration", "smoothing_px"), 0.0, 10.0),
+        carrier_frequency=float(units.ghz_to_hz(_pos(cfg, "radar", "carrier_ghz", "GHz", 0.3, 20.0))),
+        bandwidth=float(units.mhz_to_hz(_pos(cfg, "radar", "bandwidth_mhz", "MHz", 1.0, 200.0))),
+        pulse_length=float(units.us_to_s(_pos(cfg, "radar", "pulse_length_us", "us", 0.1, 50.0))),
+        sample_rate=float(units.mhz_to_hz(_pos(cfg, "radar", "sample_rate_mhz", "MHz", 1.0, 400.0))),
+        prf=_pos(cfg, "radar", "prf_hz", "Hz", 500.0, 10000.0),
+        range_samples=integer(cfg, "radar", "n_range_samples", 128, 2048),
+        antenna_length=_pos(cfg, "radar", "antenna_length_m", "m", 1.0, 30.0),
+        block=_pos(cfg, "aperture", "duration", "s", 0.2, 6.0),
+        snr_db=number(cfg, "radar", "snr_db", -60.0, 100.0, "dB"),
+        seed=integer(cfg, "terrain", "seed", 0, 2**63 - 1),
+        relief=number(cfg, "terrain", "relief_m", 0.0, 1000.0, "m"),
+        clutter_spacing=_pos(cfg, "terrain", "clutter_spacing_m", "m", 10.0, 1000.0),
+        n_bright=integer(cfg, "terrain", "bright_scatterers", 0, 1000),
+        bright_amplitude=_pos(cfg, "terrain", "bright_amplitude", "", 0.1, 1e3),
+        coherence=number(cfg, "terrain", "coherence", 0.0, 1.0),
+        half_along=_pos(cfg, "terrain", "half_along_m", "m", 200.0, 5000.0),
+        half_range=_pos(cfg, "terrain", "half_range_m", "m", 200.0, 5000.0),
+        map_spacing=_pos(cfg, "terrain", "map_spacing_m", "m", 2.0, 50.0), step=step,
+        max_iter=integer(cfg, "autofocus", "max_iter", 1, 1000), refine=refine,
+        registration=choice(cfg, "registration", "method", REGISTRATIONS),
+        min_inliers=integer(cfg, "registration", "min_inliers", 3, 10000),
+        smoothing=number(cfg, "registration", "smoothing_px", 0.0, 10.0),
         residual_px=_pos(cfg, "registration", "residual_px", "px", 0.1, 50.0))
 
 
@@ -120,31 +113,29 @@ def _check_radar(img: ImagingConfig) -> None:
     if img.sample_rate < img.bandwidth:
         raise ConfigError("radar.sample_rate_mhz", "must be >= radar.bandwidth_mhz (complex Nyquist)")
     if img.pulse_length >= 1.0 / img.prf:
-        raise ConfigError("radar.pulse_us", "must be shorter than the pulse repetition interval 1 / prf")
+        raise ConfigError("radar.pulse_length_us", "must be shorter than the pulse repetition interval 1 / prf")
     window = img.range_samples * img.dr
     need = 2 * img.half_range + units.C * img.pulse_length / 2 + 200.0
     if window < need:
         raise ConfigError("terrain.half_range_m", f"the scene (2 x {img.half_range:g} m of slant range, + the chirp "
-                          f"and migration) must fit the receive window radar.range_samples x c/(2 fs) = {window:.0f} m")
+                          f"and migration) must fit the receive window radar.n_range_samples x c/(2 fs) = {window:.0f} m")
     if img.pulses * img.range_samples > 2e7:
-        raise ConfigError("radar.block_s", f"block of {img.pulses} pulses x {img.range_samples} samples exceeds 2e7")
+        raise ConfigError("aperture.duration", f"block of {img.pulses} pulses x {img.range_samples} samples exceeds "
+                          "2e7")
 
 
 def parse(cfg: dict) -> ClosedLoopParams:
     """Validate ``cfg`` and convert to SI; ConfigError names the first bad field and its range."""
     validate_campaign(cfg)
-    mode = _get(cfg, "measurement", "mode")
-    if mode not in MODES:
-        raise ConfigError("measurement.mode", f"must be one of {MODES}, got {mode!r}")
-    ini = {k: _pos(cfg, "initial", k, u, hi=hi) for k, u, hi in (("sigma_r0", "m", 1e5), ("sigma_v0", "m/s", 100.0))}
-    ini["sigma_mu0"] = float(units.deg_to_rad(_pos(cfg, "initial", "sigma_mu0_deg", "deg", hi=1.0)))
+    mode = choice(cfg, "measurement", "mode", MODES)
+    ini = sc.read_initial(cfg, 1e5, 100.0, 1.0)
     model, uw = sc.read_mekf(cfg)
-    sim = sc._simulation(cfg)
+    sim = sc.read_simulation(cfg)
     if sim["duration"] > 600.0:
         raise ConfigError("simulation.duration", f"must be <= 600 s for the closed loop (an image per update), got "
                           f"{sim['duration']!r}")
     base = OpenLoopParams(elements=sc.read_elements(cfg), noise=sc.read_noise(cfg), mekf=model, underweighting=uw,
-                          **sc._antenna(cfg), **sim, **ini)
+                          **sc.read_antenna(cfg), **sim, **ini)
     check_geometry(base)
     img = read_imaging(cfg)
     _check_radar(img)
@@ -184,8 +175,7 @@ class ClosedLoopKind(ScenarioKind):
         return out
 
     def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        if len(run_ids) != len(seeds):
-            raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+        one_seed_per_run(run_ids, seeds)
         runs = run_closed_loop(parse(cfg), list(seeds)) if len(seeds) else []
         return [_record(int(i), r) for i, r in zip(run_ids, runs)]
 

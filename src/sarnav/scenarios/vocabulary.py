@@ -21,11 +21,14 @@
                           units in the key:
                           ``carrier_ghz``, ``bandwidth_mhz``, ``sample_rate_mhz``, ``pulse_length_us``,
                           ``prf_hz``, ``antenna_length_m``, ``look_side``, ``range_window``, ``azimuth_window``;
-                          ``snr_db`` (receiver noise), ``range_margin_m`` (receive-window margin) where used
+                          ``snr_db`` (receiver noise), ``receiver_noise`` (bool), ``range_margin_m`` (receive-window
+                          margin), ``near_range_m`` and ``n_range_samples`` (a fixed window) where used
+``[aperture]``            the pulses of one image: ``n_pulses``, or ``duration`` [s] (spacecraft-closed-loop)
 ========================= ==================================================================================
 
 Values are validated where they are used (``RadarParams`` validates the radar, ``StraightLevel`` the track); a
-:class:`~sarnav.errors.ConfigError` always names the user's key.
+:class:`~sarnav.errors.ConfigError` always names the user's key. Every key, shared or a kind's own, is read through
+the typed readers of :mod:`sarnav.scenarios.fields`.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ from sarnav.trajectory import Maneuvering, StraightLevel
 
 __all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "read_filter_imu", "read_initial",
            "RADAR_KEYS", "radar_fields", "make_radar", "filter_imu_keys", "flight_size_check", "MAX_IMU_SAMPLES",
-           "INITIAL_RANGES", "echo_block_check", "MAX_BLOCK_SAMPLES", "EARTH_DEFAULT", "read_earth"]
+           "INITIAL_RANGES", "echo_block_check", "MAX_BLOCK_SAMPLES", "EARTH_DEFAULT", "read_earth", "read_altitude"]
 
 #: optional 3-sigma overrides of an IMU grade, in source units (``sensors.imu.ImuGrade.from_three_sigma``)
 IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
@@ -105,6 +108,24 @@ def read_trajectory(cfg: dict, types=("straight",), max_duration: float | None =
                               lo=0.0, hi=30.0, unit="deg/s")
         return Maneuvering.s_turn(start, speed, heading, duration, rate)
     return StraightLevel(start, speed, heading, duration)
+
+
+def read_altitude(cfg: dict, lo: float, hi: float, over_origin: bool = False) -> float:
+    """The altitude [m] of ``trajectory.start_ned`` (-start_ned[2], NED down) in [lo, hi], for kinds whose track is
+    fixed but for its height; ``over_origin``: the track passes over the NED origin (start_ned[0] = start_ned[1] =
+    0)."""
+    start = vector(cfg, "trajectory", "start_ned", unit="m")
+    for i in (0, 1) if over_origin else ():
+        if start[i] != 0.0:
+            raise ConfigError(f"trajectory.start_ned[{i}]", f"must be 0 m: this kind's track passes over the NED "
+                              f"origin (start_ned = [0, 0, -altitude]), got {start[i]}")
+    if not start[2] < 0:
+        raise ConfigError("trajectory.start_ned[2]", f"must be < 0 m (above the ground, NED down), got {start[2]}")
+    altitude = -float(start[2])
+    if not lo <= altitude <= hi:
+        raise ConfigError("trajectory.start_ned[2]", f"must be in [{-hi:g}, {0.0 - lo:g}] m (an altitude of {lo:g} "
+                          f"to {hi:g} m), got {start[2]}")
+    return altitude
 
 
 # ----------------------------------------------------------------------------- Earth
