@@ -13,12 +13,13 @@ Users: back-projection (``backprojection``, FFBP's level 0 and ``offset_bpa``) i
 pulse, zero-padded by :data:`PAD` samples at each end, at the fractional sample of a range (:func:`range_tap`) with
 nearest / linear / cubic (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MODE`) or FFT upsampling then linear
 (:func:`upsample_pulses`); FFBP interpolates its polar images with a separable N x N kernel read from a table
-(:func:`tabulate`, :func:`polar_tap`, :func:`taps_2d`); the RDA reads :func:`rcmc_kernel_table` in its compiled RCMC loop. Every
-interpolated sample is rotated by exp(j 2 pi f), f the fractional cycle of 2 R / lambda reduced in float64: in
-float32 from quarter-wave polynomials (:func:`cis32`, max error :data:`PHASE_F32_MAX_ERROR`) or in float64 from
-half-angle polynomials (:func:`cis64`, :data:`PHASE_POLY_MAX_ERROR`), no transcendental call in the loops, so LLVM
-vectorises them without SVML. The kernels' predicted errors on band-limited data:
-:mod:`sarnav.imaging.interpolation_error`; their measured accuracy: docs/backprojection.md.
+(:func:`tabulate`; :func:`polar_tap` locates a point, :func:`taps_2d` sums the taps); the RDA reads
+:func:`rcmc_kernel_table` in its compiled RCMC loop. Every interpolated sample is rotated by exp(j 2 pi f), f the
+fractional cycle of 2 R / lambda reduced in float64: in float32 from quarter-wave polynomials (:func:`cis32`, max
+error :data:`PHASE_F32_MAX_ERROR`) or in float64 from half-angle polynomials (:func:`cis64`,
+:data:`PHASE_POLY_MAX_ERROR`), no transcendental call in the loops, so LLVM vectorises them without SVML. The
+kernels' predicted errors on band-limited data: :mod:`sarnav.imaging.interpolation_error`; their measured accuracy:
+docs/backprojection.md.
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ import scipy.fft as sfft
 
 __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
-           "rcmc_kernel_table", "upsample_pulses", "cis32", "cis64", "range_tap", "gather", "gather_pair", "polar_tap", "taps_2d"]
+           "rcmc_kernel_table", "upsample_pulses", "cis32", "cis64", "range_tap", "gather", "gather_pair", "polar_tap",
+           "taps_2d"]
 
 # ---------------------------------------------------------------------------------------------
 # kernel definitions and tables (numpy)

@@ -154,7 +154,8 @@ def read_mekf(cfg: dict) -> tuple[MekfModel, LearUnderweighting | None]:
     return model, (LearUnderweighting(beta=beta, first_updates=n) if beta > 0 and n > 0 else None)
 
 
-def _antenna(cfg: dict) -> dict:
+def parse_antenna(cfg: dict) -> dict:
+    """``[antenna]`` as ``OpenLoopParams`` keywords (look angle, squint [rad], steering); closed loop too."""
     look = require_finite("antenna.look_angle_deg", _get(cfg, "antenna", "look_angle_deg"), 0.0, 89.0, "deg")
     squint = require_finite("antenna.squint_deg", _get(cfg, "antenna", "squint_deg"), -45.0, 45.0, "deg")
     steering = _get(cfg, "antenna", "steering")
@@ -164,7 +165,8 @@ def _antenna(cfg: dict) -> dict:
             "steering": steering}
 
 
-def _simulation(cfg: dict) -> dict:
+def parse_simulation(cfg: dict) -> dict:
+    """``[simulation]`` as ``OpenLoopParams`` keywords (duration, intervals [s], n_updates); closed loop too."""
     dur = _pos(cfg, "simulation", "duration", "s", lo=0.01, hi=MAX_DURATION)
     n = _get(cfg, "simulation", "n_updates")
     if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= 100_000:
@@ -190,7 +192,7 @@ def parse(cfg: dict) -> OpenLoopParams:
     model, uw = read_mekf(cfg)
     psd = require_finite("truth.misalignment_psd", _get(cfg, "truth", "misalignment_psd"), 0.0, 1.0, "rad^2/s")
     params = OpenLoopParams(elements=read_elements(cfg), noise=read_noise(cfg), mekf=model, underweighting=uw,
-                            truth_misalignment_psd=psd, **_antenna(cfg), **_simulation(cfg), **ini)
+                            truth_misalignment_psd=psd, **parse_antenna(cfg), **parse_simulation(cfg), **ini)
     check_geometry(params)
     return params
 

@@ -139,12 +139,12 @@ def parse(cfg: dict) -> ClosedLoopParams:
     ini = {k: _pos(cfg, "initial", k, u, hi=hi) for k, u, hi in (("sigma_r0", "m", 1e5), ("sigma_v0", "m/s", 100.0))}
     ini["sigma_mu0"] = float(units.deg_to_rad(_pos(cfg, "initial", "sigma_mu0_deg", "deg", hi=1.0)))
     model, uw = sc.read_mekf(cfg)
-    sim = sc._simulation(cfg)
+    sim = sc.parse_simulation(cfg)
     if sim["duration"] > 600.0:
         raise ConfigError("simulation.duration", f"must be <= 600 s for the closed loop (an image per update), got "
                           f"{sim['duration']!r}")
     base = OpenLoopParams(elements=sc.read_elements(cfg), noise=sc.read_noise(cfg), mekf=model, underweighting=uw,
-                          **sc._antenna(cfg), **sim, **ini)
+                          **sc.parse_antenna(cfg), **sim, **ini)
     check_geometry(base)
     img = read_imaging(cfg)
     _check_radar(img)
