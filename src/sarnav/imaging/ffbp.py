@@ -55,7 +55,8 @@ from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, b
                                            plane_of, resolve_interpolation, sar_image, wavelength_of)
 from sarnav.imaging.interpolation_error import (WINDOWED, interpolation_error_2d, kernel_values,
                                                 summed_interpolation_error)
-from sarnav.imaging.kernels import GATHER_MODE, PAD, cis64, polar_tap, tabulate, taps_2d, upsample_pulses
+from sarnav.imaging.kernels import (GATHER_MODE, PAD, demodulate_parts, polar_tap, tabulate, taps_2d,
+                                    upsample_pulses)
 from sarnav.imaging.grid import as_grid
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
@@ -342,26 +343,8 @@ def _tile_order(shape, tile: int = 32) -> np.ndarray:
     return slots[slots >= 0]
 
 
-@numba.njit(fastmath=True, cache=True)
-def _demod_kernel(values, r, two_over_lambda, out_re, out_im):  # pragma: no cover - compiled
-    # serial: ~1 ns a point; a parallel region per subaperture cost more than the work on a loaded machine
-    for i in range(values.size):
-        cyc = r[i] * two_over_lambda
-        c, s_ = cis64(-(cyc - math.floor(cyc + 0.5)))
-        out_re[i] = values[i].real * c - values[i].imag * s_
-        out_im[i] = values[i].real * s_ + values[i].imag * c
-
-
-def _demodulate_parts(values: np.ndarray, r: np.ndarray, lam: float):
-    """(re, im) of ``values * exp(-j 4 pi r / lambda)`` (phase reduced in float64, polynomial sin/cos)."""
-    out_re = np.empty(values.size)
-    out_im = np.empty(values.size)
-    _demod_kernel(np.ascontiguousarray(values.ravel()), np.ascontiguousarray(r.ravel()), 2.0 / lam, out_re, out_im)
-    return out_re, out_im
-
-
 def _demodulate(values: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
-    re, im = _demodulate_parts(values, r, lam)
+    re, im = demodulate_parts(values, r, lam)
     return (re + 1j * im).reshape(values.shape)
 
 
@@ -401,7 +384,7 @@ class _Former:
         bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
                         np.ascontiguousarray(self.pos[k0:k1]), padded[k0 - b0:k1 - b0], *common, out_re, out_im)
         r = grid.r0 + np.arange(grid.nr) * grid.dr
-        d_re, d_im = _demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
+        d_re, d_im = demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
         vals = (out_re + 1j * out_im).reshape(grid.nu, grid.nr)
         return np.ascontiguousarray((vals * (d_re + 1j * d_im)[None, :]).T, dtype=np.complex64)
 

@@ -17,9 +17,9 @@ nearest / linear / cubic (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MOD
 :func:`rcmc_kernel_table` in its compiled RCMC loop. Every interpolated sample is rotated by exp(j 2 pi f), f the
 fractional cycle of 2 R / lambda reduced in float64: in float32 from quarter-wave polynomials (:func:`cis32`, max
 error :data:`PHASE_F32_MAX_ERROR`) or in float64 from half-angle polynomials (:func:`cis64`,
-:data:`PHASE_POLY_MAX_ERROR`), no transcendental call in the loops, so LLVM vectorises them without SVML. The
-kernels' predicted errors on band-limited data: :mod:`sarnav.imaging.interpolation_error`; their measured accuracy:
-docs/backprojection.md.
+:data:`PHASE_POLY_MAX_ERROR`; :func:`demodulate_parts` applies it to an array), no transcendental call in the loops,
+so LLVM vectorises them without SVML. The kernels' predicted errors on band-limited data:
+:mod:`sarnav.imaging.interpolation_error`; their measured accuracy: docs/backprojection.md.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ import scipy.fft as sfft
 
 __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
-           "rcmc_kernel_table", "upsample_pulses", "cis32", "cis64", "range_tap", "gather", "gather_pair", "polar_tap",
-           "taps_2d"]
+           "rcmc_kernel_table", "upsample_pulses", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
+           "gather_pair", "polar_tap", "taps_2d"]
 
 # ---------------------------------------------------------------------------------------------
 # kernel definitions and tables (numpy)
@@ -164,6 +164,25 @@ def cis64(f):  # pragma: no cover - compiled
     sn = xh * (_S0 + t * (_S1 + t * (_S2 + t * (_S3 + t * (_S4 + t * _S5)))))
     cs = _C0 + t * (_C1 + t * (_C2 + t * (_C3 + t * (_C4 + t * (_C5 + t * _C6)))))
     return cs * cs - sn * sn, 2.0 * sn * cs
+
+
+@numba.njit(fastmath=True, cache=True)
+def _demod_kernel(values, r, two_over_lambda, out_re, out_im):  # pragma: no cover - compiled
+    # serial: ~1 ns a point; a parallel region per subaperture cost more than the work on a loaded machine
+    for i in range(values.size):
+        cyc = r[i] * two_over_lambda
+        c, s_ = cis64(-(cyc - math.floor(cyc + 0.5)))
+        out_re[i] = values[i].real * c - values[i].imag * s_
+        out_im[i] = values[i].real * s_ + values[i].imag * c
+
+
+def demodulate_parts(values: np.ndarray, r: np.ndarray, lam: float):
+    """(re, im) of ``values * exp(-j 4 pi r / lambda)`` (float64; the phase reduced to its fractional cycle in
+    float64, then :func:`cis64`): FFBP's polar images are demodulated by their range from the subaperture centre."""
+    out_re = np.empty(values.size)
+    out_im = np.empty(values.size)
+    _demod_kernel(np.ascontiguousarray(values.ravel()), np.ascontiguousarray(r.ravel()), 2.0 / lam, out_re, out_im)
+    return out_re, out_im
 
 
 def _fit_quarter_wave() -> tuple[np.ndarray, np.ndarray]:
