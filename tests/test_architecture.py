@@ -158,3 +158,51 @@ def _function_lengths():
 def test_no_function_is_longer_than_80_lines():
     rows = _function_lengths()
     assert rows[0][0] <= MAX_FUNCTION_LINES, f"longest: {rows[:5]}"
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def _module_of(name: str) -> str | None:
+    """The sarnav module a dotted name denotes, if any."""
+    return name if name in MODULES else None
+
+
+def _private_imports(f, mod):
+    """``from sarnav.x import _name`` (the imported name private; ``import public as _alias`` is fine) and
+    ``x._name`` on a name bound to another sarnav module, in module ``mod``: (line, text)."""
+    tree = ast.parse(f.read_text())
+    is_package = f.name == "__init__.py"
+    bound = {}                                     # local name -> sarnav module it is bound to
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = mod.split(".") if is_package else mod.split(".")[:-1]
+                base = base[: len(base) - node.level + 1]
+                src = ".".join(base + ([node.module] if node.module else []))
+            else:
+                src = node.module or ""
+            if not (src == "sarnav" or src.startswith("sarnav.")) or src == mod:
+                continue
+            for a in node.names:
+                if _private(a.name):
+                    yield node.lineno, f"from {src} import {a.name}"
+                elif _module_of(f"{src}.{a.name}"):
+                    bound[a.asname or a.name] = f"{src}.{a.name}"
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if _module_of(a.name) and a.asname:
+                    bound[a.asname] = a.name
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _private(node.attr):
+            target = bound.get(ast.unparse(node.value)) or _module_of(ast.unparse(node.value))
+            if target and target != mod:
+                yield node.lineno, f"{ast.unparse(node.value)}.{node.attr} ({target})"
+
+
+def test_no_module_uses_a_private_name_of_another_module():
+    """A name with a leading underscore is its module's own (issue 25): a helper that another module needs is made
+    public in its home module or moved to a shared one (``imaging.kernels``)."""
+    bad = [f"{mod}:{line}: {text}" for mod, (f, _) in MODULES.items() for line, text in _private_imports(f, mod)]
+    assert not bad, "private names used across modules:\n" + "\n".join(sorted(bad))

@@ -103,9 +103,9 @@ def _mid_fm_rate(rc: PulseData, speed: float, lam: float) -> float:
 def _auto_padding(rc: PulseData, speed: float, bins: float = 32.0) -> float:
     """Azimuth zero-padding: >= 3 (the band-limited filter is a chirp of 2T: linear correlation of a
     T-long block needs 3T) and >= ``bins`` Doppler bins across K_a T (T = block duration)."""
-    from sarnav.imaging.rda import _prf, radar_constants
+    from sarnav.imaging.rda import radar_constants, uniform_prf
 
-    t_block = rc.n_pulses / _prf(rc.pulse_times)
+    t_block = rc.n_pulses / uniform_prf(rc.pulse_times)
     k = _mid_fm_rate(rc, speed, radar_constants(rc.params)["wavelength"])
     return float(min(64.0, max(3.0, bins / (k * t_block**2))))
 

@@ -18,8 +18,8 @@ Algorithm (Ulander, Hellsten & Stenstrom, IEEE TAES 39(3) 2003, "fast factorized
    sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (separable 2-D
    interpolation of each child at the parent's grid points with ``kernel``: the 6-tap Kaiser-windowed sinc
    "kaiser6" or 4-tap Keys "cubic", both tabulated; float64 geometry). Compiled kernels: per block of points a
-   vectorised float64 pass locates each point on the child (``_locate``), a scalar pass reads the two kernel
-   table rows, gathers the N x N complex64 taps and remodulates (``_taps``); formed polar images are stored as
+   vectorised float64 pass locates each point on the child (``polar_tap``), a scalar pass reads the two kernel
+   table rows, gathers the N x N complex64 taps and remodulates (``taps_2d``); formed polar images are stored as
    complex64 (rounding ~-140 dB).
 4. The pixels finally take ``A(p) = sum_J I_J(r_J(p), u_J(p)) e^{j4pi r_J(p)/lambda}``.
 
@@ -50,13 +50,13 @@ import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
-from sarnav.imaging.backprojection import (_C0, _C1, _C2, _C3, _C4, _C5, _C6, _MODE, _PAD, _S0, _S1, _S2, _S3, _S4,
-                                           _S5, DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, _bpa_fan_kernel, _check_pulses,
-                                           _cis, _image, _points, _upsample_pulses, _wavelength,
-                                           _check_interpolation, backproject_points, data_oversampling, plane_of,
-                                           resolve_interpolation)
+from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, backproject_points, bpa_fan_kernel,
+                                           check_interpolation, check_pulses, data_oversampling, grid_points,
+                                           plane_of, resolve_interpolation, sar_image, wavelength_of)
 from sarnav.imaging.interpolation_error import (WINDOWED, interpolation_error_2d, kernel_values,
                                                 summed_interpolation_error)
+from sarnav.imaging.kernels import (GATHER_MODE, PAD, demodulate_parts, polar_tap, tabulate, taps_2d,
+                                    upsample_pulses)
 from sarnav.imaging.grid import as_grid
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
@@ -72,11 +72,10 @@ _TABLE = 2048
 
 def kernel_table(kernel: str, oversample: float) -> np.ndarray:
     """(F + 1, N) float32: the N tap weights of ``kernel`` for a point at fraction w = i / F past sample floor:
-    tap t sits at offset t - (N/2 - 1), at distance w - t + N/2 - 1."""
-    n = FFBP_KERNELS[kernel]
-    w = np.arange(_TABLE + 1) / _TABLE
-    x = w[:, None] - np.arange(n)[None, :] + (n // 2 - 1)
-    return np.ascontiguousarray(kernel_values(kernel, x, oversample), dtype=np.float32)
+    tap t sits at offset t - (N/2 - 1), at distance w - t + N/2 - 1 (``kernels.tabulate``; the kernel at ``oversample``:
+    ``interpolation_error.kernel_values``)."""
+    table = tabulate(lambda x: kernel_values(kernel, x, oversample), FFBP_KERNELS[kernel], _TABLE)
+    return np.ascontiguousarray(table, dtype=np.float32)
 
 
 @dataclass(frozen=True)
@@ -148,74 +147,13 @@ def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: i
 # ---------------------------------------------------------------------------------------------
 # compiled kernel: evaluate a demodulated polar image at 3-D points, remodulate, accumulate
 
-@numba.njit(fastmath=True, cache=True, inline="always")
-def _locate(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda, half):  # pragma: no cover
-    """Where point q falls on a polar image (float64): (flat index of its (2 half) x (2 half) kernel support, range and
-    angle weights in [0, 1), fractional cycle of 2 (r(q) - ref_r) / lambda; 2 marks a point off the image)."""
-    dx = qx - centre[0]
-    dy = qy - centre[1]
-    dz = qz - centre[2]
-    r = math.sqrt(dx * dx + dy * dy + dz * dz)
-    u = (dx * v[0] + dy * v[1] + dz * v[2]) / r
-    fr = (r - r0) * inv_dr
-    fu = (u - u0) * inv_du
-    ir = math.floor(fr)
-    iu = math.floor(fu)
-    lo = half - 1.0
-    valid = (ir >= lo) & (iu >= lo) & (ir <= nr - 1.0 - half) & (iu <= nu - 1.0 - half)
-    irc = min(max(ir, lo), nr - 1.0 - half)
-    iuc = min(max(iu, lo), nu - 1.0 - half)
-    cyc = (r - ref_r) * two_over_lambda
-    f = cyc - math.floor(cyc + 0.5)        # fractional cycle, exact in float64
-    return (np.uint32((irc - lo) * nu + (iuc - lo)), np.float32(fr - ir), np.float32(fu - iu),
-            np.float32(f if valid else 2.0))
-
-
-@numba.njit(fastmath=True, cache=True, inline="always")
-def _taps(img, nu, n, base, wr, wu, f, ktab, out_re, out_im, o0):  # pragma: no cover - compiled
-    """out[o0 + i] += the N x N kernel interpolation of the flat complex64 polar image at base[i] (weights: the rows
-    of the tabulated kernel ``ktab`` (F + 1, N) nearest the fractions wr[i], wu[i]), times exp(j 2 pi f[i]) (zero
-    for the off-image marker f = 2); scalar gathers, the tap loops unrolled for the kernels' literal sizes."""
-    nt = ktab.shape[1]
-    if nt == 6:
-        _taps_n(img, nu, n, base, wr, wu, f, ktab, 6, out_re, out_im, o0)
-    elif nt == 4:
-        _taps_n(img, nu, n, base, wr, wu, f, ktab, 4, out_re, out_im, o0)
-    else:
-        _taps_n(img, nu, n, base, wr, wu, f, ktab, nt, out_re, out_im, o0)
-
-
-@numba.njit(fastmath=True, cache=True, inline="always")
-def _taps_n(img, nu, n, base, wr, wu, f, ktab, nt, out_re, out_im, o0):  # pragma: no cover - compiled
-    scale = np.float32(ktab.shape[0] - 1)
-    for i in range(n):
-        a = np.int64(wr[i] * scale + np.float32(0.5))
-        c = np.int64(wu[i] * scale + np.float32(0.5))
-        b = base[i]
-        sr = np.float32(0.0)
-        si = np.float32(0.0)
-        for t in range(nt):
-            row = b + np.uint32(t * nu)
-            rr = np.float32(0.0)
-            ri = np.float32(0.0)
-            for k in range(nt):
-                p = img[row + np.uint32(k)]
-                rr += ktab[c, k] * p.real
-                ri += ktab[c, k] * p.imag
-            sr += ktab[a, t] * rr
-            si += ktab[a, t] * ri
-        cs, sn = _cis(f[i])
-        out_re[o0 + i] += sr * cs - si * sn
-        out_im[o0 + i] += sr * sn + si * cs
-
-
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lambda, ktab, block,
                 out_re, out_im):  # pragma: no cover - compiled
     """out += polar image ``img`` ((nr, nu) complex64) at the points, remodulated by
     exp(j 4 pi (r(q) - ref_r) / lambda) (ref_r: (M,) parent ranges, 0 for the final pixels). Blocks of points
-    in parallel; per block a vectorised float64 pass (``_locate``) and a scalar pass that reads the kernel table,
-    gathers the N x N taps and remodulates (``_taps``)."""
+    in parallel; per block a vectorised float64 pass (``polar_tap``) and a scalar pass that reads the kernel table,
+    gathers the N x N taps and remodulates (``taps_2d``)."""
     nr, nu = img.shape
     flat = img.ravel()
     nt = ktab.shape[1]
@@ -229,9 +167,9 @@ def _polar_eval(pts, ref_r, centre, v, r0, inv_dr, u0, inv_du, img, two_over_lam
         wu = np.empty(n, np.float32)
         f = np.empty(n, np.float32)
         for i in range(n):
-            base[i], wr[i], wu[i], f[i] = _locate(pts[i0 + i, 0], pts[i0 + i, 1], pts[i0 + i, 2], ref_r[i0 + i],
-                                                  centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda, half)
-        _taps(flat, nu, n, base, wr, wu, f, ktab, out_re, out_im, i0)
+            base[i], wr[i], wu[i], f[i] = polar_tap(pts[i0 + i, 0], pts[i0 + i, 1], pts[i0 + i, 2], ref_r[i0 + i],
+                                                    centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_over_lambda, half)
+        taps_2d(flat, nu, n, base, wr, wu, f, ktab, out_re, out_im, i0)
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
@@ -267,11 +205,11 @@ def _polar_eval_plane(origin, e_row, e_col, ny, nx, tile, centre, v, r0, inv_dr,
                     qx = origin[0] + (iy0 + a) * e_row[0] + (ix0 + b) * e_col[0]
                     qy = origin[1] + (iy0 + a) * e_row[1] + (ix0 + b) * e_col[1]
                     qz = origin[2] + (iy0 + a) * e_row[2] + (ix0 + b) * e_col[2]
-                    base[i], wr[i], wu[i], f[i] = _locate(qx, qy, qz, 0.0, centre, v, r0, inv_dr, u0, inv_du, nr, nu,
-                                                          two_over_lambda, half)
+                    base[i], wr[i], wu[i], f[i] = polar_tap(qx, qy, qz, 0.0, centre, v, r0, inv_dr, u0, inv_du, nr,
+                                                            nu, two_over_lambda, half)
                     acc_re[i] = 0.0
                     acc_im[i] = 0.0
-            _taps(flat, nu, n, base, wr, wu, f, ktab, acc_re, acc_im, 0)
+            taps_2d(flat, nu, n, base, wr, wu, f, ktab, acc_re, acc_im, 0)
             for a in range(my):
                 o = (iy0 + a) * nx + ix0
                 for b in range(mx):
@@ -297,7 +235,7 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
     flat = img.ravel()
     nt = ktab.shape[1]
     half = nt // 2
-    pairs = out.ravel().view(np.float32)     # complex64 as interleaved float32 (re, im): _taps adds into both
+    pairs = out.ravel().view(np.float32)     # complex64 as interleaved float32 (re, im): taps_2d adds into both
     ore = pairs[0::2]
     oim = pairs[1::2]
     ex = np.empty(nu)                         # the parent's directions e(u) = u v + sqrt(1 - u^2) w, shared by its rows
@@ -318,9 +256,10 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
         for i in range(blk * chunk, min(nr, (blk + 1) * chunk)):
             r = pr0 + i * pdr
             for j in range(nu):
-                base[j], wr[j], wu[j], f[j] = _locate(pc[0] + r * ex[j], pc[1] + r * ey[j], pc[2] + r * ez[j], r, cc,
-                                                      pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu, two_over_lambda, half)
-            _taps(flat, cnu, nu, base, wr, wu, f, ktab, ore, oim, i * nu)
+                base[j], wr[j], wu[j], f[j] = polar_tap(pc[0] + r * ex[j], pc[1] + r * ey[j], pc[2] + r * ez[j], r,
+                                                        cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu, two_over_lambda,
+                                                        half)
+            taps_2d(flat, cnu, nu, base, wr, wu, f, ktab, ore, oim, i * nu)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -404,31 +343,8 @@ def _tile_order(shape, tile: int = 32) -> np.ndarray:
     return slots[slots >= 0]
 
 
-@numba.njit(fastmath=True, cache=True)
-def _demod_kernel(values, r, two_over_lambda, out_re, out_im):  # pragma: no cover - compiled
-    # serial: ~1 ns a point; a parallel region per subaperture cost more than the work on a loaded machine
-    for i in range(values.size):
-        cyc = r[i] * two_over_lambda
-        xh = -math.pi * (cyc - math.floor(cyc + 0.5))
-        t2 = xh * xh
-        sn = xh * (_S0 + t2 * (_S1 + t2 * (_S2 + t2 * (_S3 + t2 * (_S4 + t2 * _S5)))))
-        cs = _C0 + t2 * (_C1 + t2 * (_C2 + t2 * (_C3 + t2 * (_C4 + t2 * (_C5 + t2 * _C6)))))
-        c = cs * cs - sn * sn
-        s_ = 2.0 * sn * cs
-        out_re[i] = values[i].real * c - values[i].imag * s_
-        out_im[i] = values[i].real * s_ + values[i].imag * c
-
-
-def _demodulate_parts(values: np.ndarray, r: np.ndarray, lam: float):
-    """(re, im) of ``values * exp(-j 4 pi r / lambda)`` (phase reduced in float64, polynomial sin/cos)."""
-    out_re = np.empty(values.size)
-    out_im = np.empty(values.size)
-    _demod_kernel(np.ascontiguousarray(values.ravel()), np.ascontiguousarray(r.ravel()), 2.0 / lam, out_re, out_im)
-    return out_re, out_im
-
-
 def _demodulate(values: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
-    re, im = _demodulate_parts(values, r, lam)
+    re, im = demodulate_parts(values, r, lam)
     return (re + 1j * im).reshape(values.shape)
 
 
@@ -447,17 +363,17 @@ class _Former:
         block (complex64, as ``backproject_fan`` does per call) and zero-padded for the kernel's taps."""
         data, rng = self.rc.data[k0:k1], self.rc.slant_range
         if self.interpolation == "upsample":
-            data, rng = _upsample_pulses(data, rng, self.upsample, np.complex64)
+            data, rng = upsample_pulses(data, rng, self.upsample, np.complex64)
         n = data.shape[1]
-        padded = np.zeros((data.shape[0], n + 2 * _PAD), dtype=np.complex64)
-        padded[:, _PAD:_PAD + n] = data
+        padded = np.zeros((data.shape[0], n + 2 * PAD), dtype=np.complex64)
+        padded[:, PAD:PAD + n] = data
         d = float(rng[1] - rng[0])
         self._pulses = (k0, k1, padded, (float(rng[0]) / d, 1.0 / d, float(n - 1), 2.0 / self.lam,
-                                         _MODE[self.interpolation], DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK))
+                                         GATHER_MODE[self.interpolation], DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK))
 
     def _level0(self, grid: _Polar, k0: int, k1: int) -> np.ndarray:
         """Exact back-projection of pulses k0..k1 along the grid's lines of constant u (range quadratic along each
-        line: ``backprojection._bpa_fan_kernel``), demodulated by exp(-j 4 pi r / lambda) (a function of the line's
+        line: ``backprojection.bpa_fan_kernel``), demodulated by exp(-j 4 pi r / lambda) (a function of the line's
         range only): the (nr, nu) complex64 polar image."""
         if self._pulses is None or not (self._pulses[0] <= k0 and k1 <= self._pulses[1]):
             self._prepare(k0, k1)
@@ -465,10 +381,10 @@ class _Former:
         e = grid.directions(self.v)
         out_re = np.zeros(grid.nu * grid.nr)
         out_im = np.zeros(grid.nu * grid.nr)
-        _bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
+        bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
                         np.ascontiguousarray(self.pos[k0:k1]), padded[k0 - b0:k1 - b0], *common, out_re, out_im)
         r = grid.r0 + np.arange(grid.nr) * grid.dr
-        d_re, d_im = _demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
+        d_re, d_im = demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
         vals = (out_re + 1j * out_im).reshape(grid.nu, grid.nr)
         return np.ascontiguousarray((vals * (d_re + 1j * d_im)[None, :]).T, dtype=np.complex64)
 
@@ -574,14 +490,14 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
         centre = origin + 0.5 * (ny - 1) * e_row + 0.5 * (nx - 1) * e_col
         n_pix = ny * nx
     else:
-        g, pts = _points(g)
+        g, pts = grid_points(g)
         shape = pts.shape[:-1]
         hull = _hull_points(pts)
         flat = pts.reshape(-1, 3)
         centre = flat.mean(axis=0)
         n_pix = flat.shape[0]
-    data, rng, pos = _check_pulses(rc, positions)
-    lam = _wavelength(rc, wavelength)
+    data, rng, pos = check_pulses(rc, positions)
+    lam = wavelength_of(rc, wavelength)
     dr_data = float(rng[1] - rng[0])
     bw = _C / (2.0 * dr_data) if bandwidth is None else float(bandwidth)
     if not (math.isfinite(bw) and bw > 0):
@@ -602,7 +518,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
                        FFBP_KERNELS[kernel]) \
         if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) and isinstance(merge, int) \
         and base_pulses >= 1 and merge >= 2 else None
-    _check_interpolation(interpolation, upsample)
+    check_interpolation(interpolation, upsample)
     interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)   # "auto" once for all pulses
     plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
                      cost=cost, kernel=kernel, data_error=_range_error(rc, interpolation, upsample, bw))
@@ -635,7 +551,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
             _evaluate(sub, tiled, zero, v, lam, former.ktab, out_re, out_im)
         values = np.empty(flat.shape[0], dtype=np.complex128)
         values[order] = out_re + 1j * out_im
-    img = _image(g, values.reshape(shape), rc, lam, interpolation, upsample, "ffbp")
+    img = sar_image(g, values.reshape(shape), rc, lam, interpolation, upsample, "ffbp")
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
                          "ffbp_oversample": plan.oversample, "ffbp_kernel": plan.kernel,
                          "ffbp_predicted_error_db": plan.predicted_error_db})
@@ -656,9 +572,9 @@ def polar_image(rc: PulseData, grid, positions=None, *, wavelength: float | None
     -------
     (values (Nr, Nu) complex128, r (Nr,) [m], u (Nu,), s (P,) pulse offsets along v [m], lambda [m])
     """
-    g, pts = _points(grid)
-    data, rng, pos = _check_pulses(rc, positions)
-    lam = _wavelength(rc, wavelength)
+    g, pts = grid_points(grid)
+    data, rng, pos = check_pulses(rc, positions)
+    lam = wavelength_of(rc, wavelength)
     bw = _C / (2.0 * float(rng[1] - rng[0])) if bandwidth is None else float(bandwidth)
     track = pos[-1] - pos[0]
     if data.shape[0] < 2 or np.linalg.norm(track) == 0:

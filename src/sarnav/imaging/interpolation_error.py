@@ -11,7 +11,8 @@ A signal whose spectrum is flat over |f| <= 1/(2 os) (``os`` = sampling rate / s
 the oversampling) has error ``mean_f eps(f)`` over that band; a separable 2-D kernel applied to a
 2-D flat band has ``eps(fr, fu) = |1 - K(fr)K(fu)|^2 + sum_{(k1,k2) != 0} |K(fr+k1)|^2 |K(fu+k2)|^2``.
 
-Kernels: "nearest" (box), "linear" (triangle, K = sinc^2), "cubic" (Keys 1981, a = -1/2). The
+Kernels (defined in :mod:`sarnav.imaging.kernels`): "nearest" (box), "linear" (triangle, K = sinc^2),
+"cubic" (Keys 1981, a = -1/2). The
 ``upsample`` mode of back-projection is "linear" at ``os * upsample`` (the FFT zero-padding is exact
 for a band-limited periodic pulse). FFBP also has "kaiser6": the 6-tap Kaiser-windowed sinc
 ``k(x) = sinc(x) I0(beta sqrt(1 - (x/3)^2)) / I0(beta)`` on |x| < 3 (interpolating: k(0) = 1, k(n) = 0),
@@ -28,34 +29,14 @@ import math
 import numpy as np
 
 from sarnav.errors import ConfigError
+from sarnav.imaging.kernels import KERNELS, WINDOWED, point_kernel, windowed_sinc
 
 __all__ = ["kernel_spectrum", "interpolation_error", "interpolation_error_2d", "kaiser_beta", "windowed_sinc", "kernel_values",
            "summed_interpolation_error",
            "KERNELS", "WINDOWED"]
 
-KERNELS = ("nearest", "linear", "cubic")
-#: windowed-sinc kernels: name -> taps (beta from the oversampling, :func:`kaiser_beta`)
-WINDOWED = {"kaiser6": 6}
 _ALIASES = 6          # images k = -6..6 in the alias sum (|K| falls as 1/f^2 .. 1/f^4)
 _BAND_POINTS = 401    # quadrature points across the band
-
-
-def _kernel(name: str, x: np.ndarray) -> np.ndarray:
-    ax = np.abs(x)
-    if name == "nearest":
-        return np.where(ax < 0.5, 1.0, np.where(ax == 0.5, 0.5, 0.0))
-    if name == "linear":
-        return np.clip(1.0 - ax, 0.0, None)
-    a = -0.5
-    return np.where(ax <= 1.0, (a + 2) * ax**3 - (a + 3) * ax**2 + 1,
-                    np.where(ax < 2.0, a * ax**3 - 5 * a * ax**2 + 8 * a * ax - 4 * a, 0.0))
-
-
-def windowed_sinc(x, taps: int, beta: float) -> np.ndarray:
-    """Kaiser-windowed sinc of ``taps`` taps: sinc(x) I0(beta sqrt(1 - (2x/taps)^2)) / I0(beta), 0 for |x| >= taps/2."""
-    x = np.asarray(x, dtype=np.float64)
-    arg = np.clip(1.0 - (2.0 * x / taps) ** 2, 0.0, None)
-    return np.where(np.abs(x) < taps / 2, np.sinc(x) * np.i0(beta * np.sqrt(arg)) / np.i0(beta), 0.0)
 
 
 def kernel_spectrum(name: str, f, beta: float | None = None) -> np.ndarray:
@@ -76,7 +57,7 @@ def kernel_spectrum(name: str, f, beta: float | None = None) -> np.ndarray:
         return np.sinc(f) ** 2
     # Keys cubic: numerical cosine transform on a fine grid (the kernel is piecewise cubic on [-2, 2])
     x = (np.arange(2000) + 0.5) / 1000.0               # midpoints on (0, 2] (error of the rule ~1e-8)
-    k = _kernel("cubic", x)
+    k = point_kernel("cubic", x)
     return 2.0 * np.cos(2.0 * np.pi * np.multiply.outer(f, x)) @ k / 1000.0
 
 
@@ -86,7 +67,7 @@ def kernel_values(name: str, x, os: float | None = None) -> np.ndarray:
         return windowed_sinc(x, WINDOWED[name], kaiser_beta(name, float(os)))
     if name not in KERNELS:
         raise ConfigError("kernel", f"must be one of {KERNELS + tuple(WINDOWED)}, got {name!r}")
-    return _kernel(name, np.asarray(x, dtype=np.float64))
+    return point_kernel(name, x)
 
 
 def _band(os: float) -> np.ndarray:

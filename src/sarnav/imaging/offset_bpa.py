@@ -39,13 +39,12 @@ import numba
 import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.imaging.backprojection import _COS, _PAD, _SIN, _check_pulses, _points, _wavelength
+from sarnav.imaging.backprojection import check_pulses, grid_points, wavelength_of
+from sarnav.imaging.kernels import PAD, cis64
 from sarnav.signal.data import PulseData
 
 __all__ = ["OffsetMoments", "offset_moments", "order_for"]
 
-_S0, _S1, _S2, _S3, _S4, _S5 = (float(c) for c in _SIN)
-_C0, _C1, _C2, _C3, _C4, _C5, _C6 = (float(c) for c in _COS)
 #: pixels per parallel work item
 DEFAULT_BLOCK = 64
 #: pulses per pass over the image
@@ -88,19 +87,15 @@ def _moment_block(x_, y_, z_, ant, lever, ex, ey, ez, dre, dim, k_start, k_stop,
             r = math.sqrt(dx * dx + dy * dy + dz * dz)
             u = r * inv_dr - u_offset
             valid = (u >= 0.0) & (u <= u_max)
-            uc = min(max(u, 0.0), u_max) + _PAD
+            uc = min(max(u, 0.0), u_max) + PAD
             fl = math.floor(uc)
             idx[i] = np.uint64(fl)
             wgt[i] = uc - fl
             cyc = r * two_over_lambda
-            f = cyc - math.floor(cyc + 0.5)
-            xh = math.pi * f
-            t = xh * xh
-            sn = xh * (_S0 + t * (_S1 + t * (_S2 + t * (_S3 + t * (_S4 + t * _S5)))))
-            cs = _C0 + t * (_C1 + t * (_C2 + t * (_C3 + t * (_C4 + t * (_C5 + t * _C6)))))
+            ph_c, ph_s = cis64(cyc - math.floor(cyc + 0.5))
             m = 1.0 if valid else 0.0
-            cph[i] = (cs * cs - sn * sn) * m
-            sph[i] = 2.0 * sn * cs * m
+            cph[i] = ph_c * m
+            sph[i] = ph_s * m
             xs[i] = -tau * (dx * ex + dy * ey + dz * ez) / r
         for i in range(n):
             mx = max(mx, abs(xs[i]))
@@ -292,19 +287,19 @@ def offset_moments(rc: PulseData, grid, base_positions, direction, lever, order:
     """
     if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 0 <= order <= 64:
         raise ConfigError("order", f"must be an integer in [0, 64], got {order!r}")
-    data, rng, pos = _check_pulses(rc, base_positions)
-    lam = _wavelength(rc, wavelength)
+    data, rng, pos = check_pulses(rc, base_positions)
+    lam = wavelength_of(rc, wavelength)
     tau = np.asarray(lever, dtype=np.float64)
     if tau.shape != (data.shape[0],) or not np.all(np.isfinite(tau)):
         raise InputDataError("lever", f"must be a finite ({data.shape[0]},) array, got shape {tau.shape}")
     e = _check_direction(direction)
-    g, pts = _points(grid)
+    g, pts = grid_points(grid)
     flat = pts.reshape(-1, 3)
     n_samp = data.shape[1]
-    dre = np.zeros((data.shape[0], n_samp + 2 * _PAD), dtype=np.float32)
+    dre = np.zeros((data.shape[0], n_samp + 2 * PAD), dtype=np.float32)
     dim = np.zeros_like(dre)
-    dre[:, _PAD:_PAD + n_samp] = data.real
-    dim[:, _PAD:_PAD + n_samp] = data.imag
+    dre[:, PAD:PAD + n_samp] = data.real
+    dim[:, PAD:PAD + n_samp] = data.imag
     dr = float(rng[1] - rng[0])
     q1 = int(order) + 1
     m_re, m_im, n_re, n_im = (np.zeros((q1, flat.shape[0])) for _ in range(4))

@@ -8,7 +8,7 @@ notes/seed-000 §9, notes/seed-001 §2.1), on range-compressed pulses ``rc`` (ro
 3. range-variant RCMC (eq. 5/9): row ``f_eta`` is resampled at ``R0 + dR(f_eta, R0)`` with
    ``dR = lambda^2 R0 f_eta^2 / (8 V^2)``, by an 8-tap Kaiser-windowed sinc (beta = 2.5, 1024
    fractional positions, taps normalised to unit DC gain; the kernel Cumming & Wong 2005 §3.4
-   recommend, gap G9);
+   recommend, gap G9; tabulated in :mod:`sarnav.imaging.kernels`, ``rcmc_kernel_table``);
 4. azimuth matched filter per range bin (eqs. 10–12), by stationary phase
    ``H(f_eta) = exp(-j pi f_eta^2 / K_a)``, ``K_a = 2 V^2 / (lambda R0)`` (eq. 7);
 5. inverse azimuth FFT (eq. 13).
@@ -44,46 +44,19 @@ own along-track coordinate. Columns are slant range of closest approach (the ``r
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import numba
 import numpy as np
 import scipy.fft as sfft
-from scipy.special import i0
 
 from sarnav.errors import ConfigError, InputDataError
+from sarnav.imaging.kernels import RCMC_KERNELS, RCMC_TABLE_STEPS, rcmc_kernel_table
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.windows import as_window
 from sarnav.units import C
 
 __all__ = ["range_doppler", "azimuth_compressed_spectrum", "image_from_focused", "apply_azimuth_filter", "rcmc_kernel_table", "radar_constants",
-           "along_track_axis", "RCMC_KERNELS"]
-
-#: RCMC interpolation kernels: name -> (taps, Kaiser beta); "none" skips RCMC.
-RCMC_KERNELS = {"sinc8": (8, 2.5), "sinc16": (16, 2.5), "none": (0, 0.0)}
-_TABLE_STEPS = 1024
-
-
-@lru_cache(maxsize=8)
-def rcmc_kernel_table(taps: int = 8, beta: float = 2.5, steps: int = _TABLE_STEPS) -> np.ndarray:
-    """Windowed-sinc interpolation weights, shape (steps + 1, taps).
-
-    Row q interpolates at fractional offset ``q / steps`` past sample ``base``; tap t multiplies sample
-    ``base - taps/2 + 1 + t``. Weight = sinc(d) * Kaiser(d; beta) over |d| <= taps/2, each row
-    normalised to sum 1 (unit gain at zero frequency); rows 0 and ``steps`` are exact unit impulses.
-    The returned array is read-only (cached).
-    """
-    half = taps // 2
-    frac = np.arange(steps + 1)[:, None] / steps
-    d = frac + (half - 1) - np.arange(taps)[None, :]  # distance from the sample to the target point
-    w = np.sinc(d) * i0(beta * np.sqrt(np.clip(1.0 - (d / half) ** 2, 0.0, None))) / i0(beta)
-    w /= w.sum(axis=1, keepdims=True)
-    w[0] = 0.0
-    w[0, half - 1] = 1.0
-    w[-1] = 0.0
-    w[-1, half] = 1.0
-    w.setflags(write=False)
-    return w
+           "along_track_axis", "uniform_prf", "RCMC_KERNELS"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -151,7 +124,7 @@ def apply_azimuth_filter(spec: np.ndarray, phase_per_metre: np.ndarray, slant_ra
     absf = np.zeros(spec.shape[0]) if abs_freq is None else np.asarray(abs_freq, dtype=np.float64)
     return _rcmc_and_filter(np.ascontiguousarray(spec), np.zeros(spec.shape[0]),
                             np.asarray(phase_per_metre, dtype=np.float64), float(r[0]), dr,
-                            rcmc_kernel_table(2, 0.0), _TABLE_STEPS, False, absf, float(fr_limit))
+                            rcmc_kernel_table(2, 0.0), RCMC_TABLE_STEPS, False, absf, float(fr_limit))
 
 
 def radar_constants(params) -> dict:
@@ -174,7 +147,8 @@ def radar_constants(params) -> dict:
     return {"carrier_frequency": fc, "wavelength": lam, "bandwidth": None if bw is None else float(bw)}
 
 
-def _prf(pulse_times: np.ndarray) -> float:
+def uniform_prf(pulse_times: np.ndarray) -> float:
+    """The pulse repetition frequency [Hz] of uniformly spaced ``pulse_times`` [s] (an error for any other)."""
     t = np.asarray(pulse_times, dtype=np.float64)
     if t.ndim != 1 or t.size < 2:
         raise InputDataError("rc.pulse_times", f"must be 1-D with >= 2 pulses, got shape {t.shape}")
@@ -275,7 +249,7 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     win = as_window(window, "window")
     consts = radar_constants(rc.params)
     lam = consts["wavelength"]
-    prf = _prf(rc.pulse_times)
+    prf = uniform_prf(rc.pulse_times)
     na = data.shape[0]
     cdtype = np.complex64 if data.dtype == np.complex64 else np.complex128
     x = data.astype(cdtype, copy=False)
@@ -307,7 +281,7 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
         raise ConfigError("band_limit", f"must be finite and >= 0 (0 = none), got {band_limit!r}")
     fr_limit = band_limit * 2.0 * speed**2 * na / prf / lam if band_limit > 0 else math.inf
     out = _rcmc_and_filter(np.ascontiguousarray(spec), shift.astype(np.float64), phase.astype(np.float64),
-                           float(r[0]), dr, table, _TABLE_STEPS, taps > 0, absf,
+                           float(r[0]), dr, table, RCMC_TABLE_STEPS, taps > 0, absf,
                            fr_limit * fm_rate_scale if apply_filter else math.inf)
     info = {"wavelength": lam, "carrier_frequency": consts["carrier_frequency"], "bandwidth": consts["bandwidth"],
             "prf": prf, "window": win.label, "rcmc_kernel": rcmc_kernel, "azimuth_model": azimuth_model,
@@ -355,7 +329,7 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
     if window is None:
         window = getattr(rc.params, "azimuth_window", None) or "none"
     if azimuth_padding is None:
-        t_block = data.shape[0] / _prf(rc.pulse_times)
+        t_block = data.shape[0] / uniform_prf(rc.pulse_times)
         k_mid = 2.0 * float(v) ** 2 / (radar_constants(rc.params)["wavelength"] * 0.5 * (r[0] + r[-1]))
         azimuth_padding = 1.0 if k_mid * t_block**2 >= 32.0 else 3.0
     spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,

@@ -65,7 +65,7 @@ def _seeds(seed, runs):
     return ss.spawn(runs)
 
 
-def _rngs(seqs, stream):
+def rngs_for(seqs, stream):
     """One Generator per run for a named stream (sensor noise, fixes, filter s, fusion) of that run."""
     return [np.random.default_rng(np.random.SeedSequence(s.entropy, spawn_key=s.spawn_key + (stream,)))
             for s in seqs]
@@ -158,11 +158,11 @@ def run_path1(runs: int = 4, seed=0, duration: float = 100.0, sensor_sigmas=PATH
     p_fix, v0 = path1(t_fix)[0], path1(0.0)[1]
     est, covs, errors, rmse, cloud_rmse = [], {}, {}, {}, {}
     for s, sig in enumerate(sensor_sigmas):
-        noise = np.stack([g.standard_normal((t_fix.size, 3)) for g in _rngs(seqs, 10 + s)])
+        noise = np.stack([g.standard_normal((t_fix.size, 3)) for g in rngs_for(seqs, 10 + s)])
         meas = FixStream(t_fix, p_fix[None] + sig * noise, np.full(3, sig))
         pf = GridParticleFilter(frame, n_particles, accel_psd, noise_at="fix", ess_threshold=0.5, kernel_h=0.3)
         pf.initialize(0.0, meas.position[:, 0], np.broadcast_to(v0, (runs, 3)), [1.0, 0, 0, 0],
-                      np.diag([sig**2] * 3 + [1.0] * 3), _rngs(seqs, 20 + s))
+                      np.diag([sig**2] * 3 + [1.0] * 3), rngs_for(seqs, 20 + s))
         out = pf.run(imu, duration, meas, t_fix)
         est.append(out.position)
         covs[f"sensor{s + 1}"] = out.position_cov
@@ -170,9 +170,9 @@ def run_path1(runs: int = 4, seed=0, duration: float = 100.0, sensor_sigmas=PATH
         rmse[f"sensor{s + 1}"] = _rms(errors[f"sensor{s + 1}"], t_fix, settle)
         cloud_rmse[f"sensor{s + 1}"] = _cloud_rms(out, errors[f"sensor{s + 1}"], t_fix, settle)
     est = np.stack(est, 1)
-    fix = p_fix[None] + fix_sigma * np.stack([g.standard_normal((t_fix.size, 3)) for g in _rngs(seqs, 30)])
+    fix = p_fix[None] + fix_sigma * np.stack([g.standard_normal((t_fix.size, 3)) for g in rngs_for(seqs, 30)])
     errors["mean"] = mean_fuse(est) - p_fix
-    errors["sir"] = _fuse_at_fixes(est, fix, np.full(3, fix_sigma), n_draws, _rngs(seqs, 31), per_axis) - p_fix
+    errors["sir"] = _fuse_at_fixes(est, fix, np.full(3, fix_sigma), n_draws, rngs_for(seqs, 31), per_axis) - p_fix
     errors["fix"] = fix - p_fix
     for k in ("mean", "sir", "fix"):
         rmse[k] = _rms(errors[k], t_fix, settle)
@@ -271,8 +271,8 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
     flight = GeodeticFlight(climb_and_turn(duration, speed), *ORIGIN)
     t_fix = uniform_times(0.0, duration, 20.0)
     truth, _ = _truth_native(flight, t_fix)
-    fixes = simulate_fixes(flight, t_fix, fix_sigma, _rngs(seqs, 1), fix_bias)
-    fix_for = lambda s: fixes if shared_fix else simulate_fixes(flight, t_fix, fix_sigma, _rngs(seqs, 50 + s), fix_bias)  # noqa: E731
+    fixes = simulate_fixes(flight, t_fix, fix_sigma, rngs_for(seqs, 1), fix_bias)
+    fix_for = lambda s: fixes if shared_fix else simulate_fixes(flight, t_fix, fix_sigma, rngs_for(seqs, 50 + s), fix_bias)  # noqa: E731
     psd = lambda name, rate: (spec_accel_psd(name, rate) if isinstance(accel_psd, str) and accel_psd == "spec"  # noqa: E731
                               else accel_psd[name] if isinstance(accel_psd, dict) else accel_psd)
     t_adis, t_nov = uniform_times(0.0, duration, 100.0), uniform_times(0.0, duration, 200.0)
@@ -280,16 +280,16 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
     est, errors, rmse, cloud, covs = [], {}, {}, {}, {}
     imus = []
     for s in range(n_adis):
-        imu = rig_imu(flight, t_adis, ADIS_LEVER_ARMS[s], adis, _rngs(seqs, 10 + s))
+        imu = rig_imu(flight, t_adis, ADIS_LEVER_ARMS[s], adis, rngs_for(seqs, 10 + s))
         imus.append(imu)
         pos, out = _aided_pf(flight, imu, fix_for(s), ADIS_LEVER_ARMS[s], n_particles, psd("adis16465", 100.0),
-                             _rngs(seqs, 20 + s), t_fix, duration)
+                             rngs_for(seqs, 20 + s), t_fix, duration)
         est.append(pos)
         covs[f"sensor{s + 1}"] = out.position_cov
         errors[f"sensor{s + 1}"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
         cloud[f"sensor{s + 1}"] = _cloud_rms(out, errors[f"sensor{s + 1}"], t_fix, settle)
-    nov = rig_imu(flight, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), _rngs(seqs, 5))
-    pos, out = _aided_pf(flight, nov, fixes, np.zeros(3), n_particles, psd("novatel-isa-100c", 200.0), _rngs(seqs, 6),
+    nov = rig_imu(flight, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), rngs_for(seqs, 5))
+    pos, out = _aided_pf(flight, nov, fixes, np.zeros(3), n_particles, psd("novatel-isa-100c", 200.0), rngs_for(seqs, 6),
                          t_fix, duration)
     errors["novatel"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
     cloud["novatel"] = _cloud_rms(out, errors["novatel"], t_fix, settle)
@@ -298,14 +298,14 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
         f, w = virtual_imu(np.stack([i.specific_force for i in imus]), np.stack([i.angular_rate for i in imus]),
                            ADIS_LEVER_ARMS[:n_adis], 0.01)
         pos, out = _aided_pf(flight, ImuStream(t_adis, f, w), fix_for(9), np.zeros(3), n_particles,
-                             psd("adis16465", 100.0) / n_adis, _rngs(seqs, 7), t_fix, duration)
+                             psd("adis16465", 100.0) / n_adis, rngs_for(seqs, 7), t_fix, duration)
         errors["vimu"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
         covs["vimu"] = out.position_cov
     # fusion in NED metres about the truth (any common origin gives the same weights)
     est_ned = np.stack([geodetic_difference_ned(*np.moveaxis(p, -1, 0), *np.moveaxis(truth, -1, 0)) for p in est], 1)
     fix_ned = geodetic_difference_ned(*np.moveaxis(fixes.position, -1, 0), *np.moveaxis(truth, -1, 0))
     errors["mean"] = mean_fuse(est_ned)
-    errors["sir"] = _fuse_at_fixes(est_ned, fix_ned, np.asarray(fix_sigma), n_draws, _rngs(seqs, 40), per_axis)
+    errors["sir"] = _fuse_at_fixes(est_ned, fix_ned, np.asarray(fix_sigma), n_draws, rngs_for(seqs, 40), per_axis)
     errors["fix"] = fix_ned
     for k, e in errors.items():
         rmse[k] = _rms(e, t_fix, settle)
@@ -403,14 +403,14 @@ def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles:
     q = spec_accel_psd(imu, imu_rate) if accel_psd == "spec" else float(accel_psd)
     sig = np.asarray(fix_sigma, dtype=float)
     s0 = geo.state(0.0)
-    rng = {"imu": _rngs(seqs, 1), "fix": _rngs(seqs, 2)}
+    rng = {"imu": rngs_for(seqs, 1), "fix": rngs_for(seqs, 2)}
     ba, bg = model.initial_biases(rng["imu"])
-    fix0 = simulate_fixes(geo, np.array([0.0]), sig, _rngs(seqs, 4)).position[:, 0]
+    fix0 = simulate_fixes(geo, np.array([0.0]), sig, rngs_for(seqs, 4)).position[:, 0]
     p0 = np.diag(np.r_[sig**2, [0.05**2] * 3])
     v0 = np.broadcast_to(s0.velocity, (runs, 3))
     filters = {"upf": GridParticleFilter(frame, n_particles, q, model="geodetic", noise_at=noise_at,
                                          ess_threshold=0.5, kernel_h=0.3).initialize(0.0, fix0, v0, s0.quaternion,
-                                                                                     p0, _rngs(seqs, 3)),
+                                                                                     p0, rngs_for(seqs, 3)),
                "kf-interp": GridKalmanFilter(frame, q, coriolis=kf_coriolis).initialize(0.0, fix0, v0, s0.quaternion,
                                                                                          p0)}
     acc = _UpfAccumulator(runs, settle, fix_rate, record_rate)
@@ -565,8 +565,8 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
     sig = np.asarray(fix_sigma, dtype=float)
     t_fix = uniform_times(0.0, t_end, 20.0)
     corr = np.asarray(fix_correlated, dtype=float)
-    bias = correlated_fix_errors(t_fix, corr, fix_tau, _rngs(seqs, 5)) if np.any(corr > 0) else np.zeros(3)
-    fixes = simulate_fixes(geo, t_fix, sig, _rngs(seqs, 1), bias)
+    bias = correlated_fix_errors(t_fix, corr, fix_tau, rngs_for(seqs, 5)) if np.any(corr > 0) else np.zeros(3)
+    fixes = simulate_fixes(geo, t_fix, sig, rngs_for(seqs, 1), bias)
     sig = np.hypot(sig, corr)  # what the filters assume
     fixes = FixStream(fixes.times, fixes.position, sig)
     truth0 = _truth_native(geo, pulse_times[:1])[0][0]
@@ -576,7 +576,7 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
     p0 = np.diag(np.r_[sig**2, [0.05**2] * 3])
     v0 = np.broadcast_to(s0.velocity, (runs, 3))
     t_nov = uniform_times(0.0, t_end, 200.0)
-    nov = rig_imu(geo, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), _rngs(seqs, 2))
+    nov = rig_imu(geo, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), rngs_for(seqs, 2))
     q_nov = spec_accel_psd("novatel-isa-100c", 200.0) if accel_psd == "spec" else float(accel_psd)
     t_win = t_nov[(t_nov >= pulse_times[0] - 0.05) & (t_nov <= pulse_times[-1] + 0.05)]
     # the filters' grid merges epochs closer than TIME_TOLERANCE (filters.pulse_grid): an IMU sample that close to a
@@ -596,7 +596,7 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
 
     if want & {"upf", "spline-pf"}:
         pf = GridParticleFilter(frame, n_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
-        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, _rngs(seqs, 3))
+        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, rngs_for(seqs, 3))
         o = pf.run(nov, t_end, fixes, both)
         out["upf"] = to_ned(o.position[:, at_pulse])
         k = np.isin(both, t_nov)
@@ -613,7 +613,7 @@ def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | 
         out["spline-gps"] = to_ned(spline_positions(t_fix, fixes.position, pulse_times))
     if "novatel" in want:
         pf = GridParticleFilter(frame, adis_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
-        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, _rngs(seqs, 4))
+        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, rngs_for(seqs, 4))
         out["novatel"] = to_ned(pf.run(nov, t_end, fixes, pulse_times).position)
     if "sir-3adis" in want:
         out["sir-3adis"] = _sir_at_pulses(geo, fixes, pulse_times, t_end, adis_particles, accel_psd, n_draws,
@@ -630,13 +630,13 @@ def _sir_at_pulses(geo, fixes, pulse_times, t_end, n_particles, accel_psd, n_dra
     grid = np.union1d(pulse_times, fixes.times)
     est = []
     for s in range(3):
-        imu = rig_imu(geo, t_adis, ADIS_LEVER_ARMS[s], model, _rngs(seqs, 60 + s))
-        pos, _ = _aided_pf(geo, imu, fixes, ADIS_LEVER_ARMS[s], n_particles, q, _rngs(seqs, 70 + s), grid, t_end)
+        imu = rig_imu(geo, t_adis, ADIS_LEVER_ARMS[s], model, rngs_for(seqs, 60 + s))
+        pos, _ = _aided_pf(geo, imu, fixes, ADIS_LEVER_ARMS[s], n_particles, q, rngs_for(seqs, 70 + s), grid, t_end)
         est.append(to_ned(pos))
     est = np.stack(est, 1)  # (R, 3, T, 3)
     fix_ned = to_ned(fixes.position)
     is_fix = np.isin(grid, fixes.times)
-    rngs = _rngs(seqs, 80)
+    rngs = rngs_for(seqs, 80)
     fused = np.empty((est.shape[0], grid.size, 3))
     idx = np.zeros((est.shape[0], n_draws, 3), dtype=np.int64)  # equal draws before the first fix
     idx[:, :, :] = np.arange(n_draws)[None, :, None] % 3

@@ -60,7 +60,7 @@ from sarnav.radar.scene import Scene, beside_track, clutter_beside_track, point_
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
 from sarnav.simulation.fusion_records import SourceRecords, source_records
-from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, _rngs, gnss_ins_sim_imu, spec_accel_psd
+from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, gnss_ins_sim_imu, rngs_for, spec_accel_psd
 from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.sampled import closest_approach
 
@@ -174,7 +174,7 @@ def _sensors(setup: SarFixSetup, traj, seq) -> list[_Sensor]:
     """The rig's IMUs and their PFs, initialised at one common estimate drawn from P0 (per run)."""
     s0 = traj.state(0.0)
     C0 = quat_to_dcm(s0.quaternion)
-    e0 = np.asarray(setup.p0_sigma) * _rngs([seq], 90)[0].standard_normal(6)
+    e0 = np.asarray(setup.p0_sigma) * rngs_for([seq], 90)[0].standard_normal(6)
     p0 = np.diag(np.asarray(setup.p0_sigma) ** 2)
     frame = NavFrame()
     out = []
@@ -183,11 +183,11 @@ def _sensors(setup: SarFixSetup, traj, seq) -> list[_Sensor]:
         adis = name != "novatel"
         lever = ADIS_LEVER_ARMS[s] if adis else np.zeros(3)
         preset, rate = ("adis16465", 100.0) if adis else ("novatel-isa-100c", 200.0)
-        imu = _rig_imu(traj, uniform_times(0.0, t_end, rate), lever, gnss_ins_sim_imu(preset, rate), _rngs([seq], 10 + s))
+        imu = _rig_imu(traj, uniform_times(0.0, t_end, rate), lever, gnss_ins_sim_imu(preset, rate), rngs_for([seq], 10 + s))
         pf = GridParticleFilter(frame, setup.n_particles, setup.psd_scale * spec_accel_psd(preset, rate),
                                 noise_at="fix", ess_threshold=0.5, kernel_h=0.3, fix_lever_arm=-lever)
         pf.initialize(0.0, (s0.position + e0[:3] + C0 @ lever)[None], (s0.velocity + e0[3:])[None], s0.quaternion,
-                      p0, _rngs([seq], 20 + s))
+                      p0, rngs_for([seq], 20 + s))
         out.append(_Sensor(name, lever, imu, pf))
     return out
 
@@ -343,10 +343,10 @@ def _one_run(setup: SarFixSetup, seed):
     sensors = _sensors(setup, traj, seed)
     U = setup.n_apertures
     targets = reference_targets(setup)
-    rng_meas, rng_fuse, rng_alt = (_rngs([seed], k)[0] for k in (30, 40, 41))
+    rng_meas, rng_fuse, rng_alt = (rngs_for([seed], k)[0] for k in (30, 40, 41))
     imager = None
     if setup.fix_source == "sar":
-        cseed = int(_rngs([seed], 50)[0].integers(2**63))
+        cseed = int(rngs_for([seed], 50)[0].integers(2**63))
         imager = SubApertureImager(radar=setup.radar, truth=traj, targets=targets,
                                    scene_for=_scene_factory(setup, targets),
                                    reflector_amplitude=setup.reflector_amplitude, snr_db=setup.snr_db,

@@ -39,7 +39,8 @@ from sarnav.trajectory.orbit import STEERING, KeplerElements, OrbitTruth, antenn
 __all__ = ["OpenLoopParams", "OpenLoopResult", "run_open_loop", "check_geometry", "radial_intrack_crosstrack", "orbit_frame_dcm"]
 
 
-def _steps(field_name: str, value: float, dt: float) -> int:
+def steps_of(field_name: str, value: float, dt: float) -> int:
+    """``value`` [s] as a whole number >= 1 of steps ``dt`` [s] (ConfigError naming ``field_name`` otherwise)."""
     n = int(round(value / dt))
     if n < 1 or abs(n * dt - value) > 1e-9 * max(1.0, value):
         raise ConfigError(field_name, f"must be a positive multiple of the mechanization step {dt} s, got {value!r}")
@@ -87,12 +88,12 @@ class OpenLoopParams:
             raise ConfigError("truth.misalignment_psd", f"must be finite and >= 0 rad^2/s, got "
                               f"{self.truth_misalignment_psd!r}")
         dt = self.mekf.dt
-        _steps("simulation.duration", self.duration, dt)
-        _steps("simulation.update_interval", self.update_interval, dt)
-        _steps("simulation.record_interval", self.record_interval, dt)
-        every = _steps("simulation.truth_dt", self.truth_dt, dt)
+        steps_of("simulation.duration", self.duration, dt)
+        steps_of("simulation.update_interval", self.update_interval, dt)
+        steps_of("simulation.record_interval", self.record_interval, dt)
+        every = steps_of("simulation.truth_dt", self.truth_dt, dt)
         for name in ("update_interval", "record_interval"):
-            if _steps(name, getattr(self, name), dt) % every:
+            if steps_of(name, getattr(self, name), dt) % every:
                 raise ConfigError(f"simulation.{name}", f"must be a multiple of truth_dt = {self.truth_dt} s")
         if self.n_updates is not None and not (isinstance(self.n_updates, int) and self.n_updates >= 0):
             raise ConfigError("simulation.n_updates", f"must be an integer >= 0 or None, got {self.n_updates!r}")
@@ -118,8 +119,8 @@ class OpenLoopParams:
 
     def update_steps(self) -> np.ndarray:
         dt = self.mekf.dt
-        every = _steps("update_interval", self.update_interval, dt)
-        total = _steps("duration", self.duration, dt)
+        every = steps_of("update_interval", self.update_interval, dt)
+        total = steps_of("duration", self.duration, dt)
         steps = np.arange(every, total + 1, every)
         return steps if self.n_updates is None else steps[: self.n_updates]
 
@@ -183,7 +184,7 @@ def run_open_loop(params: OpenLoopParams, seeds: Sequence[np.random.SeedSequence
     rngs = [np.random.Generator(np.random.PCG64(s)) for s in seeds]
     runs, dt = len(rngs), params.mekf.dt
     truth_orbit = OrbitTruth(params.elements, params.duration, params.truth_dt)
-    every = _steps("truth_dt", params.truth_dt, dt)
+    every = steps_of("truth_dt", params.truth_dt, dt)
     q_true = np.tile([1.0, 0.0, 0.0, 0.0], (runs, 1))  # G17: the true misalignment is the identity
 
     def truth_at(step: int) -> OrbitalNavState:
@@ -198,7 +199,7 @@ def run_open_loop(params: OpenLoopParams, seeds: Sequence[np.random.SeedSequence
         return quat_normalize(quat_multiply(rotvec_to_quat(-d), q))
 
     upd = params.update_steps()
-    rec = np.arange(0, _steps("duration", params.duration, dt) + 1, _steps("record", params.record_interval, dt))
+    rec = np.arange(0, steps_of("duration", params.duration, dt) + 1, steps_of("record", params.record_interval, dt))
     events = np.union1d(rec, upd)
     out = _Recorder(runs, events.size, upd.size)
     est, _ = disperse(truth_at(0), params.sigma0, rngs)

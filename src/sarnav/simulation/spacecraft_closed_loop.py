@@ -24,7 +24,7 @@ from sarnav.navigation import fuse
 from sarnav.ins.orbital import OrbitalNavState
 from sarnav.measurements.spacecraft import CenterPixelMeasurement, effective_velocity
 from sarnav.measurements.spacecraft_image import STAGES, ImagingConfig, SpacecraftImager
-from sarnav.simulation.spacecraft import OpenLoopParams, _steps, orbit_frame_dcm
+from sarnav.simulation.spacecraft import OpenLoopParams, orbit_frame_dcm, steps_of
 from sarnav.trajectory.orbit import OrbitTruth, antenna_dcm, body_dcm
 
 __all__ = ["ClosedLoopParams", "ClosedLoopRun", "run_closed_loop", "first_measurement_statistics", "imager_for",
@@ -157,7 +157,7 @@ def _one_run(params, seed, truth_orbit, T_bs, imager) -> ClosedLoopRun:
     b = params.base
     rng = np.random.Generator(np.random.PCG64(seed))
     dt = b.mekf.dt
-    every = _steps("truth_dt", b.truth_dt, dt)
+    every = steps_of("truth_dt", b.truth_dt, dt)
     q_true = np.array([[1.0, 0.0, 0.0, 0.0]])
 
     def truth_at(step):
@@ -165,7 +165,7 @@ def _one_run(params, seed, truth_orbit, T_bs, imager) -> ClosedLoopRun:
         return OrbitalNavState(truth_orbit.r[k:k + 1], truth_orbit.v[k:k + 1], q_true)
 
     upd = b.update_steps()
-    rec_steps = np.arange(0, _steps("duration", b.duration, dt) + 1, _steps("record", b.record_interval, dt))
+    rec_steps = np.arange(0, steps_of("duration", b.duration, dt) + 1, steps_of("record", b.record_interval, dt))
     events = np.union1d(rec_steps, upd)
     out = _Record(events.size, upd.size)
     est, _ = disperse(truth_at(0), b.sigma0, [rng])
