@@ -22,13 +22,19 @@ class ErrorStateKind(ScenarioKind):
     """A kind whose runs are an error-state filter over one state layout (``telemetry``, ``rda-nav``).
 
     Subclasses set ``layout`` (an ``ErrorStateLayout``), ``measurement_names`` / ``measurement_units``,
-    ``parse`` (cfg -> validated parameters in SI; raises ConfigError) and ``simulate_runs`` (parameters,
-    run_ids, seeds -> records); validation, names and the ``simulate`` checks are shared here.
+    ``parse`` (cfg -> validated parameters in SI; raises ConfigError), ``simulate_runs`` (parameters, run_ids, seeds
+    -> records: the experiment's, ``staticmethod`` of the function in ``sarnav.simulation``) and ``extra`` (the
+    results.nc attributes of the kind's extra variables); validation, names and the ``simulate`` checks are shared
+    here.
     """
 
     layout = None
     measurement_names: tuple[str, ...] = ()
     measurement_units: tuple[str, ...] = ()
+    extra: dict = {}
+
+    def extra_attrs(self, cfg: dict) -> dict[str, dict]:
+        return self.extra
 
     def parse(self, cfg: dict):  # pragma: no cover - replaced by subclasses
         raise NotImplementedError

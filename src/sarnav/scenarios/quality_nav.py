@@ -14,7 +14,6 @@ from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
 from sarnav.measurements.focus_image import FocusSettings
 from sarnav.montecarlo.kind import validate_campaign
-from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import boolean, choice, integer, number
@@ -169,14 +168,9 @@ class QualityNavKind(ErrorStateKind):
     def optional_keys(self) -> list[str]:
         return optional_keys()
 
-    def parse(self, cfg: dict):
-        return parse(cfg)
-
-    def simulate_runs(self, prm, run_ids, seeds) -> list[RunRecord]:
-        return simulate_runs(prm, run_ids, seeds)
-
-    def extra_attrs(self, cfg: dict) -> dict[str, dict]:
-        return EXTRA_ATTRS
+    parse = staticmethod(parse)
+    simulate_runs = staticmethod(simulate_runs)
+    extra = EXTRA_ATTRS
 
     def figures(self, results, outdir) -> list[str]:
         """The along-track velocity error of the runs against the filter's 3-sigma and the free INS's (run 0 flown

@@ -20,7 +20,6 @@ from sarnav.errors import ConfigError, require_finite
 from sarnav.measurements.sar import CROSS_RANGE_MODELS
 from sarnav.measurements.sar_image import ALGORITHMS, FOCUS, ImagingSettings
 from sarnav.montecarlo.kind import validate_campaign
-from sarnav.montecarlo.record import RunRecord
 from sarnav.navigation import error_model
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.error_state import ErrorStateKind
@@ -349,14 +348,9 @@ class RdaNavKind(ErrorStateKind):
     def meas_units(self, cfg: dict) -> list[str]:
         return ["m"] * (1 + 2 * _targets(cfg))
 
-    def parse(self, cfg: dict):
-        return parse(cfg)
-
-    def simulate_runs(self, prm, run_ids, seeds) -> list[RunRecord]:
-        return simulate_runs(prm, run_ids, seeds)
-
-    def extra_attrs(self, cfg: dict) -> dict[str, dict]:
-        return extra_attrs()
+    parse = staticmethod(parse)
+    simulate_runs = staticmethod(simulate_runs)
+    extra = extra_attrs()
 
     def extra_coords(self, cfg: dict) -> dict:
         return {"stage": (list(STAGES), {"units": "", "description": "stages of the imaging chain and the update, "

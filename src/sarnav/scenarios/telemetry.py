@@ -14,7 +14,6 @@ import numpy as np
 from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
-from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import bounded_positive, get
 from sarnav.scenarios.fields import positive as _pos
@@ -159,13 +158,8 @@ class TelemetryKind(ErrorStateKind):
     measurement_names = tuple(MEAS_NAMES)
     measurement_units = tuple(MEAS_UNITS)
 
-    def parse(self, cfg: dict):
-        return parse(cfg)
-
-    def simulate_runs(self, prm, run_ids, seeds) -> list[RunRecord]:
-        return simulate_runs(prm, run_ids, seeds)
-
-    def extra_attrs(self, cfg: dict) -> dict[str, dict]:
-        return EXTRA_ATTRS
+    parse = staticmethod(parse)
+    simulate_runs = staticmethod(simulate_runs)
+    extra = EXTRA_ATTRS
 
 
