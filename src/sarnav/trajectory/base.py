@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sarnav.errors import InputDataError
+from sarnav.errors import ConfigError, InputDataError, require_finite, require_positive
 from sarnav.frames import earth_rate_or_zero
 from sarnav.rotations import quat_to_dcm
 
@@ -86,6 +86,18 @@ class Trajectory(ABC):
         if earth_rate is None:
             return om
         return om + _to_body(q, np.broadcast_to(earth_rate_or_zero(earth_rate), om.shape))
+
+
+def set_track(traj, start, speed, heading, duration) -> None:
+    """Validate and set the start NED position [m], ground speed [m/s], heading [rad] and duration [s] of a flight
+    path (``StraightLevel``, ``Maneuvering``); errors name the ``trajectory.*`` key."""
+    start = np.asarray(start, dtype=float)
+    if start.shape != (3,) or not np.all(np.isfinite(start)):
+        raise ConfigError("trajectory.start_ned", f"must be 3 finite numbers [m], got {start.tolist()}")
+    traj.start = start
+    traj.speed = require_positive("trajectory.speed", speed, "m/s")
+    traj.heading = require_finite("trajectory.heading", heading, lo=-2 * np.pi, hi=2 * np.pi, unit="rad")
+    traj.duration = require_positive("trajectory.duration", duration, "s")
 
 
 def _to_body(q, x_n):

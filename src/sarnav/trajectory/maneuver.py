@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.trajectory.base import Trajectory, TrajectoryState
+from sarnav.errors import require_positive
+from sarnav.trajectory.base import Trajectory, TrajectoryState, set_track
 from sarnav.trajectory.flight_path import path_kinematics
 from sarnav.trajectory.rate_profile import RateProfile
 
@@ -33,13 +33,7 @@ class Maneuvering(Trajectory):
     """
 
     def __init__(self, start, speed, heading, turn_rate: RateProfile, climb_rate: RateProfile, duration):
-        start = np.asarray(start, dtype=float)
-        if start.shape != (3,) or not np.all(np.isfinite(start)):
-            raise ConfigError("trajectory.start_ned", f"must be 3 finite numbers [m], got {start.tolist()}")
-        self.start = start
-        self.speed = require_positive("trajectory.speed", speed, "m/s")
-        self.heading = require_finite("trajectory.heading", heading, lo=-2 * np.pi, hi=2 * np.pi, unit="rad")
-        self.duration = require_positive("trajectory.duration", duration, "s")
+        set_track(self, start, speed, heading, duration)
         self.turn_rate = turn_rate
         self.climb_rate = climb_rate
         brk = np.concatenate([turn_rate.breakpoints(), climb_rate.breakpoints(), np.arange(0.0, self.duration, 1.0)])

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sarnav.errors import ConfigError, require_finite, require_positive
-from sarnav.trajectory.base import Trajectory, TrajectoryState
+from sarnav.trajectory.base import Trajectory, TrajectoryState, set_track
 from sarnav.trajectory.flight_path import path_kinematics
 
 
@@ -21,13 +20,7 @@ class StraightLevel(Trajectory):
     """
 
     def __init__(self, start, speed: float, heading: float, duration: float):
-        start = np.asarray(start, dtype=float)
-        if start.shape != (3,) or not np.all(np.isfinite(start)):
-            raise ConfigError("trajectory.start_ned", f"must be 3 finite numbers [m], got {start.tolist()}")
-        self.start = start
-        self.speed = require_positive("trajectory.speed", speed, "m/s")
-        self.heading = require_finite("trajectory.heading", heading, lo=-2 * np.pi, hi=2 * np.pi, unit="rad")
-        self.duration = require_positive("trajectory.duration", duration, "s")
+        set_track(self, start, speed, heading, duration)
 
     def _kin(self, t):
         z = np.zeros_like(t)
