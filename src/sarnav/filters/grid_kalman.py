@@ -18,7 +18,7 @@ that is the source's KF, and what the particle filter's geodetic model adds (cla
 
 Q: white acceleration noise of PSD ``accel_psd`` [m^2/s^3] per axis, exact over each sub-step
 ``Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]`` (these compose exactly, so splitting an IMU interval into
-sub-steps leaves P at the IMU epochs unchanged, T10). The update is ``sarnav.filters.joseph_update``.
+sub-steps leaves P at the IMU epochs unchanged, T10). The update is ``sarnav.filters.update.fuse`` (Joseph form).
 
 ``mode="reset"`` is the aided INS without a filter (§3.3, L721-726): dead reckoning with the same model and
 the position set to the fix at each fix epoch (the source's sawtooth).
@@ -33,7 +33,8 @@ import numba
 import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.filters.ekf import joseph_update
+from sarnav.filters.prediction import Prediction
+from sarnav.filters.update import fuse
 from sarnav.filters.pulse_grid import GridFilter, ImuStream, NavFrame
 from sarnav.frames.earth import OMEGA_EARTH
 from sarnav.ins.geodetic import gravity_scalar, attitude_step_inplace, navigation_rate_inplace, rotate_to_nav
@@ -169,9 +170,12 @@ class GridKalmanFilter(GridFilter):
         if self.mode == "reset":
             self.x[:, :3] = zl
             return
-        H = np.broadcast_to(np.hstack([np.eye(3), np.zeros((3, 3))]), (self.x.shape[0], 3, 6))
-        dx, self.P, _ = joseph_update(self.P, H, np.diag(np.asarray(sigma, dtype=float) ** 2), zl - self.x[:, :3])
-        self.x = self.x + dx
+        runs = self.x.shape[0]
+        H = np.broadcast_to(np.hstack([np.eye(3), np.zeros((3, 3))]), (runs, 3, 6))
+        Rm = np.broadcast_to(np.diag(np.asarray(sigma, dtype=float) ** 2), (runs, 3, 3))
+        up = fuse(self.P, Prediction(self.x[:, :3], H, Rm), zl).update  # a position fix: H = [I 0]
+        self.P = up.P
+        self.x = self.x + up.dx
 
     def _current(self):
         return self.frame.to_native(self.x[:, :3]), self.x[:, 3:].copy(), self.q.copy()

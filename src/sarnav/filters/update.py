@@ -5,6 +5,8 @@ Separate from the measurement models (Stone Soup's updater/model split): a model
 
 * :func:`joseph` — Kalman gain, Joseph-form covariance (thesis eqs. 3.20-3.22); the noise must be independent of
   the state error (``prediction.C`` is refused).
+* :func:`fuse` — the one update every filter calls: Joseph or correlated by the prediction, components left out
+  (``keep``), Lear's underweighting (``beta``); returns :class:`Fused` (the NIS over the components present).
 * :func:`correlated` — measurement noise correlated with the state error, cov(dx, nu) = C (Brown & Hwang); used
   for delayed-state measurements (``sarnav.filters.delayed``). C = None counts as zero (the form differs from
   Joseph's in rounding only).
@@ -23,8 +25,9 @@ import numpy as np
 from sarnav.errors import InputDataError
 from sarnav.filters.ekf import correlated_update, joseph_update, normalized_squared
 from sarnav.filters.prediction import Prediction
+from sarnav.filters.underweighting import underweighted_update
 
-__all__ = ["Update", "joseph", "correlated", "innovation_covariance", "chi2_gate", "present_nis"]
+__all__ = ["Update", "Fused", "fuse", "joseph", "correlated", "innovation_covariance", "chi2_gate", "present_nis"]
 
 
 @dataclass(frozen=True)
@@ -113,3 +116,50 @@ def present_nis(residual, S, present) -> tuple[np.ndarray, np.ndarray]:
         if idx.size:
             nis[i] = float(residual[i, idx] @ np.linalg.solve(S[i][np.ix_(idx, idx)], residual[i, idx]))
     return nis, dof
+
+
+@dataclass(frozen=True)
+class Fused:
+    """One event's update for R runs: the strategy's :class:`~sarnav.filters.Update`, the components that
+    took part (``keep`` (R, m)), the NIS over them (``nis`` (R,)) and their count (``dof`` (R,))."""
+
+    update: Update
+    keep: np.ndarray
+    nis: np.ndarray
+    dof: np.ndarray
+
+    @property
+    def residual(self) -> np.ndarray:
+        """(R, m) z - z_hat of the components present, NaN elsewhere."""
+        return np.where(self.keep, self.update.residual, np.nan)
+
+    @property
+    def residual_sigma(self) -> np.ndarray:
+        """(R, m) sqrt(diag S) of the components present, NaN elsewhere."""
+        return np.where(self.keep, self.update.residual_sigma, np.nan)
+
+
+def fuse(P, pred: Prediction, z, keep=None, beta=None) -> Fused:
+    """The one Kalman update of every filter over a covariance ``P`` (R, n, n) (the navigator, the MEKF, the
+    pulse-grid KF): ``z`` (R, m) predicted by
+    ``pred``; the components where ``keep`` (R, m) is False take no part (``Prediction.masked``, their z replaced by
+    z_hat) and the NIS counts the rest. Joseph form when ``pred.C`` is None, else the correlated form
+    (above); ``beta`` (R,) Lear's underweighting (``filters.underweighting``, spacecraft paper eqs. 35-43:
+    Joseph form with R' = beta H P H^T + R, uncorrelated noise only). The caller applies the correction (the INS
+    feedback of ``navigation.Navigator``, the MEKF reset)."""
+    if beta is not None:
+        if pred.C is not None or keep is not None:
+            raise InputDataError("beta", "underweighting applies to uncorrelated, unmasked updates only")
+        r = np.asarray(z, dtype=np.float64) - pred.z_hat
+        up = Update(*underweighted_update(P, pred, r, beta), r)
+        return Fused(up, np.ones(r.shape, dtype=bool), up.nis, np.full(pred.runs, pred.dim, dtype=np.int64))
+    if keep is None or np.all(keep):
+        keep = np.ones(pred.z_hat.shape, dtype=bool)
+        up = joseph(P, pred, z) if pred.C is None else correlated(P, pred, z)
+        nis, dof = up.nis, np.full(pred.runs, pred.dim, dtype=np.int64)
+    else:
+        keep = np.asarray(keep, dtype=bool)
+        zz, masked = np.where(keep, z, pred.z_hat), pred.masked(keep)
+        up = joseph(P, masked, zz) if pred.C is None else correlated(P, masked, zz)
+        nis, dof = present_nis(up.residual, up.S, keep)
+    return Fused(up, keep, nis, dof)

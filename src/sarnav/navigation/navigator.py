@@ -30,9 +30,9 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters import ErrorStateLayout, ErrorStateModel, apply_feedback, propagate_covariance, update
+from sarnav.filters.update import Fused, fuse
 from sarnav.filters.gaussian_sum import GaussianSum, gaussian_sum_update
 from sarnav.filters.prediction import Prediction
-from sarnav.filters.underweighting import underweighted_update
 from sarnav.ins import NavState, mechanize
 from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.sensors.imu import ImuSpec
@@ -64,52 +64,6 @@ class Interval:
     estimates: tuple
     Phi: np.ndarray | None = None
     Qd: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class Fused:
-    """One event's update for R runs: the strategy's :class:`~sarnav.filters.update.Update`, the components that
-    took part (``keep`` (R, m)), the NIS over them (``nis`` (R,)) and their count (``dof`` (R,))."""
-
-    update: update.Update
-    keep: np.ndarray
-    nis: np.ndarray
-    dof: np.ndarray
-
-    @property
-    def residual(self) -> np.ndarray:
-        """(R, m) z - z_hat of the components present, NaN elsewhere."""
-        return np.where(self.keep, self.update.residual, np.nan)
-
-    @property
-    def residual_sigma(self) -> np.ndarray:
-        """(R, m) sqrt(diag S) of the components present, NaN elsewhere."""
-        return np.where(self.keep, self.update.residual_sigma, np.nan)
-
-
-def fuse(P, pred: Prediction, z, keep=None, beta=None) -> Fused:
-    """The one error-state update of every filter over a covariance ``P`` (R, n, n): ``z`` (R, m) predicted by
-    ``pred``; the components where ``keep`` (R, m) is False take no part (``Prediction.masked``, their z replaced by
-    z_hat) and the NIS counts the rest. Joseph form when ``pred.C`` is None, else the correlated form
-    (``filters.update``); ``beta`` (R,) Lear's underweighting (``filters.underweighting``, spacecraft paper eqs. 35-43:
-    Joseph form with R' = beta H P H^T + R, uncorrelated noise only). The caller applies the correction (the INS
-    feedback of :class:`Navigator`, the MEKF reset)."""
-    if beta is not None:
-        if pred.C is not None or keep is not None:
-            raise InputDataError("beta", "underweighting applies to uncorrelated, unmasked updates only")
-        r = np.asarray(z, dtype=np.float64) - pred.z_hat
-        up = update.Update(*underweighted_update(P, pred, r, beta), r)
-        return Fused(up, np.ones(r.shape, dtype=bool), up.nis, np.full(pred.runs, pred.dim, dtype=np.int64))
-    if keep is None or np.all(keep):
-        keep = np.ones(pred.z_hat.shape, dtype=bool)
-        up = update.joseph(P, pred, z) if pred.C is None else update.correlated(P, pred, z)
-        nis, dof = up.nis, np.full(pred.runs, pred.dim, dtype=np.int64)
-    else:
-        keep = np.asarray(keep, dtype=bool)
-        zz, masked = np.where(keep, z, pred.z_hat), pred.masked(keep)
-        up = update.joseph(P, masked, zz) if pred.C is None else update.correlated(P, masked, zz)
-        nis, dof = update.present_nis(up.residual, up.S, keep)
-    return Fused(up, keep, nis, dof)
 
 
 class Navigator:
