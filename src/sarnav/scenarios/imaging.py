@@ -43,6 +43,7 @@ from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.radar.params import pulse_clock, window_over
 from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
@@ -238,13 +239,10 @@ def radar_params(cfg: dict):
     for key, field in (("pulse_length_us", "pulse_length"), ("sample_rate_mhz", "sample_rate")):
         if field in fields:  # used for the receive window before RadarParams sees them
             require_positive(f"radar.{key}", fields[field])
-    t_p = fields.get("pulse_length", 0.0)
-    pad = units.C * t_p / 4.0 + float(cfg["radar"]["range_margin_m"])
-    lo, hi = imaged_slant_ranges(cfg)
-    dr = units.C / (2.0 * fields["sample_rate"])
-    n = int(math.ceil((hi - lo + 2 * pad) / dr)) + 1
+    window = window_over(imaged_slant_ranges(cfg), fields.get("pulse_length", 0.0), fields["sample_rate"],
+                         float(cfg["radar"]["range_margin_m"]))
     azimuth_window = {"azimuth_window": cfg["image"]["window"]} if preset is None else {}
-    return make_radar(preset, dict(fields, **azimuth_window), near_range=lo - pad, n_range_samples=n)
+    return make_radar(preset, dict(fields, **azimuth_window), **window)
 
 
 def trajectory(cfg: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -252,7 +250,7 @@ def trajectory(cfg: dict) -> tuple[np.ndarray, np.ndarray]:
     tr = cfg["trajectory"]
     prf = float(cfg["radar"]["prf_hz"])
     n = int(round(tr["duration"] * prf))
-    t = (np.arange(n, dtype=np.float64) - n // 2) / prf
+    t = pulse_clock(n, prf, 0.0, n // 2)
     start = np.asarray(tr["start_ned"], dtype=np.float64)
     pos = np.zeros((n, 3))
     pos[:, 0] = start[0] + float(tr["speed"]) * t

@@ -90,9 +90,9 @@ def read_geometry(cfg: dict) -> QualityGeometry:
                           f"{samples:.3g} echo samples; at most {MAX_ECHO_SAMPLES:.3g} (fewer pulses, a smaller scene "
                           "or a smaller geometry.range_margin_m)")
     try:  # the source's fixed PRF must cover the Doppler band at this speed (the echoes would alias)
-        geo.radar().validate(speed=speed)
+        geo.radar().check_doppler(speed)
     except ConfigError as err:
-        if err.field != "radar.prf":
+        if err.field != "prf":
             raise
         raise ConfigError("geometry.speed", f"{err.message} (the PRF is the source's; lower geometry.speed)") from None
     return geo
