@@ -21,7 +21,7 @@ class PulseData:
 
     Everything image formation reads is an explicit field, filled by whoever builds the data
     (``radar.echoes.simulate_echoes`` from its ``RadarParams``, ``signal.phase_history``,
-    ``io.cphd``); a field a step needs and finds None is an ``InputDataError`` naming it.
+    ``io.cphd``); a step that needs a field and finds None raises an error naming it.
 
     Attributes
     ----------
