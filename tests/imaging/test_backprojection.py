@@ -8,7 +8,7 @@ the azimuth response is that of a uniformly weighted aperture of P pulses, lengt
 
 from __future__ import annotations
 
-from types import SimpleNamespace
+from dataclasses import replace
 
 import numba
 import numpy as np
@@ -60,7 +60,7 @@ def analytic(target, n_pulses: int, n: int = 320) -> PulseData:
     r_t = np.linalg.norm(np.asarray(target) - pos, axis=1)
     ranges = R0 - 120.0 + np.arange(n) * C / (2 * FS)
     data = np.sinc(2 * BW / C * (ranges[None, :] - r_t[:, None])) * np.exp(-4j * np.pi * r_t[:, None] / LAM)
-    return PulseData(data, ranges, times, pos, SimpleNamespace(wavelength=LAM), compressed=True)
+    return PulseData(data, ranges, times, pos, None, compressed=True, wavelength=LAM)
 
 
 def error_db(a, b) -> float:
@@ -112,7 +112,7 @@ def test_compiled_equals_float64_numpy_reference_random_scene(interpolation):
     pos += rng.normal(0.0, 2.0, pos.shape)            # irregular (non-straight) trajectory
     ranges = R0 - 60.0 + np.arange(n_r) * C / (2 * FS)
     data = rng.standard_normal((n_p, n_r)) + 1j * rng.standard_normal((n_p, n_r))
-    rc = PulseData(data, ranges, times, pos, SimpleNamespace(wavelength=LAM), compressed=True)
+    rc = PulseData(data, ranges, times, pos, None, compressed=True, wavelength=LAM)
     pts = np.empty((40, 50, 3))
     pts[..., 0] = rng.uniform(-60, 60, (40, 50))
     pts[..., 1] = EAST + rng.uniform(-80, 80, (40, 50))   # some pixels fall outside the range window
@@ -142,7 +142,7 @@ def test_phase_exact_at_spaceborne_range():
     pos[:, 2] = -800e3
     ranges = 800e3 - 50.0 + np.arange(256) * 0.5
     data = rng.standard_normal((n_p, 256)) + 1j * rng.standard_normal((n_p, 256))
-    rc = PulseData(data, ranges, np.arange(n_p) / PRF, pos, SimpleNamespace(wavelength=LAM), compressed=True)
+    rc = PulseData(data, ranges, np.arange(n_p) / PRF, pos, None, compressed=True, wavelength=LAM)
     pts = np.stack([rng.uniform(0, 200, 500), rng.uniform(-100, 100, 500), np.zeros(500)], axis=1)
     a = backproject_points(rc, pts)
     b = backproject_numpy(rc, pts[None]).data[0]
@@ -160,7 +160,7 @@ def _irregular_track_pulses(n_p=48, n_r=200, seed=5):
     pos += rng.normal(0.0, 2.0, pos.shape)
     ranges = R0 - 60.0 + np.arange(n_r) * C / (2 * FS)
     data = rng.standard_normal((n_p, n_r)) + 1j * rng.standard_normal((n_p, n_r))
-    return PulseData(data, ranges, times, pos, SimpleNamespace(wavelength=LAM), compressed=True)
+    return PulseData(data, ranges, times, pos, None, compressed=True, wavelength=LAM)
 
 
 @pytest.mark.parametrize("interpolation", ["nearest", "linear", "cubic"])
@@ -237,14 +237,13 @@ def test_bad_inputs_name_the_argument():
     with pytest.raises(InputDataError, match="^positions.*shape"):
         backproject(rc, grid, positions=rc.positions[:-1])
     with pytest.raises(InputDataError, match="^rc.positions"):
-        backproject(PulseData(rc.data, rc.slant_range, rc.pulse_times, bad, rc.params, compressed=True), grid)
+        backproject(replace(rc, positions=bad), grid)
     with pytest.raises(InputDataError, match="^rc:.*range-compressed"):
-        backproject(PulseData(rc.data, rc.slant_range, rc.pulse_times, rc.positions, rc.params), grid)
+        backproject(replace(rc, compressed=False), grid)
     with pytest.raises(InputDataError, match="^rc.data"):
-        backproject(PulseData(rc.data[0], rc.slant_range, rc.pulse_times, rc.positions, rc.params, compressed=True), grid)
+        backproject(replace(rc, data=rc.data[0]), grid)
     with pytest.raises(InputDataError, match="^rc.slant_range"):
-        backproject(PulseData(rc.data, rc.slant_range[::-1], rc.pulse_times, rc.positions, rc.params,
-                              compressed=True), grid)
+        backproject(replace(rc, slant_range=rc.slant_range[::-1]), grid)
     with pytest.raises(InputDataError, match="^grid"):
         backproject(rc, np.full((2, 2, 3), np.nan))
     with pytest.raises(InputDataError, match="^grid"):

@@ -5,7 +5,7 @@ package: an unweighted LFM of bandwidth B compresses to sinc(2B(r - R)/c) with t
 exp(-j4piR/lambda) (docs/conventions.md), R(eta) = sqrt(R0^2 + (V eta - y_t)^2).
 """
 
-from types import SimpleNamespace
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -31,8 +31,7 @@ def synth_rc(targets, *, speed=V, prf=PRF, duration=T, r_near=1990.0, nr=160):
     for yt, r0, a in targets:
         rng = np.sqrt(r0**2 + (speed * t - yt) ** 2)
         data += a * np.sinc(2 * B * (r[None, :] - rng[:, None]) / C) * np.exp(-4j * np.pi * rng / LAM)[:, None]
-    params = SimpleNamespace(carrier_frequency=FC, bandwidth=B, prf=prf)
-    return PulseData(data, r, t, pos, params, compressed=True, metadata={"window": "none"})
+    return PulseData(data, r, t, pos, compressed=True, metadata={"window": "none"}, wavelength=LAM, bandwidth=B)
 
 
 @pytest.fixture(scope="module")
@@ -120,7 +119,7 @@ def test_estimated_positions_relabel_rows_and_speed_defaults_to_track():
 
 def test_complex64_input_and_kernel_table():
     rc = synth_rc([(30.0, R0, 1.0)])
-    rc64 = PulseData(rc.data.astype(np.complex64), rc.slant_range, rc.pulse_times, rc.positions, rc.params, True)
+    rc64 = replace(rc, data=rc.data.astype(np.complex64))
     a, b = range_doppler(rc, V).data, range_doppler(rc64, V).data
     assert b.dtype == np.complex64
     assert np.max(np.abs(a - b)) < 1e-4 * np.max(np.abs(a))
@@ -137,12 +136,12 @@ def test_bad_inputs_are_named():
         range_doppler(rc, V, rcmc_kernel="linear")
     with pytest.raises(ConfigError, match="window"):
         range_doppler(rc, V, window="blackman")
-    raw = PulseData(rc.data, rc.slant_range, rc.pulse_times, rc.positions, rc.params, compressed=False)
+    raw = replace(rc, compressed=False)
     with pytest.raises(InputDataError, match="rc.compressed"):
         range_doppler(raw, V)
     t = rc.pulse_times.copy()
     t[5] += 1e-3
-    bad = PulseData(rc.data, rc.slant_range, t, rc.positions, rc.params, compressed=True)
+    bad = replace(rc, pulse_times=t)
     with pytest.raises(InputDataError, match="rc.pulse_times"):
         range_doppler(bad, V)
     still = rc.with_positions(np.zeros_like(rc.positions))
@@ -249,7 +248,7 @@ def test_band_limit_passes_exactly_the_doppler_band_of_the_block():
     rng = np.random.default_rng(np.random.SeedSequence(3))
     rc = synth_rc([], nr=32)
     noise = rng.standard_normal(rc.data.shape) + 1j * rng.standard_normal(rc.data.shape)
-    rc = PulseData(noise, rc.slant_range, rc.pulse_times, rc.positions, rc.params, True)
+    rc = replace(rc, data=noise)
     img = range_doppler(rc, V, rcmc_kernel="none", band_limit=0.8)
     f = np.fft.fftfreq(rc.n_pulses, 1 / PRF)
     spec = np.fft.fft(noise, axis=0)

@@ -157,7 +157,7 @@ def test_target_outside_window_raises():
     pos, t = _track(p)
     lo, hi = p.target_range_limits
     ground_far = np.sqrt((hi + 1.0) ** 2 - 1000.0**2)
-    with pytest.raises(ConfigError, match="radar.near_range"):
+    with pytest.raises(ConfigError, match="^near_range"):
         simulate_echoes(p, pos, t, point_targets([[0.0, ground_far, 0.0]]))
     ground_near = np.sqrt((lo - 0.5) ** 2 - 1000.0**2)
     with pytest.raises(ConfigError, match="receive window"):
@@ -167,7 +167,7 @@ def test_target_outside_window_raises():
 def test_prf_below_doppler_bandwidth_raises():
     p = nav_paper_sim()  # B_D = 88.5 Hz at 10 m/s
     pos, t = _track(p, speed=12.0)  # B_D = 106 Hz > 100 Hz
-    with pytest.raises(ConfigError, match="radar.prf"):
+    with pytest.raises(ConfigError, match="^prf: must be >= the Doppler bandwidth"):
         simulate_echoes(p, pos, t, point_targets([[0.0, 1800.0, 0.0]]))
 
 

@@ -31,6 +31,7 @@ from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.range_compression import range_compress
 from sarnav.radar.echoes import simulate_echoes
+from sarnav.radar.params import pulse_clock
 from sarnav.radar.scene import point_targets
 from sarnav.signal.metrics import impulse_response, interpolate_value, peak_location
 from sarnav.trajectory.sampled import closest_approach
@@ -92,7 +93,7 @@ def make_geometry(speed: float, altitude: float, target_ground_range: float, ape
     centred on the aperture [0, ``aperture``] s."""
     speed, alt, yt, T = float(speed), float(altitude), float(target_ground_range), float(aperture)
     n = int(round(T * prf))
-    times = (np.arange(n) - 0.5 * (n - 1)) / prf + 0.5 * T  # pulses centred on the aperture, eta in [0, T]
+    times = pulse_clock(n, prf, 0.5 * T, 0.5 * (n - 1))  # pulses centred on the aperture, eta in [0, T]
     p0 = np.array([0.0, 0.0, -alt]) if start is None else np.asarray(start, dtype=np.float64)
     return Geometry(speed, p0, np.array([speed, 0.0, 0.0]),
                     np.array([p0[0] + speed * T / 2.0, p0[1] + yt, 0.0]), times, T)
@@ -253,7 +254,7 @@ def run_case(name: str, value: float, geo: Geometry, rc, ref_peak_amp: float, ir
     pred = sens.predict_shift(geo.target, geo.p0, geo.v0, dx0, (-geo.aperture, 2 * geo.aperture))
     plan = plan_case(name, value, geo, image, pred)
     p_hat, v_hat, q_pred = plan.p_hat, plan.v_hat, plan.q_pred
-    dk = sens.fm_rate_error(geo.target, geo.p0, geo.v0, dx0, rc.params.wavelength)
+    dk = sens.fm_rate_error(geo.target, geo.p0, geo.v0, dx0, rc.wavelength)
     pred_loss = sens.peak_loss_from_fm_rate_error(dk, geo.aperture)
     img = _image_around(rc, p_hat, plan.centre, plan.half[0], plan.half[1], image.spacing, image.interpolation)
     pk, p_img, amp = _peak(img)

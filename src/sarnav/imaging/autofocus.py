@@ -106,7 +106,7 @@ def _auto_padding(rc: PulseData, speed: float, bins: float = 32.0) -> float:
     from sarnav.imaging.rda import radar_constants, uniform_prf
 
     t_block = rc.n_pulses / uniform_prf(rc.pulse_times)
-    k = _mid_fm_rate(rc, speed, radar_constants(rc.params)["wavelength"])
+    k = _mid_fm_rate(rc, speed, radar_constants(rc)["wavelength"])
     return float(min(64.0, max(3.0, bins / (k * t_block**2))))
 
 
@@ -229,7 +229,7 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, looks: str = "subaper
         if abs(shift) < tolerance_px:
             break
     if window is None:
-        window = getattr(rc.params, "azimuth_window", None) or "none"
+        window = rc.azimuth_window or "none"
     if as_window(window, "window").name == "none":  # eq. (16): corrected filter on the same spectrum
         img = image_from_focused(rc, sfft.ifft(compressed(spec0, scale), axis=0)[:n], info, speed,
                                  fm_rate_scale=scale, along_track_origin=along_track_origin)

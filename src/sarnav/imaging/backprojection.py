@@ -221,7 +221,7 @@ def wavelength_of(rc: PulseData, wavelength) -> float:
     if wavelength is None:
         wavelength = rc.carrier_wavelength
         if wavelength is None:
-            raise ConfigError("wavelength", "not given, and rc has neither a wavelength nor params.wavelength; "
+            raise ConfigError("wavelength", "not given, and rc carries no wavelength; "
                               "pass wavelength= [m] > 0")
     lam = float(wavelength)
     if not math.isfinite(lam) or lam <= 0:
@@ -259,13 +259,13 @@ def check_pulses(rc: PulseData, positions):
 
 
 def data_oversampling(rc: PulseData, bandwidth: float | None = None) -> float:
-    """fs / B of range-compressed pulses: fs = c / (2 dr); B = ``bandwidth``, else ``rc.params.bandwidth``,
+    """fs / B of range-compressed pulses: fs = c / (2 dr); B = ``bandwidth``, else ``rc.bandwidth``,
     else the width of the pulses' mean power spectrum above 1 % of its peak (>= 1 bin)."""
     rng = np.asarray(rc.slant_range, dtype=np.float64)
     if np.ndim(rc.data) != 2 or np.shape(rc.data)[1] < 2 or rng.ndim != 1 or rng.size < 2 or not rng[1] > rng[0]:
         return 1.0                     # malformed: the input checks that follow name the problem
     fs = 299792458.0 / (2.0 * float(rng[1] - rng[0]))
-    bw = bandwidth if bandwidth is not None else getattr(rc.params, "bandwidth", None)
+    bw = bandwidth if bandwidth is not None else rc.bandwidth
     if bw is None:
         data = np.asarray(rc.data)
         sel = data[:: max(1, data.shape[0] // 64)]
@@ -480,10 +480,10 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto"
         (:func:`resolve_interpolation`): linear when its predicted error is <= -35 dB (fs/B >~ 5.6),
         else upsample ×2/4/8/16 (fs/B = 1.2 -> ×4, error ~ -35 dB); docs/backprojection.md gives
         each mode's error.
-    bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.params.bandwidth`` or estimated
+    bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.bandwidth`` or estimated
         from the pulses' power spectrum.
     wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
-        ``rc.params.wavelength``): a ``PulseData`` needs no ``RadarParams`` to be back-projected.
+        None): a ``PulseData`` needs no ``RadarParams`` to be back-projected.
     upsample : FFT oversampling factor for ``interpolation="upsample"`` (integer in [2, 64]).
     block : pixels per parallel work item (tuning only; the result does not depend on it).
     pulse_block : pulses per pass over the image (tuning only; changes only the float64 summation

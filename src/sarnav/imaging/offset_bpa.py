@@ -277,7 +277,7 @@ def offset_moments(rc: PulseData, grid, base_positions, direction, lever, order:
     direction : (3,) direction e of the offsets (normalised here).
     lever : (P,) float64 lever tau_k of each pulse (offset of candidate delta at pulse k = delta tau_k) [any unit].
     order : expansion order Q >= 0 (:func:`order_for` picks one from the largest phase lever).
-    wavelength : carrier wavelength [m]; default ``rc.params.wavelength``.
+    wavelength : carrier wavelength [m]; default ``rc.wavelength``.
     block, pulse_block : pixels per parallel work item and pulses per pass (tuning only).
 
     Returns

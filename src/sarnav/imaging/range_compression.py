@@ -12,6 +12,7 @@ for any window.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -20,14 +21,16 @@ import scipy.fft as sfft
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData
 from sarnav.signal.windows import as_window, frequency_weights
-from sarnav.radar.waveform import replica
+from sarnav.radar.waveform import sampled_replica
 
 
 FILTER_MODES = ("matched", "equalized")
 
 
-def matched_filter(params, nfft: int, window="none", mode: str = "matched") -> np.ndarray:
-    """(nfft,) normalised range-compression filter H(f) / g.
+def matched_filter(sample_rate: float, bandwidth: float, pulse_length: float, nfft: int, window="none",
+                   mode: str = "matched") -> np.ndarray:
+    """(nfft,) normalised range-compression filter H(f) / g of the centred chirp of bandwidth B =
+    ``bandwidth`` [Hz] and duration T = ``pulse_length`` [s] sampled at fs = ``sample_rate`` [Hz].
 
     ``mode="matched"``: H = conj(P(f)) W(f), the matched filter (thesis (5.3)); its output spectrum
     W |P|^2 carries the Fresnel ripple of the finite time-bandwidth chirp, so weighted sidelobes
@@ -38,18 +41,18 @@ def matched_filter(params, nfft: int, window="none", mode: str = "matched") -> n
     """
     if mode not in FILTER_MODES:
         raise ConfigError("mode", f"must be one of {FILTER_MODES}, got {mode!r}")
-    t, p = replica(params)
+    t, p = sampled_replica(sample_rate, pulse_length, bandwidth / pulse_length)
     ref = np.zeros(nfft, dtype=np.complex128)
     half = (p.size - 1) // 2
     ref[: half + 1] = p[half:]  # t >= 0
     ref[nfft - half:] = p[:half]  # t < 0 wrapped to the end
     spec = sfft.fft(ref)
-    freqs = sfft.fftfreq(nfft, d=1.0 / params.sample_rate)
-    w = frequency_weights(window, freqs, params.bandwidth)
+    freqs = sfft.fftfreq(nfft, d=1.0 / sample_rate)
+    w = frequency_weights(window, freqs, bandwidth)
     if mode == "matched":
         h = np.conj(spec) * w
     else:
-        in_band = np.abs(freqs) <= 0.5 * params.bandwidth * (1 + 1e-12)
+        in_band = np.abs(freqs) <= 0.5 * bandwidth * (1 + 1e-12)
         if as_window(window).name == "none":
             w = in_band.astype(np.float64)
         h = np.where(in_band, w / np.where(in_band, spec, 1.0), 0.0)
@@ -62,32 +65,36 @@ def range_compress(raw: PulseData, window=None, mode: str = "matched", workers: 
 
     Parameters
     ----------
-    raw : PulseData with ``compressed=False`` and ``params`` a RadarParams.
-    window : spectral window (name, tuple, dict, Window); None uses ``raw.params.range_window``.
+    raw : PulseData with ``compressed=False`` and its ``sample_rate``, ``bandwidth`` and
+        ``pulse_length`` (``simulate_echoes`` fills them from the radar).
+    window : spectral window (name, tuple, dict, Window); None uses ``raw.range_window`` ("none"
+        when that is None).
     mode : "matched" (default, matched filter) or "equalized" (spectrum equalised to the window);
         see :func:`matched_filter`.
     workers : scipy.fft worker threads (None = scipy default).
 
     Returns
     -------
-    PulseData, ``compressed=True``, same ``slant_range``/``pulse_times``/``positions``; complex128
-    (complex64 input gives complex64); ``metadata`` gains ``range_window``.
+    PulseData, ``compressed=True``, same ``slant_range``/``pulse_times``/``positions`` and radar
+    fields; complex128 (complex64 input gives complex64); ``metadata`` gains ``range_window``.
     """
     if not isinstance(raw, PulseData):
         raise InputDataError("raw", f"must be a PulseData, got {type(raw).__name__}")
     if raw.compressed:
         raise InputDataError("raw.compressed", "data are already range compressed")
+    fs, bw, t_p = _waveform(raw)
     data = np.asarray(raw.data)
-    if data.ndim != 2 or data.shape[1] != raw.params.n_range_samples:
-        raise InputDataError("raw.data", f"must have shape (P, {raw.params.n_range_samples}), got {data.shape}")
+    n_r = np.size(raw.slant_range)
+    if data.ndim != 2 or data.shape[1] != n_r:
+        raise InputDataError("raw.data", f"must have shape (P, {n_r}) (one column per slant_range sample), "
+                             f"got {data.shape}")
     if not np.all(np.isfinite(data)):
         raise InputDataError("raw.data", "contains NaN or inf")
-    w = as_window(raw.params.range_window if window is None else window, "window")
-    params = raw.params
+    w = as_window((raw.range_window or "none") if window is None else window, "window")
     n = data.shape[1]
-    m = replica(params)[1].size
+    m = sampled_replica(fs, t_p, bw / t_p)[1].size
     nfft = sfft.next_fast_len(n + m)
-    h = matched_filter(params, nfft, w, mode)
+    h = matched_filter(fs, bw, t_p, nfft, w, mode)
     spec = sfft.fft(data, n=nfft, axis=1, workers=workers)
     spec *= h[None, :]
     out = sfft.ifft(spec, axis=1, workers=workers)[:, :n]
@@ -97,3 +104,13 @@ def range_compress(raw: PulseData, window=None, mode: str = "matched", workers: 
     meta["range_window"] = w.label
     meta["range_filter"] = mode
     return replace(raw, data=out, compressed=True, metadata=meta)
+
+
+def _waveform(raw: PulseData) -> tuple[float, float, float]:
+    """(sample_rate, bandwidth, pulse_length) of raw pulses, each finite and > 0 (InputDataError naming it)."""
+    values = (("sample_rate", raw.sample_rate), ("bandwidth", raw.bandwidth), ("pulse_length", raw.pulse_length))
+    for name, v in values:
+        if v is None or not (math.isfinite(v) and v > 0):
+            raise InputDataError(f"raw.{name}", f"range compression needs it finite and > 0, got {v!r} "
+                                 "(simulate_echoes fills it from the RadarParams)")
+    return raw.sample_rate, raw.bandwidth, raw.pulse_length

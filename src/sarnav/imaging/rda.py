@@ -53,7 +53,6 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.kernels import RCMC_KERNELS, RCMC_TABLE_STEPS, rcmc_kernel_table
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.windows import as_window
-from sarnav.units import C
 
 __all__ = ["range_doppler", "azimuth_compressed_spectrum", "image_from_focused", "apply_azimuth_filter", "rcmc_kernel_table", "radar_constants",
            "along_track_axis", "uniform_prf", "RCMC_KERNELS"]
@@ -127,24 +126,15 @@ def apply_azimuth_filter(spec: np.ndarray, phase_per_metre: np.ndarray, slant_ra
                             rcmc_kernel_table(2, 0.0), RCMC_TABLE_STEPS, False, absf, float(fr_limit))
 
 
-def radar_constants(params) -> dict:
-    """Carrier frequency, wavelength and bandwidth from a ``RadarParams``-like object.
-
-    Accepts attribute names ``wavelength`` or ``carrier_frequency`` / ``center_frequency`` /
-    ``carrier`` / ``fc``, and ``bandwidth``. Raises ``InputDataError("params", ...)`` if no carrier.
-    """
-    lam = getattr(params, "wavelength", None)
-    fc = None
-    for name in ("carrier_frequency", "center_frequency", "carrier", "fc", "f_c"):
-        if getattr(params, name, None) is not None:
-            fc = float(getattr(params, name))
-            break
-    if lam is None and fc is None:
-        raise InputDataError("params", "needs a carrier: 'wavelength' or 'carrier_frequency' attribute")
-    lam = float(lam) if lam is not None else C / fc
-    fc = fc if fc is not None else C / lam
-    bw = getattr(params, "bandwidth", None)
-    return {"carrier_frequency": fc, "wavelength": lam, "bandwidth": None if bw is None else float(bw)}
+def radar_constants(rc: PulseData) -> dict:
+    """Carrier frequency, wavelength and bandwidth of range-compressed pulses from their explicit
+    fields (``rc.wavelength``, ``rc.bandwidth``; f_c = c / lambda). Raises
+    ``InputDataError("rc.wavelength", ...)`` when the pulses carry no wavelength."""
+    lam = rc.carrier_wavelength
+    if lam is None or not (math.isfinite(lam) and lam > 0):
+        raise InputDataError("rc.wavelength", f"the RDA needs the carrier wavelength (finite, > 0 m), got {lam!r}")
+    bw = rc.bandwidth
+    return {"carrier_frequency": rc.carrier_frequency, "wavelength": lam, "bandwidth": None if bw is None else float(bw)}
 
 
 def uniform_prf(pulse_times: np.ndarray) -> float:
@@ -247,7 +237,7 @@ def azimuth_compressed_spectrum(rc: PulseData, speed: float, *, window="none", r
     if not (math.isfinite(fm_rate_scale) and fm_rate_scale > 0):
         raise ConfigError("fm_rate_scale", f"must be finite and > 0, got {fm_rate_scale!r}")
     win = as_window(window, "window")
-    consts = radar_constants(rc.params)
+    consts = radar_constants(rc)
     lam = consts["wavelength"]
     prf = uniform_prf(rc.pulse_times)
     na = data.shape[0]
@@ -303,7 +293,7 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
     speed : forward speed for K_a and RCMC [m/s]; default the slope of the straight-line fit of
         ``rc.positions`` (so an estimated trajectory forms the image).
     window : azimuth window, e.g. "none", "hamming", ("taylor", 4, -35); None (default) uses
-        ``rc.params.azimuth_window`` when the params have one, else "none".
+        ``rc.azimuth_window`` when the pulses carry one, else "none".
     rcmc_kernel : "sinc8" (default), "sinc16" or "none".
     azimuth_model : "parabolic" (paper) or "hyperbolic" (exact).
     along_track_origin : (3,) origin of the along-track axis (default: first antenna position).
@@ -327,10 +317,10 @@ def range_doppler(rc: PulseData, speed: float | None = None, *, window=None, rcm
     data, r = _check_inputs(rc)
     v = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3]) if speed is None else speed
     if window is None:
-        window = getattr(rc.params, "azimuth_window", None) or "none"
+        window = rc.azimuth_window or "none"
     if azimuth_padding is None:
         t_block = data.shape[0] / uniform_prf(rc.pulse_times)
-        k_mid = 2.0 * float(v) ** 2 / (radar_constants(rc.params)["wavelength"] * 0.5 * (r[0] + r[-1]))
+        k_mid = 2.0 * float(v) ** 2 / (radar_constants(rc)["wavelength"] * 0.5 * (r[0] + r[-1]))
         azimuth_padding = 1.0 if k_mid * t_block**2 >= 32.0 else 3.0
     spec, _, info = azimuth_compressed_spectrum(rc, v, window=window, rcmc_kernel=rcmc_kernel,
                                                 azimuth_model=azimuth_model, fm_rate_scale=fm_rate_scale,

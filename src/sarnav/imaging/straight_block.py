@@ -15,7 +15,7 @@ from sarnav.errors import ConfigError
 from sarnav.imaging.autofocus import contrast_autofocus, mapdrift
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import SlantGrid
-from sarnav.imaging.rda import range_doppler
+from sarnav.imaging.rda import radar_constants, range_doppler, uniform_prf
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.windows import as_window
 
@@ -43,7 +43,6 @@ def focus_straight_block(rc: PulseData, speed: float, centre, *, look_side: str 
         raise ConfigError("image.autofocus", f"must be one of {AUTOFOCUS}, got {autofocus!r}")
     centre = np.asarray(centre, dtype=np.float64)
     est = rc.with_positions(centre + np.outer(rc.pulse_times, [speed, 0.0, 0.0]))
-    params = rc.params
     if algorithm == "bpa":
         if autofocus != "none":
             raise ConfigError("image.autofocus", "autofocus works on RDA images; set image.algorithm = \"rda\"")
@@ -54,9 +53,10 @@ def focus_straight_block(rc: PulseData, speed: float, centre, *, look_side: str 
         grid = SlantGrid(origin=centre, direction=[1.0, 0.0, 0.0], look_point=[0.0, side * 1e3, 0.0],
                          along_track=speed * rc.pulse_times, slant_range=rc.slant_range)
         img = backproject(est, grid, interpolation=bpa_interpolation)
-        img.metadata.update({"window": w.label, "speed": speed, "prf": params.prf,
-                             "carrier_frequency": params.carrier_frequency, "bandwidth": params.bandwidth,
-                             "aperture_length": speed * rc.n_pulses / params.prf,
+        radar, prf = radar_constants(rc), uniform_prf(rc.pulse_times)  # as the RDA's metadata: from the pulses' fields
+        img.metadata.update({"window": w.label, "speed": speed, "prf": prf,
+                             "carrier_frequency": radar["carrier_frequency"], "bandwidth": radar["bandwidth"],
+                             "aperture_length": speed * rc.n_pulses / prf,
                              "closest_approach_range": float(0.5 * (rc.slant_range[0] + rc.slant_range[-1]))})
         return img, None
     kw = dict(window=window, rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model, along_track_origin=centre)

@@ -76,10 +76,11 @@ def _compressed(pulses: PulseData, params, window) -> PulseData:
         raise InputDataError("pulses", f"must be a PulseData, got {type(pulses).__name__}")
     if pulses.compressed:
         return pulses
-    if params is not None and pulses.params is None:
-        pulses = replace(pulses, params=params)
-    if pulses.params is None:
-        raise ConfigError("params", "raw (uncompressed) pulses need the RadarParams to be range compressed")
+    if params is not None and pulses.sample_rate is None:
+        pulses = replace(pulses, params=params, **params.pulse_data_fields())
+    if pulses.sample_rate is None:
+        raise ConfigError("params", "raw (uncompressed) pulses need the RadarParams (or their sample_rate, bandwidth "
+                          "and pulse_length) to be range compressed")
     return range_compress(pulses, window=window)
 
 
@@ -177,7 +178,7 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
     Parameters
     ----------
     path : output file (e.g. ``out / "collect.cphd"``).
-    pulses : raw (range compressed here with ``params`` / ``pulses.params`` and ``window``) or
+    pulses : raw (range compressed here with ``window``: their own radar fields, else ``params``'s) or
         range-compressed ``PulseData``; needs a wavelength (``pulses.carrier_wavelength``).
     reference_point : (lat deg, lon deg, hae m) of the scene reference point: the SRP / IARP, and
         the origin of the NED frame when ``frame="ned"``.
@@ -199,8 +200,7 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
     if times.size > 1 and np.any(np.diff(times) <= 0):
         raise InputDataError("pulses.pulse_times", "must be strictly increasing")
     ph = pulses_to_phase_history(replace(rc, positions=ecef), np.linalg.norm(ecef - srp, axis=1))
-    prm = rc.params
-    chirp_rate = getattr(prm, "chirp_rate", None)
+    chirp_rate = rc.chirp_rate
     pvp = _pvps(ph, ecef, srp, times, chirp_rate)
     swath = float(rc.slant_range[-1] - rc.slant_range[0])
     half = (0.25 * swath, 0.25 * swath) if image_half_extent is None else tuple(float(h) for h in image_half_extent)

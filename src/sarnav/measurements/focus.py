@@ -85,7 +85,7 @@ def _g_max(grid, positions, e) -> float:
 def _stage(rc, grid, base, e, tau, span, n_grid, measure, tolerance, g_max):
     """Grid over +-span, Brent between the best point's neighbours; returns (dv*, S(dv*), S''(dv*), normalised
     kurtosis of the image at dv*, whether the grid's best point is an end point)."""
-    k = 4.0 * math.pi / rc.params.wavelength
+    k = 4.0 * math.pi / rc.wavelength
     order = order_for(k * span * float(np.max(np.abs(tau))) * g_max * 1.05, 0.1 * tolerance)
     mom = offset_moments(rc, grid, base, e, tau, order)
 

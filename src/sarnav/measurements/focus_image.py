@@ -134,7 +134,7 @@ class FocusApertureImager:
     def times(self, t_end: float) -> np.ndarray:
         """(P,) pulse times of the aperture ending at ``t_end`` [s]."""
         p = self.settings.aperture_pulses
-        return t_end - (p - 1 - np.arange(p)) / self.radar.prf
+        return self.radar.pulse_times(p, t_end, p - 1)
 
     def echoes(self, times: np.ndarray, seed_key):
         """Range-compressed pulses of the aperture's scene (drawn from ``SeedSequence(seed_key)``) along the truth."""

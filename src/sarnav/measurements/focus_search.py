@@ -265,7 +265,7 @@ _CACHE_SIZE = 2
 
 def _moments(problem: SearchProblem, block: _Block, max_offset: float):
     """Moment images of a block; order from the largest offset (at least 2), cached by block and base track."""
-    k = 4.0 * math.pi / problem.rc.params.wavelength
+    k = 4.0 * math.pi / problem.rc.wavelength
     x = k * max_offset * float(np.max(block.tau)) * problem.g_max() * 1.05
     order = max(2, order_for(x, 0.1 * problem.tolerance))
     key = (block.start, block.stop, hash(block.base.tobytes()))

@@ -299,7 +299,7 @@ class SubApertureImager:
         if (u, clutter_seed) in self._cache:
             return self._cache[(u, clutter_seed)]
         t0 = time.perf_counter()
-        times = u + np.arange(self.n_pulses) / self.radar.prf
+        times = self.radar.pulse_times(self.n_pulses, u)
         truth = self.truth.state(times)
         passes = self.scene_for(u, clutter_seed)
         raw = simulate_echoes(self.radar, truth.position, times, passes.flight)

@@ -47,7 +47,7 @@ from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.rda import range_doppler
 from sarnav.measurements.spacecraft import boresight_intersection, effective_velocity
 from sarnav.radar.echoes import add_receiver_noise, simulate_echoes
-from sarnav.radar.params import RadarParams
+from sarnav.radar.params import RadarParams, pulse_clock
 from sarnav.radar.scene import Scene
 from sarnav.radar.terrain import TerrainScene, map_grid_around, synthetic_terrain, terrain_scene
 from sarnav.rotations import quat_to_dcm
@@ -181,7 +181,7 @@ class SpacecraftImager:
         bwd = propagate_rk4_eci(ri, vi, -1.0 / prf, P // 2)
         r_i = np.concatenate([bwd[0][:0:-1], fwd[0][:-1]])
         v_i = np.concatenate([bwd[1][:0:-1], fwd[1][:-1]])
-        t = t_m + (np.arange(P) - P // 2) / prf
+        t = pulse_clock(P, prf, t_m, P // 2)
         pos, _ = eci_to_ecef(t, r_i, v_i)
         return r, v, t, pos
 

@@ -177,7 +177,8 @@ def simulate_echoes(params, positions, pulse_times, scene: Scene, snr_db: float 
 
     Returns
     -------
-    PulseData with ``compressed=False``, ``slant_range = params.slant_range_axis``,
+    PulseData with ``compressed=False``, ``slant_range = params.slant_range_axis``, the radar's
+    wavelength, bandwidth, sample rate, pulse length and windows (``params.pulse_data_fields()``),
     ``metadata`` = {"snr_db", "noise_power", "pattern", "waveform"}.
 
     Raises
@@ -232,4 +233,5 @@ def simulate_echoes(params, positions, pulse_times, scene: Scene, snr_db: float 
         compressed=False,
         metadata={"snr_db": None if snr_db is None else float(snr_db), "noise_power": noise_power,
                   "pattern": bool(pattern), "waveform": "lfm-centred"},
+        **params.pulse_data_fields(),
     )

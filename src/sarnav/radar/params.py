@@ -9,6 +9,12 @@ with the chirp *centred* on tau (instantaneous frequency -B/2 .. +B/2 around f_c
 measured from the transmit instant of the pulse centre; the receive window samples
 t_i = 2 near_range / c + i / fs, i = 0 .. n_range_samples-1, i.e. slant ranges
 near_range + i c / (2 fs).
+
+The radar's three clocks and checks live here, one formula each: :func:`pulse_clock` (slow time of
+the pulses, :meth:`RadarParams.pulse_times`), :func:`window_over` (the receive window over a span of
+slant ranges, :meth:`RadarParams.receive_window`) and :meth:`RadarParams.check_doppler` (the PRF
+against the beam's Doppler bandwidth). Errors name the radar's own parameters (``prf``,
+``near_range``, ...); the scenario layer names them as the user's keys.
 """
 
 from __future__ import annotations
@@ -25,6 +31,42 @@ from sarnav.units import C
 LOOK_SIDES = ("left", "right")
 #: one-way -3 dB beamwidth of a uniformly illuminated aperture of length L: 0.886 lambda / L
 BEAMWIDTH_FACTOR = 0.886
+
+
+def pulse_clock(n: int, prf: float, t0: float = 0.0, ref_pulse: float = 0) -> np.ndarray:
+    """(n,) slow times ``t0 + (k - ref_pulse) / prf``, k = 0 .. n-1, of pulses at a constant PRF [s].
+
+    ``ref_pulse`` is the index of the pulse sent at ``t0``: 0 (default) the first, ``n // 2`` the
+    middle pulse, ``(n - 1) / 2`` a clock symmetric about ``t0`` (fractional), ``n - 1`` the last.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise ConfigError("n", f"must be an integer >= 0 (number of pulses), got {n!r}")
+    prf = require_positive("prf", prf, "Hz")
+    if not (math.isfinite(t0) and math.isfinite(ref_pulse)):
+        raise ConfigError("t0", f"t0 and ref_pulse must be finite, got {t0!r}, {ref_pulse!r}")
+    return t0 + (np.arange(int(n)) - ref_pulse) / prf
+
+
+def window_over(span, pulse_length: float, sample_rate: float, margin: float = 0.0) -> dict:
+    """``near_range`` and ``n_range_samples`` of a receive window over the slant ranges ``span``.
+
+    The window runs from ``span[0] - pad`` with ``pad = c T / 4 + margin`` (T the pulse length: a
+    scatterer at R has its centred chirp on ``[R - cT/4, R + cT/4]`` in slant range, so every
+    scatterer of the span has its whole chirp inside) for ``ceil((span[1] - span[0] + 2 pad) / dr)
+    + 1`` samples of ``dr = c / (2 fs)``: the last sample lies at or beyond ``span[1] + pad``.
+    ``pulse_length`` 0 pads by ``margin`` alone.
+    """
+    lo, hi = span
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
+        raise ConfigError("span", f"must be two finite slant ranges [m] with span[0] <= span[1], got {span!r}")
+    if pulse_length != 0:  # 0: no padding for the chirp; otherwise RadarParams' own check and message
+        require_positive("pulse_length", pulse_length)
+    fs = require_positive("sample_rate", sample_rate)
+    if not (math.isfinite(margin) and margin >= 0):
+        raise ConfigError("margin", f"must be finite and >= 0 m, got {margin!r}")
+    pad = C * pulse_length / 4.0 + margin
+    dr = C / (2.0 * fs)
+    return {"near_range": lo - pad, "n_range_samples": int(math.ceil((hi - lo + 2 * pad) / dr)) + 1}
 
 
 @dataclass(frozen=True)
@@ -70,43 +112,43 @@ class RadarParams:
 
     def __post_init__(self):
         for name in ("carrier_frequency", "bandwidth", "pulse_length", "sample_rate", "prf"):
-            object.__setattr__(self, name, require_positive(f"radar.{name}", getattr(self, name)))
+            object.__setattr__(self, name, require_positive(name, getattr(self, name)))
         if self.bandwidth >= 2.0 * self.carrier_frequency:
-            raise ConfigError("radar.bandwidth", f"must be < 2 x carrier_frequency = {2.0 * self.carrier_frequency:g} Hz "
+            raise ConfigError("bandwidth", f"must be < 2 x carrier_frequency = {2.0 * self.carrier_frequency:g} Hz "
                               f"(lowest transmitted frequency f_c - B/2 > 0), got {self.bandwidth:g} Hz")
         if self.pulse_length >= 1.0 / self.prf:
-            raise ConfigError("radar.pulse_length", f"must be shorter than the pulse repetition interval 1/prf = "
+            raise ConfigError("pulse_length", f"must be shorter than the pulse repetition interval 1/prf = "
                               f"{1.0 / self.prf:g} s, got {self.pulse_length:g} s")
-        object.__setattr__(self, "near_range", require_positive("radar.near_range", self.near_range))
+        object.__setattr__(self, "near_range", require_positive("near_range", self.near_range))
         n = self.n_range_samples
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
-            raise ConfigError("radar.n_range_samples", f"must be an integer >= 2, got {n!r}")
+            raise ConfigError("n_range_samples", f"must be an integer >= 2, got {n!r}")
         object.__setattr__(self, "n_range_samples", int(n))
         if (self.antenna_length is None) == (self.azimuth_beamwidth is None):
-            raise ConfigError("radar.antenna_length",
+            raise ConfigError("antenna_length",
                               "give exactly one of antenna_length [m] and azimuth_beamwidth [rad]")
         if self.antenna_length is not None:
-            L = require_positive("radar.antenna_length", self.antenna_length, "m")
+            L = require_positive("antenna_length", self.antenna_length, "m")
             l_min = BEAMWIDTH_FACTOR * (C / self.carrier_frequency) / math.pi
             if L <= l_min:
-                raise ConfigError("radar.antenna_length", f"must be > 0.886 lambda / pi = {l_min:.4g} m "
+                raise ConfigError("antenna_length", f"must be > 0.886 lambda / pi = {l_min:.4g} m "
                                   f"(-3 dB beamwidth below pi rad), got {L!r} m")
             object.__setattr__(self, "antenna_length", L)
         else:
-            bw = require_positive("radar.azimuth_beamwidth", self.azimuth_beamwidth, "rad")
+            bw = require_positive("azimuth_beamwidth", self.azimuth_beamwidth, "rad")
             if bw >= math.pi:
-                raise ConfigError("radar.azimuth_beamwidth", f"must be in (0, pi) rad, got {bw!r}")
+                raise ConfigError("azimuth_beamwidth", f"must be in (0, pi) rad, got {bw!r}")
             object.__setattr__(self, "azimuth_beamwidth", bw)
         if self.look_side not in LOOK_SIDES:
-            raise ConfigError("radar.look_side", f"must be one of {LOOK_SIDES}, got {self.look_side!r}")
-        object.__setattr__(self, "range_window", as_window(self.range_window, "radar.range_window"))
-        object.__setattr__(self, "azimuth_window", as_window(self.azimuth_window, "radar.azimuth_window"))
+            raise ConfigError("look_side", f"must be one of {LOOK_SIDES}, got {self.look_side!r}")
+        object.__setattr__(self, "range_window", as_window(self.range_window, "range_window"))
+        object.__setattr__(self, "azimuth_window", as_window(self.azimuth_window, "azimuth_window"))
         # complex sampling: fs >= B (equality allowed, FlexSAR oversample 1)
         if self.sample_rate < self.bandwidth * (1 - 1e-12):
-            raise ConfigError("radar.sample_rate",
+            raise ConfigError("sample_rate",
                               f"must be >= bandwidth {self.bandwidth:g} Hz (complex Nyquist), got {self.sample_rate:g} Hz")
         if self.pulse_length >= self.window_duration:
-            raise ConfigError("radar.pulse_length",
+            raise ConfigError("pulse_length",
                               f"must be shorter than the receive window {self.window_duration:g} s "
                               f"(n_range_samples / sample_rate), got {self.pulse_length:g} s")
 
@@ -134,7 +176,10 @@ class RadarParams:
                          and _FIELDS[n].default_factory is MISSING)
         if missing:
             raise ConfigError(f"{prefix}.{missing[0]}", "missing required radar parameter")
-        return cls(**d)
+        try:
+            return cls(**d)
+        except ConfigError as err:  # named as in the table: ``radar.prf``, ``radar.azimuth_window[2]``
+            raise ConfigError(f"{prefix}.{err.field}", err.message) from None
 
     # ---- derived quantities -------------------------------------------------------------------
     @property
@@ -208,6 +253,47 @@ class RadarParams:
         v = require_positive("speed", speed, "m/s")
         return 4.0 * v / self.wavelength * math.cos(squint) * math.sin(0.5 * self.beamwidth)
 
+    def check_doppler(self, speed: float, squint: float = 0.0) -> "RadarParams":
+        """Azimuth Nyquist: raise ``ConfigError("prf", ...)`` unless ``prf >= doppler_bandwidth(speed, squint)``.
+
+        A scatterer seen at angle theta off broadside has the Doppler f = 2V sin(theta) / lambda; the
+        -3 dB beam spans theta_sq -+ theta_bw/2, so its echoes occupy
+        B_D = (2V/lambda) [sin(theta_sq + theta_bw/2) - sin(theta_sq - theta_bw/2)]
+            = (4V/lambda) cos(theta_sq) sin(theta_bw/2)  ~=  0.886 * 2V/L  (theta_bw = 0.886 lambda/L, small)
+        (Cumming & Wong 2005 eq. 4.36; docs/radar.md). Complex slow-time samples at the PRF are
+        unambiguous over a band of width PRF, so the PRF must be >= B_D; the boundary prf = B_D is
+        accepted. Returns self.
+        """
+        if not math.isfinite(squint) or abs(squint) >= 0.5 * math.pi:
+            raise ConfigError("squint", f"must be in (-pi/2, pi/2) rad, got {squint!r}")
+        bd = self.doppler_bandwidth(speed, squint)
+        if self.prf < bd:
+            raise ConfigError(
+                "prf",
+                f"must be >= the Doppler bandwidth (4V/lambda) cos(squint) sin(beamwidth/2) = {bd:.6g} Hz "
+                f"at speed {float(speed):g} m/s "
+                f"(beamwidth {self.beamwidth:.4g} rad), got {self.prf:g} Hz",
+            )
+        return self
+
+    # ---- clocks and windows -------------------------------------------------------------------
+    def pulse_times(self, n: int, t0: float = 0.0, ref_pulse: float = 0) -> np.ndarray:
+        """(n,) slow times of n pulses at this PRF, pulse ``ref_pulse`` at ``t0`` [s] (:func:`pulse_clock`)."""
+        return pulse_clock(n, self.prf, t0, ref_pulse)
+
+    def receive_window(self, span, margin: float = 0.0) -> dict:
+        """``{"near_range", "n_range_samples"}`` of a window over the slant ranges ``span`` [m] with this
+        pulse length and sample rate, widened by ``margin`` [m] each side (:func:`window_over`);
+        ``dataclasses.replace(params, **params.receive_window(span))`` is the radar recording it."""
+        return window_over(span, self.pulse_length, self.sample_rate, margin)
+
+    def pulse_data_fields(self) -> dict:
+        """The :class:`~sarnav.signal.data.PulseData` fields this radar fills: wavelength, bandwidth,
+        sample_rate, pulse_length and the range / azimuth windows."""
+        return {"wavelength": self.wavelength, "bandwidth": self.bandwidth, "sample_rate": self.sample_rate,
+                "pulse_length": self.pulse_length, "range_window": self.range_window,
+                "azimuth_window": self.azimuth_window}
+
     # ---- validation ---------------------------------------------------------------------------
     def validate(self, speed: float | None = None, scene_ranges=None, squint: float = 0.0) -> "RadarParams":
         """Check the parameters against a platform speed and a scene; return self.
@@ -215,7 +301,7 @@ class RadarParams:
         Parameters
         ----------
         speed : platform speed [m/s]; checks ``prf >= doppler_bandwidth(speed)`` (azimuth Nyquist
-            for the -3 dB beam, complex sampling, zero squint).
+            for the -3 dB beam, complex sampling: :meth:`check_doppler`).
         scene_ranges : array of target slant ranges [m] (any shape, e.g. over all pulses); each
             must satisfy ``near_range + cT/4 <= R <= far_range - cT/4`` so that the whole chirp
             lies in the receive window.
@@ -227,16 +313,7 @@ class RadarParams:
         """
         # construction-time checks already ran in __post_init__ (also on dataclasses.replace)
         if speed is not None:
-            if not math.isfinite(squint) or abs(squint) >= 0.5 * math.pi:
-                raise ConfigError("squint", f"must be in (-pi/2, pi/2) rad, got {squint!r}")
-            bd = self.doppler_bandwidth(speed, squint)
-            if self.prf < bd:
-                raise ConfigError(
-                    "radar.prf",
-                    f"must be >= the Doppler bandwidth (4V/lambda) cos(squint) sin(beamwidth/2) = {bd:.6g} Hz "
-                    f"at speed {float(speed):g} m/s "
-                    f"(beamwidth {self.beamwidth:.4g} rad), got {self.prf:g} Hz",
-                )
+            self.check_doppler(speed, squint)
         if scene_ranges is not None:
             r = np.asarray(scene_ranges, dtype=np.float64)
             if r.size:
@@ -246,7 +323,7 @@ class RadarParams:
                 rmin, rmax = float(r.min()), float(r.max())
                 if rmin < lo or rmax > hi:
                     raise ConfigError(
-                        "radar.near_range",
+                        "near_range",
                         f"receive window {self.near_range:.3f}-{self.far_range:.3f} m holds whole echoes "
                         f"only for targets in [{lo:.3f}, {hi:.3f}] m (pulse half-extent cT/4 = "
                         f"{self.pulse_half_extent:.3f} m); scene spans [{rmin:.3f}, {rmax:.3f}] m",

@@ -19,27 +19,18 @@ Gap fills (not in the sources; thesis extraction §18, paper note §6 G7):
 * no weighting (the sources do not mention any);
 * the *receive window* is the imaged interval widened by the pulse half-extent cT/4 = 75 m on both
   sides, so that every target in the imaged interval has its whole chirp in the window
-  (``target_range_limits`` then equals the imaged interval, to within one bin).
+  (``target_range_limits`` then equals the imaged interval, to within one bin):
+  :func:`sarnav.radar.params.window_over`.
 """
 
 from __future__ import annotations
 
-import math
-
-from sarnav.radar.params import RadarParams
-from sarnav.units import C, ghz_to_hz, mhz_to_hz, us_to_s
+from sarnav.radar.params import RadarParams, window_over
+from sarnav.units import ghz_to_hz, mhz_to_hz, us_to_s
 
 #: imaged slant-range intervals of the sources [m]
 NAV_PAPER_SIM_RANGES = (2000.0, 2210.0)
 FLEXSAR_RANGES = (1948.0, 2112.0)
-
-
-def _window_for(imaged: tuple[float, float], pulse_length: float, sample_rate: float) -> tuple[float, int]:
-    pad = C * pulse_length / 4.0
-    near = imaged[0] - pad
-    dr = C / (2.0 * sample_rate)
-    n = int(math.ceil((imaged[1] + pad - near) / dr)) + 1
-    return near, n
 
 
 def nav_paper_sim(**overrides) -> RadarParams:
@@ -50,10 +41,10 @@ def nav_paper_sim(**overrides) -> RadarParams:
     """
     pulse_length = overrides.pop("pulse_length", us_to_s(1.0))
     sample_rate = overrides.pop("sample_rate", 2.0 * mhz_to_hz(500.0))
-    near, n = _window_for(NAV_PAPER_SIM_RANGES, pulse_length, sample_rate)
+    window = window_over(NAV_PAPER_SIM_RANGES, pulse_length, sample_rate)  # the imaged interval +- cT/4
     kw = dict(
         carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), pulse_length=pulse_length,
-        sample_rate=sample_rate, prf=100.0, near_range=near, n_range_samples=n,
+        sample_rate=sample_rate, prf=100.0, **window,
         antenna_length=0.2, look_side="right", range_window="none", azimuth_window="none",
     )
     kw.update(overrides)
@@ -64,10 +55,10 @@ def flexsar(**overrides) -> RadarParams:
     """FlexSAR radar of paper Table 6 / thesis Table 5.3 after PRF decimation (overrides as above)."""
     pulse_length = overrides.pop("pulse_length", us_to_s(1.0))
     sample_rate = overrides.pop("sample_rate", mhz_to_hz(500.0))
-    near, n = _window_for(FLEXSAR_RANGES, pulse_length, sample_rate)
+    window = window_over(FLEXSAR_RANGES, pulse_length, sample_rate)  # the imaged interval +- cT/4
     kw = dict(
         carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), pulse_length=pulse_length,
-        sample_rate=sample_rate, prf=5000.0 / 3.0, near_range=near, n_range_samples=n,
+        sample_rate=sample_rate, prf=5000.0 / 3.0, **window,
         antenna_length=0.0756, look_side="right", range_window="none", azimuth_window="none",
     )
     kw.update(overrides)
@@ -85,10 +76,10 @@ def sun_ku_cart(imaged: tuple[float, float] = SUN_KU_CART_RANGES, **overrides) -
     looking; the receive window covers the ``imaged`` slant ranges widened by cT/4 (as the other presets)."""
     pulse_length = overrides.pop("pulse_length", us_to_s(0.2))
     sample_rate = overrides.pop("sample_rate", 2.0 * mhz_to_hz(300.0))
-    near, n = _window_for(tuple(imaged), pulse_length, sample_rate)
+    window = window_over(tuple(imaged), pulse_length, sample_rate)  # the imaged interval +- cT/4
     kw = dict(
         carrier_frequency=ghz_to_hz(16.6), bandwidth=mhz_to_hz(300.0), pulse_length=pulse_length,
-        sample_rate=sample_rate, prf=3000.0, near_range=near, n_range_samples=n,
+        sample_rate=sample_rate, prf=3000.0, **window,
         azimuth_beamwidth=0.5, look_side="right", range_window="none", azimuth_window="none",
     )
     kw.update(overrides)

@@ -24,10 +24,9 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError, require_positive
 from sarnav.radar.echoes import simulate_echoes
-from sarnav.radar.params import RadarParams
+from sarnav.radar.params import RadarParams, pulse_clock, window_over
 from sarnav.radar.presets import flexsar
 from sarnav.radar.scene import Scene, random_scatterers
-from sarnav.units import C
 
 #: pulse repetition frequency of the thesis' SDL data (L650) and of the FlexSAR preset [Hz]
 SOURCE_PRF = 5000.0 / 3.0
@@ -114,7 +113,7 @@ class QualityGeometry:
 
     def pulse_times(self) -> np.ndarray:
         """(P,) slow times [s], 0 at the first pulse."""
-        return np.arange(self.n_pulses, dtype=np.float64) / SOURCE_PRF
+        return pulse_clock(self.n_pulses, SOURCE_PRF)
 
     def positions(self) -> np.ndarray:
         """(P, 3) true antenna positions, the middle pulse abeam the scene centre (north 0)."""
@@ -137,12 +136,8 @@ class QualityGeometry:
 
     def radar(self) -> RadarParams:
         """FlexSAR radar (PRF 5000/3 Hz) with the receive window around the scene for the whole track."""
-        near, far = self._slant_limits()
-        pad = C * self.pulse_length / 4.0 + self.range_margin
-        fs = 500e6
-        dr = C / (2.0 * fs)
-        n = int(math.ceil((far - near + 2 * pad) / dr)) + 1
-        return flexsar(pulse_length=self.pulse_length, prf=SOURCE_PRF, near_range=near - pad, n_range_samples=n)
+        window = window_over(self._slant_limits(), self.pulse_length, 500e6, self.range_margin)  # flexsar's fs
+        return flexsar(pulse_length=self.pulse_length, prf=SOURCE_PRF, **window)
 
 
 def binary_scene(picture, center, extent: float, amplitude: complex = 1.0, down: float = 0.0) -> Scene:

@@ -19,14 +19,19 @@ def chirp(t: np.ndarray, chirp_rate: float, pulse_length: float) -> np.ndarray:
 
 
 def replica(params) -> tuple[np.ndarray, np.ndarray]:
-    """Sampled transmit replica of a :class:`~sarnav.radar.params.RadarParams`.
+    """Sampled transmit replica of a :class:`~sarnav.radar.params.RadarParams` (:func:`sampled_replica`)."""
+    return sampled_replica(params.sample_rate, params.pulse_length, params.chirp_rate)
+
+
+def sampled_replica(sample_rate: float, pulse_length: float, chirp_rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sampled transmit replica of the chirp of duration T = ``pulse_length`` and rate K = ``chirp_rate``.
 
     Returns
     -------
     t : (M,) sample times i / fs for the integers i with |i / fs| <= T/2 [s], centred on 0.
     p : (M,) complex128 chirp samples.
     """
-    fs = params.sample_rate
-    half = int(np.floor(0.5 * params.pulse_length * fs * (1 + 1e-12)))
+    fs = sample_rate
+    half = int(np.floor(0.5 * pulse_length * fs * (1 + 1e-12)))
     t = np.arange(-half, half + 1, dtype=np.float64) / fs
-    return t, chirp(t, params.chirp_rate, params.pulse_length)
+    return t, chirp(t, chirp_rate, pulse_length)

@@ -10,7 +10,6 @@ chirp and a receive window R0 +- ``radar.range_margin_m`` (plus the pulse half-e
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from sarnav.analysis.bpa_sensitivity import (MAX_PIXEL_PULSES, THESIS_SIM_ERRORS, ImageSettings, image_pixels,
@@ -20,7 +19,6 @@ from sarnav.scenarios.fields import choice, get, number, positive, table
 from sarnav.scenarios.kind_base import FileKind
 from sarnav.scenarios.vocabulary import (MAX_SPEED, doppler_prf_check, echo_block_check, make_radar, positive_up_to,
                                          radar_fields, read_altitude)
-from sarnav.units import C
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample")
 #: validation limits: flight altitude and target ground range [m], pulses in the aperture
@@ -100,10 +98,7 @@ def radar(cfg: dict, geo):
     preset, fields = radar_fields(cfg)
     params = make_radar(preset, fields)
     r0 = geo.mid_aperture_range
-    margin = float(cfg["radar"]["range_margin_m"])
-    pad = C * params.pulse_length / 4.0
-    n = int(math.ceil((2 * (margin + pad)) / (C / (2 * params.sample_rate)))) + 1
-    return make_radar(preset, fields, near_range=r0 - margin - pad, n_range_samples=n)
+    return make_radar(preset, fields, **params.receive_window((r0, r0), float(cfg["radar"]["range_margin_m"])))
 
 
 def study(cfg: dict, names=None):

@@ -39,10 +39,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.scenarios.kind_base import FileKind
+from sarnav.radar.params import pulse_clock, window_over
 from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
@@ -177,7 +177,7 @@ def validate(cfg: dict) -> None:
     origin_llh(cfg)
     params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
     echo_block_check(n_pulses, params.n_range_samples)
-    _check_doppler_band(cfg)
+    _check_doppler_band(cfg, params)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
     as_window(cfg["image"]["window"], "image.window")
     _choice(cfg, "image", "rcmc_kernel", tuple(RCMC_KERNELS))
@@ -201,21 +201,22 @@ def origin_llh(cfg: dict) -> list[float]:
     return [float(x) for x in v]
 
 
-def _check_doppler_band(cfg: dict) -> None:
+def _check_doppler_band(cfg: dict, params) -> None:
     """The scene's azimuth band must fit in the PRF (the RDA azimuth FFT is circular).
 
     A scatterer at along-track y seen by pulses t in [-T/2, T/2] has Doppler -K_a (t - y/V) (paper
     eq. 8), so the scene occupies K_a (T + 2 max|y| / V) Hz at its nearest range (largest K_a); with
-    the antenna pattern the band is at most the beam's Doppler bandwidth 0.886 * 2V / L_a.
+    the antenna pattern the band is at most the beam's Doppler bandwidth ``params.doppler_bandwidth(V)`` (about
+    0.886 * 2V / L_a).
     """
     v = float(cfg["trajectory"]["speed"])
-    lam = units.C / float(units.ghz_to_hz(cfg["radar"]["carrier_ghz"]))
+    lam = params.wavelength
     r_min = imaged_slant_ranges(cfg)[0]
     s = cfg["scene"]
     half = abs(s["target_along_track_m"]) if s["type"] == "point" else 0.5 * s["along_track_extent_m"]
     band = 2.0 * v**2 / (lam * r_min) * (cfg["trajectory"]["duration"] + 2.0 * half / v)
     if cfg["radar"]["antenna_pattern"]:
-        band = min(band, 0.886 * 2.0 * v / float(cfg["radar"]["antenna_length_m"]))
+        band = min(band, params.doppler_bandwidth(v))
     if band > cfg["radar"]["prf_hz"]:
         raise ConfigError("radar.prf_hz", f"must be >= the scene's azimuth bandwidth {band:.4g} Hz "
                           f"(K_a (T + 2 max|y|/V) at the nearest range), got {cfg['radar']['prf_hz']}")
@@ -238,13 +239,10 @@ def radar_params(cfg: dict):
     for key, field in (("pulse_length_us", "pulse_length"), ("sample_rate_mhz", "sample_rate")):
         if field in fields:  # used for the receive window before RadarParams sees them
             require_positive(f"radar.{key}", fields[field])
-    t_p = fields.get("pulse_length", 0.0)
-    pad = units.C * t_p / 4.0 + float(cfg["radar"]["range_margin_m"])
-    lo, hi = imaged_slant_ranges(cfg)
-    dr = units.C / (2.0 * fields["sample_rate"])
-    n = int(math.ceil((hi - lo + 2 * pad) / dr)) + 1
+    window = window_over(imaged_slant_ranges(cfg), fields.get("pulse_length", 0.0), fields["sample_rate"],
+                         float(cfg["radar"]["range_margin_m"]))
     azimuth_window = {"azimuth_window": cfg["image"]["window"]} if preset is None else {}
-    return make_radar(preset, dict(fields, **azimuth_window), near_range=lo - pad, n_range_samples=n)
+    return make_radar(preset, dict(fields, **azimuth_window), **window)
 
 
 def trajectory(cfg: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -252,7 +250,7 @@ def trajectory(cfg: dict) -> tuple[np.ndarray, np.ndarray]:
     tr = cfg["trajectory"]
     prf = float(cfg["radar"]["prf_hz"])
     n = int(round(tr["duration"] * prf))
-    t = (np.arange(n, dtype=np.float64) - n // 2) / prf
+    t = pulse_clock(n, prf, 0.0, n // 2)
     start = np.asarray(tr["start_ned"], dtype=np.float64)
     pos = np.zeros((n, 3))
     pos[:, 0] = start[0] + float(tr["speed"]) * t

@@ -85,9 +85,10 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
     if preset != "nav-paper-sim":
         raise ConfigError("radar.preset", f"must be 'nav-paper-sim' (rda-nav's radar and window), got {preset!r}")
     radar = make_radar(preset, fields)
-    if radar.doppler_bandwidth(speed) >= radar.prf:
-        raise ConfigError("flight.speed", f"Doppler bandwidth {radar.doppler_bandwidth(speed):.1f} Hz at {speed} m/s "
-                          f"exceeds the PRF {radar.prf} Hz")
+    try:
+        radar.check_doppler(speed)
+    except ConfigError as err:
+        raise ConfigError("flight.speed", f"too fast for the radar: radar.prf_hz {err.message}") from None
     settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
     if settle > duration - 1.0:
         raise ConfigError("filter.settle_s", f"must be <= flight.duration - 1 = {duration - 1} s, got {settle}")

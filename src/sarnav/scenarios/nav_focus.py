@@ -33,7 +33,6 @@ from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fie
 from sarnav.simulation.fusion_records import AXES, source_records
 from sarnav.simulation.multi_imu import NAV_SOURCES
 from sarnav.simulation.nav_focus import FOCUS_METRICS, FocusGeometry, run_focus
-from sarnav.units import C
 
 __all__ = ["NavFocusKind", "default_config", "FOCUS_FILTERS"]
 
@@ -106,13 +105,11 @@ def _radar(cfg, reflectors, height, speed, n_pulses) -> RadarParams:
     first = make_radar(preset, fields)
     half = 0.5 * speed * n_pulses / first.prf
     ranges = [math.sqrt(g * g + height * height + d * d) for a, g in reflectors for d in (a - half, a + half, a)]
-    near = min(ranges) - RANGE_MARGIN - first.pulse_half_extent
-    if near <= 0.0:
+    window = first.receive_window((min(ranges), max(ranges)), RANGE_MARGIN)
+    if window["near_range"] <= 0.0:
         raise ConfigError("scene.ground_range_m", f"the nearest reflector ({min(ranges):.3g} m) is within the pulse "
                           f"half-extent + margin ({first.pulse_half_extent + RANGE_MARGIN:.3g} m) of the radar")
-    span = max(ranges) + RANGE_MARGIN + first.pulse_half_extent - near
-    n = int(math.ceil(span / (C / (2.0 * first.sample_rate)))) + 1
-    return make_radar(preset, fields, near_range=near, n_range_samples=n)
+    return make_radar(preset, fields, **window)
 
 
 def parse(cfg: dict) -> FocusParams:

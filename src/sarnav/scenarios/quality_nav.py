@@ -25,7 +25,6 @@ from sarnav.simulation.quality_nav import (COV_STEP, EXTRA_ATTRS, LAYOUT, MEAS_N
                                           kappa_for, simulate_runs)
 from sarnav.tomlio import dump_toml
 from sarnav.trajectory import StraightLevel
-from sarnav.units import C
 
 __all__ = ["QualityNavKind", "default_config", "parse", "simulate_runs", "kappa_for", "QualityNavParams"]
 
@@ -103,13 +102,12 @@ def _radar(cfg: dict, traj: StraightLevel, st_pulses: int, ground_range: float, 
     margin = number(cfg, "radar", "range_margin_m", 0.0, 1000.0, "m")
     h = -float(traj.start[2])
     track = 0.5 * traj.speed * (st_pulses - 1) / base.prf
-    pad = C * base.pulse_length / 4.0 + margin
-    near = math.sqrt(h * h + max(ground_range - half, 0.0) ** 2) - pad
-    far = math.sqrt(h * h + (ground_range + half) ** 2 + (track + half) ** 2) + pad
-    n = int(math.ceil((far - near) / (C / (2.0 * base.sample_rate)))) + 1
+    window = base.receive_window((math.sqrt(h * h + max(ground_range - half, 0.0) ** 2),
+                                  math.sqrt(h * h + (ground_range + half) ** 2 + (track + half) ** 2)), margin)
+    n = window["n_range_samples"]
     if n * st_pulses > 2**24:
         raise ConfigError("aperture.n_pulses", f"{st_pulses} pulses x {n} range samples; at most {2**24}")
-    radar = make_radar(preset, fields, near_range=max(near, 1.0), n_range_samples=n)
+    radar = make_radar(preset, fields, near_range=max(window["near_range"], 1.0), n_range_samples=n)
     doppler_prf_check(radar, traj.speed)
     return radar
 

@@ -83,9 +83,9 @@ def read_geometry(cfg: dict) -> QualityGeometry:
                           f"{samples:.3g} echo samples; at most {MAX_ECHO_SAMPLES:.3g} (fewer pulses, a smaller scene "
                           "or a smaller radar.range_margin_m)")
     try:  # the source's fixed PRF must cover the Doppler band at this speed (the echoes would alias)
-        geo.radar().validate(speed=speed)
+        geo.radar().check_doppler(speed)
     except ConfigError as err:
-        if err.field != "radar.prf":
+        if err.field != "prf":
             raise
         raise ConfigError("trajectory.speed", f"{err.message} (the PRF is the source's; lower trajectory.speed)") from None
     return geo

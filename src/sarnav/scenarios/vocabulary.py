@@ -251,6 +251,7 @@ RADAR_KEYS = {
 PRESETS = {"nav-paper-sim": presets.nav_paper_sim, "flexsar": presets.flexsar, "sun-ku-cart": presets.sun_ku_cart}
 #: RadarParams field -> [radar] key (for error messages)
 _KEY_OF = {f: k for k, (f, _) in RADAR_KEYS.items()}
+_RADAR_FIELDS = frozenset(RadarParams.__dataclass_fields__)
 
 
 def radar_fields(cfg: dict, ignore=("snr_db", "range_margin_m", "antenna_pattern")) -> tuple[str | None, dict]:
@@ -288,20 +289,28 @@ def make_radar(preset: str | None, fields: dict, **window) -> RadarParams:
             return PRESETS[preset](**kw)
         return RadarParams(**kw)
     except ConfigError as err:
-        field = err.field.removeprefix("radar.")
-        if field in _KEY_OF:
-            raise ConfigError(f"radar.{_KEY_OF[field]}", err.message) from None
-        raise
+        raise ConfigError(radar_key(err.field), err.message) from None
     except TypeError as err:  # a field the preset or RadarParams lacks
         raise ConfigError("radar", f"incomplete radar: {err}") from None
 
 
+def radar_key(field: str) -> str:
+    """The ``[radar]`` key of a :class:`RadarParams` error's field (``prf`` -> ``radar.prf_hz``,
+    ``azimuth_window[2]`` -> ``radar.azimuth_window[2]``, ``near_range`` -> ``radar.near_range``); other fields
+    (``speed``, ``scene``...) unchanged."""
+    name = field.split("[", 1)[0].split(".", 1)[0]
+    if name in _KEY_OF:
+        return f"radar.{_KEY_OF[name]}{field[len(name):]}"
+    return f"radar.{field}" if name in _RADAR_FIELDS else field
+
+
 def doppler_prf_check(params: RadarParams, speed: float) -> None:
-    """The PRF must cover the -3 dB Doppler band at ``speed`` (azimuth Nyquist), named as ``radar.prf_hz``."""
+    """The PRF must cover the -3 dB Doppler band at ``speed`` (azimuth Nyquist, ``RadarParams.check_doppler``),
+    named as ``radar.prf_hz``."""
     try:
-        params.validate(speed=speed)
+        params.check_doppler(speed)
     except ConfigError as err:
-        raise ConfigError("radar.prf_hz" if err.field == "radar.prf" else err.field, err.message) from None
+        raise ConfigError(radar_key(err.field), err.message) from None
 
 
 #: the longest flight a campaign integrates: IMU samples per run (the INS steps through them one at a time, batched

@@ -12,10 +12,16 @@ from typing import Any
 
 import numpy as np
 
+from sarnav.units import C
+
 
 @dataclass
 class PulseData:
     """Pulsed radar data: raw echoes or range-compressed pulses.
+
+    Everything image formation reads is an explicit field, filled by whoever builds the data
+    (``radar.echoes.simulate_echoes`` from its ``RadarParams``, ``signal.phase_history``,
+    ``io.cphd``); a step that needs a field and finds None raises an error naming it.
 
     Attributes
     ----------
@@ -27,30 +33,50 @@ class PulseData:
         ECEF for spaceborne / CPHD data (only distances ``|p - a_k|`` enter image formation). For
         simulated raw data these are the true positions; image formation may be handed a
         different (estimated) set with :meth:`with_positions`.
-    params : the ``RadarParams`` that produced the data, or None (data read from a file): range
-        compression needs it, back-projection needs only ``slant_range`` and the wavelength.
+    params : the ``RadarParams`` that produced the simulated data (provenance, kept for
+        compatibility), or None; no image-formation step reads it.
     compressed : False for raw echoes, True after range compression.
     metadata : free-form provenance (window used, SNR, ...).
     wavelength : carrier (centre-frequency) wavelength lambda = c / f_c [m] the baseband data are
-        referred to; None falls back to ``params.wavelength`` (see :attr:`carrier_wavelength`).
+        referred to (RDA, back-projection, autofocus), or None.
+    bandwidth : transmitted (chirp) bandwidth B [Hz] (range compression, RDA metadata, the
+        back-projection's interpolation choice), or None.
+    sample_rate : complex fast-time sampling rate fs [Hz] of raw echoes (range compression), or None.
+    pulse_length : chirp duration T [s] of raw echoes (range compression), or None.
+    range_window, azimuth_window : the spectral windows the radar description asks for (range
+        compression's and the RDA's default; a ``Window`` spec), or None ("none").
     """
 
     data: np.ndarray
     slant_range: np.ndarray
     pulse_times: np.ndarray
     positions: np.ndarray
-    params: Any = None
+    params: "RadarParams | None" = None  # noqa: F821 (radar sits above signal: a name, not an import)
     compressed: bool = False
     metadata: dict = field(default_factory=dict)
     wavelength: float | None = None
+    bandwidth: float | None = None
+    sample_rate: float | None = None
+    pulse_length: float | None = None
+    range_window: Any = None
+    azimuth_window: Any = None
 
     @property
     def carrier_wavelength(self) -> float | None:
-        """``wavelength`` if given, else ``params.wavelength``, else None [m]."""
-        if self.wavelength is not None:
-            return float(self.wavelength)
-        lam = getattr(self.params, "wavelength", None)
-        return None if lam is None else float(lam)
+        """``wavelength`` as a float, or None [m]."""
+        return None if self.wavelength is None else float(self.wavelength)
+
+    @property
+    def carrier_frequency(self) -> float | None:
+        """f_c = c / ``wavelength`` [Hz], or None."""
+        return None if self.wavelength is None else C / float(self.wavelength)
+
+    @property
+    def chirp_rate(self) -> float | None:
+        """K = B / T [Hz/s] (``bandwidth`` / ``pulse_length``), or None when either is missing."""
+        if self.bandwidth is None or self.pulse_length is None:
+            return None
+        return self.bandwidth / self.pulse_length
 
     @property
     def n_pulses(self) -> int:

@@ -248,7 +248,7 @@ def _linearized(models, p, v):
 def _measure_sar(setup, imager, models, u, sensors, truth_traj, noise_rng):
     """(z (3,), eta0, registration errors (range, along-track) or NaN) of sub-aperture u."""
     targ = models[0].target
-    t_ap = u + np.arange(int(round(setup.radar.prf))) / setup.radar.prf
+    t_ap = setup.radar.pulse_times(int(round(setup.radar.prf)), u)
     eta_true, r_true, _ = closest_approach(targ, t_ap, truth_traj.state(t_ap).position)
     if setup.fix_source == "oracle":
         st = truth_traj.state(np.array([eta_true]))

@@ -68,7 +68,7 @@ class FocusGeometry:
     spacing: float = 0.04
 
     def pulse_times(self) -> np.ndarray:
-        return self.run_in + np.arange(self.n_pulses) / self.radar.prf
+        return self.radar.pulse_times(self.n_pulses, self.run_in)
 
 
 def reflector_positions(geo: FocusGeometry, truth) -> np.ndarray:

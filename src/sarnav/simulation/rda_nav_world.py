@@ -7,14 +7,12 @@ scene keys are documented in docs/scenarios/rda-nav.md §1 (G4, G5) and §4 (sce
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.measurements.sar_image import AperturePasses
 from sarnav.radar.ground_scene import HillTerrain, distributed_clutter
+from sarnav.radar.params import window_over
 from sarnav.radar.scene import Scene, beside_trajectory, clutter_beside_trajectory, point_targets, slant_ranges
 from sarnav.trajectory.offset import OffsetTrack
 
@@ -168,8 +166,4 @@ def slant_range_span(prm, margin: float) -> tuple[float, float]:
 def receive_window(prm_radar_fields: dict, span: tuple[float, float]) -> dict:
     """``near_range`` and ``n_range_samples`` of a receive window over ``span`` (slant range [m]) plus the pulse's
     half-extent cT/4 (every scatterer's whole chirp inside the window, as the presets do)."""
-    t_p = prm_radar_fields["pulse_length"]
-    fs = prm_radar_fields["sample_rate"]
-    pad = units.C * t_p / 4.0
-    dr = units.C / (2.0 * fs)
-    return {"near_range": span[0] - pad, "n_range_samples": int(math.ceil((span[1] - span[0] + 2 * pad) / dr)) + 1}
+    return window_over(span, prm_radar_fields["pulse_length"], prm_radar_fields["sample_rate"])
