@@ -22,9 +22,10 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError, InputDataError
-from sarnav.measurements.sar_image import FAILURES, AperturePasses, ImagingSettings, SubApertureImager
+from sarnav.measurements.sar_image import FAILURES, AperturePasses, ImagingSettings
 from sarnav.radar.presets import nav_paper_sim
 from sarnav.radar.scene import point_targets
+from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.trajectory.straight import StraightLevel
 
 V, H, G = 10.0, 1000.0, 1800.0  # speed [m/s], altitude [m], ground range of the reflector [m]
@@ -39,11 +40,11 @@ TRUTH = StraightLevel([0.0, 0.0, -H], V, 0.0, 3.0)
 AP_T = U + np.linspace(0.0, 1.0, 21)  # the epochs of the estimated track over the aperture
 
 
-def _imager(runs, algorithm="rda", snr_db=SNR_DB, per_run_reference=False, **settings) -> SubApertureImager:
+def _imager(runs, algorithm="rda", snr_db=SNR_DB, per_run_reference=False, **settings):
     scene = point_targets(TARGET, AMPLITUDE)
     seeds = list(range(100, 100 + runs))
     clutter_seeds = [s + 100 for s in seeds] if per_run_reference else None  # per run: its own reference noise
-    return SubApertureImager(RADAR, TRUTH, np.broadcast_to(TARGET, (3, 1, 3)),
+    return simulated_imager(RADAR, TRUTH, np.broadcast_to(TARGET, (3, 1, 3)),
                              lambda u, s: AperturePasses(scene, scene), AMPLITUDE, snr_db, 7, seeds,
                              clutter_seeds=clutter_seeds, settings=ImagingSettings(algorithm=algorithm, **settings))
 
@@ -162,12 +163,12 @@ def test_status_bpa_search_beyond_its_limit():
 
 def test_bad_inputs_are_one_line_errors_naming_the_field(shared):
     p, v = _track(3)
-    with pytest.raises(InputDataError, match="noise_seeds"):
-        shared.measure(U, AP_T, p, v)  # three runs, one seed
+    with pytest.raises(InputDataError, match="^source"):
+        shared.measure(U, AP_T, p, v)  # three runs, a source of one
     with pytest.raises(InputDataError, match="targets"):
-        SubApertureImager(RADAR, TRUTH, np.zeros((2, 1, 2)), None, 1.0, 0.0, 0, [1])
+        simulated_imager(RADAR, TRUTH, np.zeros((2, 1, 2)), None, 1.0, 0.0, 0, [1])
     with pytest.raises(InputDataError, match="clutter_seeds"):
-        SubApertureImager(RADAR, TRUTH, np.zeros((2, 1, 3)), None, 1.0, 0.0, 0, [1, 2], clutter_seeds=[1])
+        simulated_imager(RADAR, TRUTH, np.zeros((2, 1, 3)), None, 1.0, 0.0, 0, [1, 2], clutter_seeds=[1])
     with pytest.raises(ConfigError, match="sar.algorithm"):
         ImagingSettings(algorithm="omega-k")
     with pytest.raises(ConfigError, match="sar.focus"):

@@ -244,7 +244,7 @@ def test_image_mode_is_reproducible():
 
 
 def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
-    from sarnav.measurements.sar_image import SubApertureImager
+    from sarnav.simulation.sar_echoes import simulated_imager
     from sarnav.simulation import rda_nav_world as world
 
     cfg = rn.default_config()
@@ -254,17 +254,17 @@ def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
     targets = world.reference_targets(prm)
 
     def imager(**kw):
-        return SubApertureImager(radar=prm.radar, truth=prm.trajectory, targets=targets,
+        return simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
                                  scene_for=world.scene_factory(prm, targets), reflector_amplitude=3.16,
                                  snr_db=prm.snr_db, reference_seed=prm.scene["seed"], **kw)
 
     im = imager(noise_seeds=[11, 12])
-    assert im.aperture(1) is im.aperture(1)  # reference pass computed once for all runs
+    assert im.aperture(1, 0) is im.aperture(1, 1)  # reference pass computed once for all runs
     recs = _run(cfg, 2, seed=3)
     reg = np.stack([r.extras["registration_error"][1][:, 1:] for r in recs])
     assert np.all(np.isfinite(reg)) and np.all(np.abs(reg[..., 0]) < 0.01) and np.all(np.abs(reg[..., 1]) < 0.2)
     assert not np.array_equal(reg[0], reg[1])  # same scene, different receiver noise per run
-    with pytest.raises(InputDataError, match="^noise_seeds"):
+    with pytest.raises(InputDataError, match="^source"):
         imager(noise_seeds=[11, 12]).measure(0, None, np.zeros((1, 2, 3)), None, None)
 
 

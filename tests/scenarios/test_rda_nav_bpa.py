@@ -10,7 +10,7 @@ reaches the point at another time). docs/scenarios/rda-nav.md §6.
 import numpy as np
 import pytest
 
-from sarnav.measurements.sar_image import SubApertureImager
+from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.scenarios import rda_nav as rn
 from sarnav.simulation import rda_nav_world as world
 from sarnav.scenarios.config import load_scenario
@@ -28,7 +28,7 @@ def _measure(dp=(0.0, 0.0, 0.0), dv=(0.0, 0.0, 0.0), speed_sigma=1e-3):
     prm = rn.parse(cfg)
     targets = world.reference_targets(prm)
     seeds = list(range(500, 500 + RUNS))
-    im = SubApertureImager(radar=prm.radar, truth=prm.trajectory, targets=targets,
+    im = simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
                            scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
                            snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
                            clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,

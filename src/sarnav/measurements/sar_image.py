@@ -1,18 +1,17 @@
 """Image-derived SAR measurements: from echoes to the time and range of closest approach of reference targets.
 
 The extractor of the image-aided flight (NAVIGATION paper §3-4; docs/scenarios/rda-nav.md §1-§3), typed to nothing
-but radar parameters, the truth trajectories to fly the echoes along, the reference targets, a scene factory and
-seeds.
+but radar parameters, the reference product's geolocated targets, an :class:`ApertureSource` of pulses and seeds.
+It never sees a truth trajectory or a scene: the source hands it, per sub-aperture u and run, the range-compressed
+pulses of the in-flight acquisition and of the reference pass with the reference pass's trusted positions
+(:class:`ReferencePulses`). The simulated world is one source (``simulation.sar_echoes.SimulatedApertures``: the
+scene's echoes along the true track and along the reference pass's track, each acquisition with its own receiver
+noise); a recorded flight is another.
 
-Per sub-aperture u (pulses ``u + k / prf``, k < round(prf), i.e. one second of pulses):
-  the scene of the aperture (``scene_for(u, clutter_seed) -> AperturePasses``) is imaged twice by noise-free echoes:
-  the *in-flight pass* along the true track (``truth``) and the *reference pass* along ``reference_truth`` (by
-  default the same track; another pass has its own offset track and its own, partly decorrelated, clutter). Each
-  acquisition adds its own receiver noise (``snr_db``: per-sample SNR of a scatterer of amplitude
-  ``reflector_amplitude``, ``radar.echoes.add_receiver_noise``). The reference product is an image of the reference
-  pass focused with its true track (RDA, or BPA on a ground grid); of it a chip around each reference target is kept,
-  with the target's position inside the chip (its geolocation in the product). Only the chip's pattern and that
-  anchor are used: the in-flight time axis is never taken from the reference.
+Per sub-aperture u (one second of pulses): the reference product is an image of the reference pass focused with its
+trusted track (RDA, or BPA on a ground grid); of it a chip around each reference target is kept, with the target's
+position inside the chip (its geolocation in the product). Only the chip's pattern and that anchor are used: the
+in-flight time axis is never taken from the reference.
 Per run:
   range compression of the in-flight pass; per target an image focused with the *estimated* trajectory around the
   place the estimate and the map predict the target: RDA (straight tracks, the paper's processor; ``algorithm =
@@ -24,9 +23,8 @@ Per run:
   model of the chain, ``SeparableNoise``; docs §3), its normalised correlation and its ambiguity (the best other
   match); a failed image or registration, a weak or an ambiguous match gives a status instead of a number.
 
-Seeds (keys of ``SeedSequence``): clutter drawn per run (``clutter_seeds`` given) or once for all runs
-(``reference_seed``, cached); reference-pass noise ``[clutter seed or reference_seed, 3, u]``; in-flight noise
-``[noise_seeds[r], 4, u]``; noise model ``[reference_seed, 5, u, target, realisation]``.
+Seeds (keys of ``SeedSequence``): noise model ``[reference_seed, 5, u, target, realisation]`` (the simulated
+source's own seeds: ``simulation.sar_echoes``).
 """
 
 from __future__ import annotations
@@ -34,7 +32,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable
 
 import numpy as np
 
@@ -44,16 +41,15 @@ from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.rda import range_doppler
 from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_shift_precision, refine_shift, register
-from sarnav.radar.echoes import add_receiver_noise, simulate_echoes
 from sarnav.radar.params import RadarParams
-from sarnav.radar.scene import Scene
+from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGES, ApertureMeasurements,
+                                             AperturePasses, ApertureSource, ImagingSettings, ReferencePulses)
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
 from sarnav.signal.data import SarImage
-from sarnav.trajectory.base import Trajectory
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
 __all__ = ["STAGES", "FAILURES", "ALGORITHMS", "FOCUS", "ImagingSettings", "AperturePasses", "ApertureMeasurements",
-           "SubApertureImager", "focusing_track"]
+           "ReferencePulses", "ApertureSource", "SubApertureImager", "focusing_track"]
 
 #: smallest relative step of the focusing speed for the focus sensitivity (SubApertureImager._focus_sensitivity)
 FOCUS_STEP = 0.003
@@ -61,112 +57,6 @@ FOCUS_STEP = 0.003
 NOISE_REALISATIONS = 4
 #: largest along-track half-size of a BPA search grid [m] (3 sigma of the filter's along-track uncertainty + chip)
 MAX_BPA_HALF_ALONG_M = 200.0
-#: stages timed per image (seconds per run and aperture, ``ApertureMeasurements.seconds``); "rda": image formation
-STAGES = ("echoes", "rda", "autofocus", "registration")
-ALGORITHMS = ("rda", "bpa")
-FOCUS = ("estimate", "mapdrift")
-#: why an image gave no measurement (``ApertureMeasurements.status``; 0 = measured)
-FAILURES = ("", "image formation or autofocus failed", "registration failed", "weak match (correlation)",
-            "ambiguous match")
-
-
-@dataclass(frozen=True)
-class ImagingSettings:
-    """Chip, search window, image formation, autofocus and registration settings (docs/scenarios/rda-nav.md §1).
-
-    chip_half_az_cells : chip half-size along track in azimuth resolution cells (lambda R / (2 V T)), at most a
-        quarter of the block.
-    chip_half_range_m : chip half-size in slant range [m].
-    search_half_range_m : slant-range half-window of the in-flight image around the predicted range [m].
-    search_half_along_m : BPA: the in-flight grid spans the chip, this margin [m] and 3 filter sigmas of the target's
-        along-track position on either side of the predicted target.
-    algorithm : "rda" (straight tracks; the paper's processor) or "bpa" (back-projection along the estimated track
-        on a ground grid: any track).
-    focus : ``"estimate"`` (default): the image used is focused with the estimated trajectory, and the measurement
-        model carries the along-track shift this focusing makes, measured by refocusing (docs §2); ``"mapdrift"``:
-        the paper's choice (RDA only), the mapdrift-refocused image (within the gate below) with no model of the shift.
-    autofocus : run mapdrift (RDA; its correction is recorded as ``autofocus_dk``, and used with focus="mapdrift").
-    mapdrift_iterations : look correlations of mapdrift (the paper's single pass, G12).
-    mapdrift_gate_sigma, mapdrift_gate_floor : a mapdrift correction implying a speed change beyond this many
-        filter sigmas of the forward speed (or the floor [m/s]) is rejected and the image focused with the
-        estimated speed is used.
-    subpixel : sub-pixel method of the correlation peak ("parabola"), then refined by least squares
-        (``imaging.registration.refine_shift``).
-    min_correlation, max_ambiguity : a match is refused (``quality`` < min_correlation: the chip is not in the
-        image; ``ambiguity`` > max_ambiguity: another place matches nearly as well) and the update skipped.
-    """
-
-    chip_half_az_cells: float = 1.5
-    chip_half_range_m: float = 4.0
-    search_half_range_m: float = 12.0
-    search_half_along_m: float = 6.0
-    algorithm: str = "rda"
-    focus: str = "estimate"
-    autofocus: bool = True
-    mapdrift_iterations: int = 1
-    mapdrift_gate_sigma: float = 3.0
-    mapdrift_gate_floor: float = 0.02
-    subpixel: str = "parabola"
-    min_correlation: float = 0.5
-    max_ambiguity: float = 0.9
-
-    def __post_init__(self):
-        if self.algorithm not in ALGORITHMS:
-            raise ConfigError("sar.algorithm", f"must be one of {ALGORITHMS}, got {self.algorithm!r}")
-        if self.focus not in FOCUS:
-            raise ConfigError("sar.focus", f"must be one of {FOCUS}, got {self.focus!r}")
-        if self.algorithm == "bpa" and self.focus == "mapdrift":
-            raise ConfigError("sar.focus", "'mapdrift' refocuses an RDA image; with sar.algorithm = 'bpa' use 'estimate'")
-
-
-@dataclass(frozen=True)
-class AperturePasses:
-    """The scene of one sub-aperture as each pass sees it: ``flight`` (the in-flight pass) and ``reference`` (the pass
-    the reference product was made from; the same object when nothing changed between the passes)."""
-
-    flight: Scene
-    reference: Scene
-
-
-@dataclass
-class ApertureMeasurements:
-    """What one sub-aperture gives for R runs and T reference targets.
-
-    toc : (R, T) measured time of closest approach [s]; range : (R, T) measured range of closest approach [m];
-    sigma : (R, T, 2) predicted 1-sigma of the range and along-track (speed x TOC) registration [m], from the image;
-    quality : (R, T) normalised correlation of the match; ambiguity : (R, T) height of the best other match relative
-    to it; lever : (R, T) TOC minus the aperture centre [s];
-    sensitivity, focus_offset : (R, T) the along-track registration's dependence on the focusing speed, measured by
-    refocusing the same data (``focus = "estimate"``; NaN otherwise): registration =
-    ``sensitivity [s] x (speed - V) + focus_offset [m]`` (``SubApertureImager._focus_sensitivity``), the spread of
-    that statistical linearisation included in ``sigma``;
-    status : (R, T) 0 = measured, else the index of the reason in :data:`FAILURES`;
-    autofocus_dk : (R,) mapdrift FM-rate correction [Hz/s]; speed : (R,) the speed the images were focused with [m/s];
-    seconds : (R, len(STAGES)) time per stage; capture : images of the first run when asked.
-    """
-
-    toc: np.ndarray
-    range: np.ndarray
-    sigma: np.ndarray
-    quality: np.ndarray
-    ambiguity: np.ndarray
-    lever: np.ndarray
-    sensitivity: np.ndarray
-    focus_offset: np.ndarray
-    status: np.ndarray
-    autofocus_dk: np.ndarray
-    speed: np.ndarray
-    seconds: np.ndarray
-    capture: dict | None = None
-
-    @classmethod
-    def empty(cls, runs: int, targets: int) -> "ApertureMeasurements":
-        nan = lambda *s: np.full(s, np.nan)  # noqa: E731
-        return cls(nan(runs, targets), nan(runs, targets), nan(runs, targets, 2), nan(runs, targets),
-                   nan(runs, targets), nan(runs, targets), nan(runs, targets), nan(runs, targets),
-                   np.zeros((runs, targets), dtype=np.int64), nan(runs), nan(runs), np.zeros((runs, len(STAGES))))
-
-
 def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
     """(P, 3) antenna positions at the pulse ``times`` that a back-projection along the estimated track focuses with:
     the estimate's position and velocity at the aperture centre, the velocity turned by the change of the heading of
@@ -244,28 +134,19 @@ class SubApertureImager:
     Parameters
     ----------
     radar : the radar (its PRF sets the pulses of a one-second sub-aperture; its look side the ground frame).
-    truth : the true trajectory, along which the in-flight echoes are simulated (the sensor, not the filter).
-    targets : (U, T, 3) true positions of the reference targets of each sub-aperture (NED, m).
-    scene_for : ``(u, clutter_seed or None) -> AperturePasses`` of sub-aperture u (reference targets included).
-    reflector_amplitude, snr_db : receiver noise definition (``radar.echoes``).
-    reference_seed : key of the shared scene's noise when the clutter is the same for every run.
-    noise_seeds : one per run (in-flight receiver noise).
-    clutter_seeds : one per run (clutter redrawn per run) or None (one scene for all runs, cached).
-    reference_truth : the reference pass's true trajectory (default: ``truth``).
+    targets : (U, T, 3) the reference product's geolocated targets of each sub-aperture (NED, m): the chips are cut
+        around them in the reference image.
+    source : the :class:`ApertureSource` of the pulses (``simulation.sar_echoes.SimulatedApertures``, or a
+        recording); ``source.runs`` runs.
+    reference_seed : key of the noise model's unit-noise realisations.
     settings : :class:`ImagingSettings`.
     capture_aperture : keep the images of this sub-aperture of the first run (figures), or None.
     """
 
     radar: RadarParams
-    truth: Trajectory
     targets: np.ndarray
-    scene_for: Callable[[int, int | None], AperturePasses]
-    reflector_amplitude: float
-    snr_db: float
+    source: ApertureSource
     reference_seed: int
-    noise_seeds: list
-    clutter_seeds: list | None = None
-    reference_truth: Trajectory | None = None
     settings: ImagingSettings = field(default_factory=ImagingSettings)
     capture_aperture: int | None = None
 
@@ -276,70 +157,52 @@ class SubApertureImager:
         if self.targets.ndim != 3 or self.targets.shape[2] != 3:
             raise InputDataError("targets", f"must be (U, T, 3), got {self.targets.shape}")
         self.n_pulses = int(round(self.radar.prf))
-        self.noise_seeds = [int(s) for s in self.noise_seeds]
-        self.clutter_seeds = None if self.clutter_seeds is None else [int(s) for s in self.clutter_seeds]
-        if self.clutter_seeds is not None and len(self.clutter_seeds) != len(self.noise_seeds):
-            raise InputDataError("clutter_seeds", f"need one per run: {len(self.clutter_seeds)} for "
-                                 f"{len(self.noise_seeds)} runs")
-        if self.reference_truth is None:
-            self.reference_truth = self.truth
-        self._cache: dict[tuple, dict] = {}
+        self._cache: dict = {}
         self._noise_cache: dict[tuple, SeparableNoise] = {}
         self._along_sigma = None
         self._q_run = None
 
     # --- the reference product --------------------------------------------------------------------
-    def _noisy(self, raw, key):
-        """Range-compressed copy of the noise-free echoes ``raw`` with receiver noise from ``key``: one acquisition."""
-        rng = np.random.default_rng(np.random.SeedSequence(key))
-        return range_compress(add_receiver_noise(raw, self.reflector_amplitude, self.snr_db, rng))
-
-    def aperture(self, u: int, clutter_seed: int | None = None) -> dict:
-        """Noise-free in-flight echoes of sub-aperture u and the reference chips (cached when the scene is shared)."""
-        if (u, clutter_seed) in self._cache:
-            return self._cache[(u, clutter_seed)]
+    def aperture(self, u: int, run: int) -> dict:
+        """The reference chips of sub-aperture u for run ``run`` (cached under the source's key) and the seconds spent
+        on the reference pass."""
         t0 = time.perf_counter()
-        times = self.radar.pulse_times(self.n_pulses, u)
-        truth = self.truth.state(times)
-        passes = self.scene_for(u, clutter_seed)
-        raw = simulate_echoes(self.radar, truth.position, times, passes.flight)
-        same_pass = passes.reference is passes.flight and self.reference_truth is self.truth
-        ref_truth = truth if self.reference_truth is self.truth else self.reference_truth.state(times)
-        raw_ref = raw if same_pass else simulate_echoes(self.radar, ref_truth.position, times, passes.reference)
-        key = [self.reference_seed, 3, u] if clutter_seed is None else [clutter_seed, 3, u]
-        rc_ref = self._noisy(raw_ref, key)
-        chips = [self._reference_chip(u, k, rc_ref, raw_ref, times, ref_truth) for k in range(self.targets.shape[1])]
-        entry = {"times": times, "raw": raw, "chips": chips, "seconds": time.perf_counter() - t0}
-        if clutter_seed is None:  # per-run scenes are used once: do not keep them
-            self._cache[(u, clutter_seed)] = entry
+        ref = self.source.reference(u, run)
+        if ref.key is not None and ref.key in self._cache:
+            return self._cache[ref.key]
+        chips = [self._reference_chip(u, k, ref) for k in range(self.targets.shape[1])]
+        entry = {"times": ref.times, "chips": chips, "seconds": ref.seconds + time.perf_counter() - t0,
+                 "shared": ref.key is not None}
+        if ref.key is not None:  # a scene used once is not kept
+            self._cache[ref.key] = entry
         return entry
 
     def _az_resolution(self, r0: float, speed: float) -> float:
         return self.radar.wavelength * r0 / (2 * speed * self.n_pulses / self.radar.prf)
 
-    def _reference_chip(self, u, k, rc_ref, raw_ref, times, ref_truth) -> dict:
-        st = self.settings
+    def _reference_chip(self, u, k, ref: ReferencePulses) -> dict:
+        st, times, rc_ref, raw_ref = self.settings, ref.times, ref.pulses, ref.raw
         targ = self.targets[u, k]
-        eta, r0, _ = closest_approach(targ, times, ref_truth.position)
-        v_ref = np.linalg.norm(ref_truth.velocity[len(times) // 2])
+        eta, r0, _ = closest_approach(targ, times, ref.positions)
+        v_ref = np.linalg.norm(ref.velocities[len(times) // 2])
         if st.algorithm == "bpa":
-            return self._reference_chip_bpa(u, k, rc_ref, raw_ref, times, ref_truth, targ, eta, r0, v_ref)
-        ref = range_doppler(_crop_range(rc_ref, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref)
+            return self._reference_chip_bpa(u, k, ref, targ, eta, r0, v_ref)
+        image = range_doppler(_crop_range(rc_ref, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref)
         prf = self.radar.prf
-        fi, fj = (eta - times[0]) * prf, (r0 - ref.x[0]) / ref.dx
+        fi, fj = (eta - times[0]) * prf, (r0 - image.x[0]) / image.dx
         i0, j0 = int(round(fi)), int(round(fj))
         hi = min(self.n_pulses // 4, max(4, int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref)
                                                             / (v_ref / prf)))))
-        hj = int(math.ceil(st.chip_half_range_m / ref.dx))
+        hj = int(math.ceil(st.chip_half_range_m / image.dx))
         rows = np.arange(i0 - hi, i0 + hi + 1) % self.n_pulses  # RDA blocks are circular in azimuth
         cols = np.arange(j0 - hj, j0 + hj + 1)
-        if cols[0] < 0 or cols[-1] >= ref.shape[1]:
+        if cols[0] < 0 or cols[-1] >= image.shape[1]:
             raise InputDataError("scene.ground_range_max", "reference chip leaves the reference image")
         if (u, k) not in self._noise_cache:  # the same for every run's scene: cached
-            self._noise_cache[(u, k)] = self._noise_model(u, k, raw_ref, lambda rc: range_doppler(
+            self._noise_cache[(u, k)] = self._noise_model(u, k, raw_ref, ref, lambda rc: range_doppler(
                 _crop_range(rc, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref).data, cols.size)
-        return {"chip": ref.data[np.ix_(rows, cols)], "anchor": (fi - i0, fj - j0), "rows": rows,
-                "noise": self._noise_cache[(u, k)], "reference": ref, "speed": v_ref}
+        return {"chip": image.data[np.ix_(rows, cols)], "anchor": (fi - i0, fj - j0), "rows": rows,
+                "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref}
 
     def _bpa_spacing(self, r0: float, g0: float, speed: float) -> tuple[float, float]:
         """(along, ground-range) pixel spacing [m] of BPA grids: a twentieth of the azimuth resolution (at most the
@@ -347,36 +210,36 @@ class SubApertureImager:
         da = min(speed / self.radar.prf, self._az_resolution(r0, speed) / 20.0)
         return da, self.radar.range_bin_spacing * r0 / g0
 
-    def _reference_chip_bpa(self, u, k, rc_ref, raw_ref, times, ref_truth, targ, eta, r0, v_ref) -> dict:
-        st = self.settings
+    def _reference_chip_bpa(self, u, k, ref: ReferencePulses, targ, eta, r0, v_ref) -> dict:
+        st, times = self.settings, ref.times
         i_c = int(np.argmin(np.abs(times - eta)))
-        along, across = _ground_frame(ref_truth.velocity[i_c], self.radar.look_side)
-        g0 = float(np.hypot(*(targ - ref_truth.position[i_c])[:2]))
+        along, across = _ground_frame(ref.velocities[i_c], self.radar.look_side)
+        g0 = float(np.hypot(*(targ - ref.positions[i_c])[:2]))
         da, dg = self._bpa_spacing(r0, g0, v_ref)
         hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref) / da))
         hj = int(math.ceil(st.chip_half_range_m * r0 / g0 / dg))
         grid = _Grid(targ, along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
-        ref = backproject(rc_ref, grid.points(), positions=ref_truth.position)
+        image = backproject(ref.pulses, grid.points(), positions=ref.positions)
         if (u, k) not in self._noise_cache:
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
             self._noise_cache[(u, k)] = self._noise_model(
-                u, k, raw_ref, lambda rc: backproject(rc, wide.points(), positions=ref_truth.position).data, 2 * hj + 1)
-        return {"chip": ref.data, "anchor": (0.0, 0.0), "rows": np.arange(2 * hi + 1), "noise": self._noise_cache[(u, k)],
-                "reference": ref, "speed": v_ref, "grid": grid}
+                u, k, ref.raw, ref, lambda rc: backproject(rc, wide.points(), positions=ref.positions).data,
+                2 * hj + 1)
+        return {"chip": image.data, "anchor": (0.0, 0.0), "rows": np.arange(2 * hi + 1),
+                "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref, "grid": grid}
 
-    def _noise_model(self, u, k, raw, form, chip_columns: int) -> SeparableNoise:
+    def _noise_model(self, u, k, raw, ref, form, chip_columns: int) -> SeparableNoise:
         """Receiver noise of a formed image (``imaging.registration.SeparableNoise``): the image-formation chain
         ``form(range-compressed pulses) -> image`` applied to NOISE_REALISATIONS realisations of unit white noise,
-        scaled to the raw per-sample noise power ``amplitude^2 / 10^(snr/10)`` (``radar.echoes``). The model the
-        predicted registration sigma rests on (docs/scenarios/rda-nav.md §3): known from the radar and the
-        processor, not fitted to the image."""
+        scaled to the raw per-sample noise power of the source, ``amplitude^2 / 10^(snr/10)`` (``radar.echoes``). The model the predicted registration sigma rests on
+        (docs/scenarios/rda-nav.md §3): known from the radar and the processor, not fitted to the image."""
         imgs = []
         for t in range(NOISE_REALISATIONS):
             rng = np.random.default_rng(np.random.SeedSequence([self.reference_seed, 5, u, k, t]))
             unit = (rng.standard_normal(raw.data.shape) + 1j * rng.standard_normal(raw.data.shape)) / math.sqrt(2.0)
             imgs.append(form(range_compress(replace(raw, data=unit))))
         model = SeparableNoise.from_images(np.stack(imgs), chip_columns)
-        return replace(model, power=model.power * self.reflector_amplitude**2 / 10.0 ** (self.snr_db / 10.0))
+        return replace(model, power=model.power * ref.amplitude**2 / 10.0 ** (ref.snr_db / 10.0))
 
     # --- the in-flight images ---------------------------------------------------------------------
     def measure(self, u: int, ap_t, ap_p, ap_v, speed_sigma=None, map_targets=None,
@@ -391,18 +254,15 @@ class SubApertureImager:
         ``ap_q`` (R, K, 4): the estimated attitude (BPA: the focusing track follows its heading, :func:`focusing_track`).
         """
         R, T = ap_p.shape[0], self.targets.shape[1]
-        if len(self.noise_seeds) != R:
-            raise InputDataError("noise_seeds", f"need one per run for {R} runs, got {len(self.noise_seeds)}")
+        runs = getattr(self.source, "runs", R)
+        if runs != R:
+            raise InputDataError("source", f"gives pulses of {runs} runs, the estimate has {R}")
         if map_targets is None:
             map_targets = np.broadcast_to(self.targets[u], (R, T, 3))
         out = ApertureMeasurements.empty(R, T)
         for r in range(R):
-            if self.clutter_seeds is None:
-                ap = self.aperture(u)
-                out.seconds[r, 0] += ap["seconds"] / R
-            else:
-                ap = self.aperture(u, self.clutter_seeds[r])
-                out.seconds[r, 0] += ap["seconds"]
+            ap = self.aperture(u, r)
+            out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all runs
             sigma = None if speed_sigma is None else speed_sigma[r]
             self._along_sigma = along_sigma
             self._q_run = None if ap_q is None else ap_q[r]
@@ -410,10 +270,9 @@ class SubApertureImager:
         return out
 
     def _measure_run(self, u, r, ap, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
-        t0 = time.perf_counter()
         times = ap["times"]
-        rc = self._noisy(ap["raw"], [self.noise_seeds[r], 4, u])  # the in-flight acquisition
-        out.seconds[r, 0] += time.perf_counter() - t0
+        rc, seconds = self.source.flight(u, r)  # the in-flight acquisition
+        out.seconds[r, 0] += seconds
         if self.settings.algorithm == "bpa":
             p_hat = focusing_track(times, ap_t, p_run, v_run, self._q_run)
         else:

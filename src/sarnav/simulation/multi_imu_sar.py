@@ -52,13 +52,14 @@ from sarnav.filters.layout import ErrorStateLayout
 from sarnav.filters.pulse_grid import FixStream, ImuStream, NavFrame, uniform_times
 from sarnav.ins.state import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
-from sarnav.measurements.sar_image import AperturePasses, SubApertureImager
+from sarnav.measurements.sar_image import AperturePasses
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import nav_paper_sim
 from sarnav.radar.scene import Scene, beside_track, clutter_beside_track, point_targets
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
+from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.simulation.fusion_records import SourceRecords, source_records
 from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, gnss_ins_sim_imu, rngs_for, spec_accel_psd
 from sarnav.trajectory import StraightLevel
@@ -347,7 +348,7 @@ def _one_run(setup: SarFixSetup, seed):
     imager = None
     if setup.fix_source == "sar":
         cseed = int(rngs_for([seed], 50)[0].integers(2**63))
-        imager = SubApertureImager(radar=setup.radar, truth=traj, targets=targets,
+        imager = simulated_imager(radar=setup.radar, truth=traj, targets=targets,
                                    scene_for=_scene_factory(setup, targets),
                                    reflector_amplitude=setup.reflector_amplitude, snr_db=setup.snr_db,
                                    reference_seed=setup.scene_seed, noise_seeds=[cseed],

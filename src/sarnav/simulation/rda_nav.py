@@ -35,7 +35,7 @@ from sarnav.filters.ekf import directional_sigma
 from sarnav.filters.prediction import Prediction, stack_predictions
 from sarnav.ins import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
-from sarnav.measurements.sar_image import ImagingSettings, SubApertureImager
+from sarnav.measurements.sar_image import ImagingSettings
 from sarnav.measurements.sar_image import STAGES as IMAGE_STAGES
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.navigation import Interval
@@ -45,6 +45,7 @@ from sarnav.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.simulation import rda_nav_world as world
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
+from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.trajectory.base import Trajectory
 from sarnav.trajectory.sampled import along_rate, closest_approach
 
@@ -243,7 +244,7 @@ def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
         return None
     seeds = fl.extra  # the per-run clutter seeds (also keying the in-flight receiver noise)
     targets = world.reference_targets(prm)
-    return SubApertureImager(
+    return simulated_imager(
         radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=world.scene_factory(prm, targets),
         reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
         noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
