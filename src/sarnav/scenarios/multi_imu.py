@@ -10,7 +10,8 @@ library experiments of ``sarnav.simulation.multi_imu`` into Monte Carlo campaign
   20 Hz fix, the 2000-particle UPF and the interpolated KF on the 3 kHz grid (Figs. 5.8, 5.26; T10-T13).
 
 Every run is a pure function of the scenario and its seed (one ``SeedSequence`` per run, named child streams
-per sensor, fix and filter). Records (``sarnav.simulation.fusion_records``): the states are the position errors
+per sensor, fix and filter). Parameters and runs to records: ``sarnav.simulation.multi_imu`` (``Path1Params`` ->
+``run_path1_records``, ...). Records (``sarnav.simulation.fusion_records``): the states are the position errors
 of the filters that have a covariance (``sensor1_pN`` ...), against the 1-sigma of that covariance, with the
 stacked NEES; ``source_error (time, source, axis)`` and ``source_ms (source)`` hold every navigation source
 (fused outputs included); ``summary.json`` -> ``rmse`` per source.
@@ -18,7 +19,6 @@ stacked NEES; ``source_error (time, source, axis)`` and ``source_ms (source)`` h
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Sequence
 
 from sarnav.analysis.sources import filter_nees_summary, rmse_ratio, source_rmse
@@ -28,11 +28,13 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number, number_list
 from sarnav.scenarios.kind_base import one_seed_per_run
-from sarnav.simulation.fusion_records import AXES, SourceRecords, source_records
-from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, PATH1_SIGMAS, run_multi_imu, run_path1, run_upf_flight, \
-    spec_accel_psd, survey_flight
+from sarnav.simulation.fusion_records import AXES, SOURCE_ATTRS
+from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
+from sarnav.simulation.multi_imu import (PATH1_SIGMAS, UPF_ATTRS, MultiImuParams, Path1Params, UpfParams,
+                                         run_multi_imu_records, run_path1_records, run_upf_flight_records)
 
-__all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "records"]
+__all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "Path1Params", "MultiImuParams",
+           "UpfParams"]
 
 #: largest particle count of any filter (memory: runs x particles x 6 floats per filter)
 MAX_PARTICLES = 100_000
@@ -41,52 +43,23 @@ MAX_PARTICLES = 100_000
 MIN_PARTICLES = 7
 
 
-def records(rec: SourceRecords, run_ids, extras=None, sources: bool = True) -> list[RunRecord]:
-    """One RunRecord per run: states = the filters' position errors, no measurement residuals (the filters'
-    updates are the fixes; their consistency is the NEES), ``filter_nees``, (``sources``) ``source_error`` /
-    ``source_ms`` and ``extras`` name -> (dims, (R, ...) array) as kind variables."""
-    out = []
-    for i, run in enumerate(run_ids):
-        ex = {"filter_nees": (("time", "filter"), rec.filter_nees[i])}
-        if sources:
-            ex["source_error"] = (("time", "source", "axis"), rec.source_error[i])
-            ex["source_ms"] = (("source",), rec.source_ms[i])
-        for name, (dims, arr) in (extras or {}).items():
-            ex[name] = (dims, arr[i])
-        out.append(RunRecord(run=int(run), time=rec.time.copy(), error=rec.error[i], sigma=rec.sigma[i],
-                             nees=rec.nees[i], update_time=rec.time[:0].copy(), residual=rec.error[i, :0, :0],
-                             residual_sigma=rec.error[i, :0, :0], nis=rec.time[:0].copy(),
-                             nis_dof=rec.time[:0].astype(int), extras=ex))
-    return out
-
-
-SOURCE_ATTRS = {
-    "source_error": {"units": "m", "description": "estimate minus truth of every navigation source, NED [m], at the "
-                                                  "output epochs (fused sources included)"},
-    "source_ms": {"units": "m2", "description": "per run: mean over the epochs after the settling time of the "
-                                                "squared 3-D position error [m^2]; summary.json rmse = sqrt(mean "
-                                                "over runs)"},
-    "filter_nees": {"units": "1", "description": "NEES of each filter's position, e^T P^-1 e with its own "
-                                                 "covariance (cloud sample covariance / KF P), 3 dof"},
-}
-
-
 class SourceKind(ScenarioKind):
     """Common part of the kinds that compare navigation sources (module docstring). Subclasses set ``kind``,
-    ``filters(prm)`` and ``sources(prm)`` (names), ``parse(cfg)`` and ``run_batch(prm, seeds) -> (SourceRecords,
-    extras)``; ``gains(rmse)`` adds ratios to summary.json."""
+    ``parse(cfg)`` and ``run_batch(prm, seeds, run_ids) -> list[RunRecord]`` (a ``run_*_records`` of
+    ``simulation``); ``filters(prm)`` and ``sources(prm)`` (names) are the parameters' own by default;
+    ``gains(rmse)`` adds ratios to summary.json."""
 
     def parse(self, cfg: dict):  # pragma: no cover - replaced by subclasses
         raise NotImplementedError
 
-    def run_batch(self, prm, seeds):  # pragma: no cover - replaced by subclasses
+    def run_batch(self, prm, seeds, run_ids) -> list[RunRecord]:  # pragma: no cover - replaced by subclasses
         raise NotImplementedError
 
-    def filters(self, prm) -> list[str]:  # pragma: no cover - replaced by subclasses
-        raise NotImplementedError
+    def filters(self, prm) -> list[str]:
+        return prm.filters()
 
-    def sources(self, prm) -> list[str]:  # pragma: no cover - replaced by subclasses
-        raise NotImplementedError
+    def sources(self, prm) -> list[str]:
+        return prm.sources()
 
     def gains(self, rmse: dict) -> dict:
         return {}
@@ -116,8 +89,7 @@ class SourceKind(ScenarioKind):
         one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
-        rec, extras = self.run_batch(self.parse(cfg), list(seeds))
-        return records(rec, run_ids, extras)
+        return self.run_batch(self.parse(cfg), list(seeds), list(run_ids))
 
     def summary_extras(self, results) -> dict:
         out = source_rmse(results)
@@ -136,20 +108,6 @@ class SourceKind(ScenarioKind):
 
 
 # --- multi-imu-path1 ------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Path1Params:
-    runs: int
-    duration: float
-    sensor_sigmas: tuple
-    rate: float
-    n_particles: int
-    accel_psd: float
-    settle: float
-    fix_sigma: float
-    n_draws: int
-    per_axis: bool
-
 
 def path1_config() -> dict:
     """Path 1 (eq. 5.21) with Table 5.1's sensors; gap decisions G19 (docs/particles.md)."""
@@ -190,19 +148,8 @@ class MultiImuPath1Kind(SourceKind):
                            number(cfg, "fusion", "fix_sigma_m", 1e-4, 100.0, "m"),
                            integer(cfg, "fusion", "n_draws", 1, 10_000), _bool(cfg, "fusion", "per_axis"))
 
-    def filters(self, prm) -> list[str]:
-        return [f"sensor{i + 1}" for i in range(len(prm.sensor_sigmas))]
-
-    def sources(self, prm) -> list[str]:
-        return self.filters(prm) + ["mean", "sir", "fix"]
-
-    def run_batch(self, prm: Path1Params, seeds):
-        r = run_path1(runs=len(seeds), seed=seeds, duration=prm.duration, sensor_sigmas=prm.sensor_sigmas,
-                      fix_sigma=prm.fix_sigma, n_particles=prm.n_particles, accel_psd=prm.accel_psd, rate=prm.rate,
-                      n_draws=prm.n_draws, per_axis=prm.per_axis, settle=prm.settle)
-        errors = {k: v[:, 1:] for k, v in r.errors.items()}  # the fix epochs (the covariances' epochs)
-        return source_records(r.times[1:], errors, r.covariances, self.filters(prm), self.sources(prm),
-                              prm.settle), {}
+    def run_batch(self, prm: Path1Params, seeds, run_ids) -> list[RunRecord]:
+        return run_path1_records(prm, seeds, run_ids)
 
     def gains(self, rmse: dict) -> dict:
         sensors = [k for k in rmse if k.startswith("sensor")]
@@ -212,24 +159,6 @@ class MultiImuPath1Kind(SourceKind):
 
 
 # --- multi-imu (multi-imu-adis) -------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class MultiImuParams:
-    runs: int
-    duration: float
-    speed: float
-    n_adis: int
-    fix_sigma: tuple
-    fix_bias: tuple
-    shared_fix: bool
-    n_particles: int
-    psd_scale: float
-    settle: float
-    n_draws: int
-    per_axis: bool
-    virtual: bool
-    stride: int
-
 
 def adis_config() -> dict:
     """3 x ADIS16465 vs one NovAtel (Tables 5.2, 5.4 with the G23 unit decisions); docs/particles.md."""
@@ -277,21 +206,8 @@ class MultiImuKind(SourceKind):
                               integer(cfg, "fusion", "n_draws", 1, 10_000), _bool(cfg, "fusion", "per_axis"),
                               _bool(cfg, "fusion", "virtual_imu"), int(stride))
 
-    def filters(self, prm) -> list[str]:
-        return [f"sensor{i + 1}" for i in range(prm.n_adis)] + ["novatel"] + (["vimu"] if prm.virtual else [])
-
-    def sources(self, prm) -> list[str]:
-        return self.filters(prm) + ["mean", "sir", "fix"]
-
-    def run_batch(self, prm: MultiImuParams, seeds):
-        psd = {n: prm.psd_scale * spec_accel_psd(n, r) for n, r in (("adis16465", 100.0), ("novatel-isa-100c", 200.0))}
-        r = run_multi_imu(runs=len(seeds), seed=seeds, duration=prm.duration, n_particles=prm.n_particles,
-                          n_adis=prm.n_adis, accel_psd=psd, fix_sigma=prm.fix_sigma, n_draws=prm.n_draws,
-                          per_axis=prm.per_axis, settle=prm.settle, virtual=prm.virtual, fix_bias=prm.fix_bias,
-                          shared_fix=prm.shared_fix, speed=prm.speed)
-        errors = {k: v[:, 1:] for k, v in r.errors.items()}
-        return source_records(r.times[1:], errors, r.covariances, self.filters(prm), self.sources(prm),
-                              prm.settle, stride=prm.stride), {}
+    def run_batch(self, prm: MultiImuParams, seeds, run_ids) -> list[RunRecord]:
+        return run_multi_imu_records(prm, seeds, run_ids)
 
     def gains(self, rmse: dict) -> dict:
         sensors = [k for k in rmse if k.startswith("sensor")]
@@ -302,25 +218,6 @@ class MultiImuKind(SourceKind):
 
 
 # --- upf-flight -----------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class UpfParams:
-    runs: int
-    duration: float
-    speed: float
-    climb: float
-    imu: str
-    imu_rate: float
-    fix_sigma: tuple
-    fix_rate: float
-    n_particles: int
-    psd_scale: float
-    noise_at: str
-    settle: float
-    out_rate: float
-    record_rate: float
-    kf_coriolis: bool = False
-
 
 IMU_PRESETS = ("novatel-isa-100c", "adis16465")
 
@@ -375,43 +272,11 @@ class UpfFlightKind(SourceKind):
                          choice(cfg, "filter", "noise_at", ("fix", "imu")), settle, out_rate, rec,
                          _bool(cfg, "filter", "kf_coriolis"))
 
-    def filters(self, prm) -> list[str]:
-        return ["upf", "kf-interp"]
-
-    def sources(self, prm) -> list[str]:
-        return ["upf", "kf-interp", "pf", "kf", "fix"]
-
     def extra_attrs(self, cfg: dict) -> dict:
-        out = dict(SOURCE_ATTRS)
-        out["source_error"] = {"units": "m", "description": "estimate minus truth after the update at the record "
-                                                            "epochs (fix epochs): upf and kf-interp; NaN-free copies "
-                                                            "for pf (= upf) and kf (= kf-interp); fix = the fix"}
-        out["cloud_var"] = {"units": "m2", "description": "UPF cloud position variance per NED axis after the "
-                                                          "update (Fig. 5.26), at the record epochs"}
-        out["settle_time"] = {"units": "s", "description": "T13: time after which the UPF cloud variance (5-s "
-                                                           "average) stays within +50 % of its late median"}
-        out["filter_seconds"] = {"units": "s", "description": "wall time of each filter over the flight per run "
-                                                              "(the batch's time / its runs; T12; one core; not "
-                                                              "reproducible bit for bit)"}
-        return out
+        return dict(UPF_ATTRS)
 
-    def run_batch(self, prm: UpfParams, seeds):
-        import numpy as np
-
-        q = prm.psd_scale * spec_accel_psd(prm.imu, prm.imu_rate)
-        u = run_upf_flight(runs=len(seeds), seed=seeds, n_particles=prm.n_particles, out_rate=prm.out_rate,
-                           imu=prm.imu, imu_rate=prm.imu_rate, accel_psd=q, fix_sigma=prm.fix_sigma,
-                           settle=prm.settle, noise_at=prm.noise_at, record_rate=prm.record_rate, fix_rate=prm.fix_rate,
-                           flight=survey_flight(prm.duration, prm.speed, prm.climb), kf_coriolis=prm.kf_coriolis)
-        e = dict(u.record_errors)
-        e["pf"], e["kf"] = e["upf"], e["kf-interp"]
-        e["fix"] = u.record_fix_errors
-        rec = source_records(u.record_times, e, u.record_covs, self.filters(prm), self.sources(prm), prm.settle,
-                             ms=u.ms)
-        R = len(seeds)  # the batch's wall time shared equally by its runs
-        secs = np.broadcast_to([u.seconds["upf"] / R, u.seconds["kf-interp"] / R], (R, 2))
-        return rec, {"cloud_var": (("time", "axis"), u.record_cloud_var), "settle_time": ((), u.settle_times),
-                     "filter_seconds": (("filter",), secs)}
+    def run_batch(self, prm: UpfParams, seeds, run_ids) -> list[RunRecord]:
+        return run_upf_flight_records(prm, seeds, run_ids)
 
     def gains(self, rmse: dict) -> dict:
         return {"upf_over_pf": rmse_ratio(rmse, "upf", "pf"),  # T10: 3 kHz output no worse than at the fixes

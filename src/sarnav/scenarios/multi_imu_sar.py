@@ -1,7 +1,8 @@
 """The ``multi-imu-sar`` kind (scenario ``multi-imu-sar-fix``): GPS-denied multi-IMU fusion, the absolute fix that aids
 each IMU's particle filter and weights the SIR fusion made from SAR images (range and cross-range to a geolocated
 reference every second, as in rda-nav) instead of GPS. Beyond Sun (2022) (gap G29). Configuration and wiring of
-``sarnav.simulation.multi_imu_sar``; docs/particles.md "multi-imu-sar-fix".
+``sarnav.simulation.multi_imu_sar`` (``SarFixSetup`` -> ``run_sar_fix_records``); docs/particles.md
+"multi-imu-sar-fix".
 
 ``fix.source``: ``"sar"`` (image-derived: echoes along the true track, RDA + mapdrift with the estimated track,
 registration against the reference chip), ``"oracle"`` (the same pair synthesised from the truth at the true TOC plus
@@ -18,10 +19,12 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SOURCE_ATTRS, SourceKind
+from sarnav.montecarlo.record import RunRecord
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
-from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS
-from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_UPDATES, SarFixSetup, run_sar_fix, sensor_names
+from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
+from sarnav.simulation.multi_imu_sar import (FIX_SOURCES, SAR_FIX_ATTRS, SAR_UPDATES, SarFixSetup, run_sar_fix_records,
+                                             sensor_names)
 
 __all__ = ["MultiImuSarKind", "default_config"]
 
@@ -132,12 +135,7 @@ class MultiImuSarKind(SourceKind):
         return sensor_names(prm[0]) + ["mean", "sir"]
 
     def extra_attrs(self, cfg: dict) -> dict:
-        out = dict(SOURCE_ATTRS)
-        out["sar_registration_error"] = {"units": "m", "description": "image-derived minus geometric truth per "
-                                         "sub-aperture: range of closest approach, along-track V x TOC error (NaN "
-                                         "unless fix.source = 'sar')"}
-        out["fix_time"] = {"units": "s", "description": "epoch of each SAR fix (the TOC used; NaN for GPS)"}
-        return out
+        return dict(SAR_FIX_ATTRS)
 
     def extra_coords(self, cfg: dict) -> dict:
         out = super().extra_coords(cfg)
@@ -146,11 +144,9 @@ class MultiImuSarKind(SourceKind):
         out["sar_axis"] = (["range", "along_track"], {"units": "", "description": "registration error components"})
         return out
 
-    def run_batch(self, prm, seeds):
+    def run_batch(self, prm, seeds, run_ids) -> list[RunRecord]:
         setup, settle = prm
-        rec, ex = run_sar_fix(setup, seeds, settle)
-        return rec, {"sar_registration_error": (("aperture", "sar_axis"), ex["registration_error"]),
-                     "fix_time": (("aperture",), ex["fix_time"])}
+        return run_sar_fix_records(setup, seeds, run_ids, settle)
 
     def gains(self, rmse: dict) -> dict:
         from sarnav.analysis.sources import rmse_ratio

@@ -1,6 +1,6 @@
 """The ``nav-source-focus`` kind: which navigation source focuses a back-projected Ku-band image (Sun 2022 §6.2-6.3,
 Figs. 6.5-6.9; extraction seed-003 §3.7, E9; claims T27-T32). Configuration and wiring of
-``sarnav.simulation.nav_focus``; docs/particles.md "nav-source-focus".
+``sarnav.simulation.nav_focus`` (``FocusParams`` -> ``run_focus_records``); docs/particles.md "nav-source-focus".
 
 Per run: the cart's navigation sources (truth, UPF, interpolated KF, splines of the fix / of the 200 Hz KF and PF
 output, 3-ADIS SIR, one NovAtel PF) at every pulse; echoes along the true track; one BPA chip per reflector and
@@ -17,7 +17,6 @@ and, with figures, ``figures/images.png`` (run 0's images side by side, re-simul
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 from sarnav.analysis.sources import filter_nees_summary, source_rmse
@@ -27,17 +26,15 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import bounded_vector, integer, number, number_list
 from sarnav.scenarios.fields import get as _get
-from sarnav.scenarios.kind_base import one_seed_per_run
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind, records
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
-from sarnav.simulation.fusion_records import AXES, source_records
-from sarnav.simulation.multi_imu import NAV_SOURCES
-from sarnav.simulation.nav_focus import FOCUS_METRICS, FocusGeometry, run_focus
+from sarnav.simulation.fusion_records import AXES
+from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRICS, FocusGeometry, FocusParams, run_focus, \
+    run_focus_records
+from sarnav.simulation.nav_sources import NAV_SOURCES
 
-__all__ = ["NavFocusKind", "default_config", "FOCUS_FILTERS"]
+__all__ = ["NavFocusKind", "default_config", "FOCUS_FILTERS", "FocusParams"]
 
-#: the sources whose filter has a covariance (recorded as the states), and the source that carries each
-FOCUS_FILTERS = {"upf": ("upf", "spline-pf"), "kf-interp": ("kf-interp", "spline-kf")}
 #: receive-window margin beyond the reflectors' slant ranges over the aperture [m]
 RANGE_MARGIN = 3.0
 
@@ -64,18 +61,6 @@ def default_config() -> dict:
                        "fix_correlated_sigma_m": [0.0, 0.0, 0.0],  # + Gauss-Markov part (0: none; docs/particles.md)
                        "fix_correlation_time_s": 300.0},
     }
-
-
-@dataclass(frozen=True)
-class FocusParams:
-    runs: int
-    geometry: FocusGeometry
-    sources: tuple
-    n_particles: int
-    adis_particles: int
-    fix_sigma: tuple
-    fix_correlated: tuple
-    fix_tau: float
 
 
 def _reflectors(cfg):
@@ -146,24 +131,11 @@ class NavFocusKind(SourceKind):
     def parse(self, cfg: dict) -> FocusParams:
         return parse(cfg)
 
-    def filters(self, prm) -> list[str]:
-        return [f for f, carriers in FOCUS_FILTERS.items() if any(s in prm.sources for s in carriers)]
-
     def sources(self, prm) -> list[str]:
         return list(prm.sources)
 
     def extra_attrs(self, cfg: dict) -> dict:
-        return {
-            "focus": {"units": "m, dB, m, nats, 1", "description": "per source and reflector: irw_along_m, "
-                      "pslr_along_db, peak_offset_m, entropy, kurtosis of the BPA chip (simulation.nav_focus)"},
-            "focus_censored": {"units": "1", "description": "1 where the along-track response does not reach -3 dB "
-                               "or a null inside the chip (IRW = chip length, PSLR = 0 dB)"},
-            "los_error_rms": {"units": "m", "description": "RMS over the aperture of the line-of-sight antenna "
-                              "position error after removing its mean and linear trend (defocus above lambda/16)"},
-            "nav_error": {"units": "m", "description": "antenna position estimate minus truth at every pulse, NED"},
-            "source_ms": {"units": "m2", "description": "mean over the aperture of the squared 3-D antenna error"},
-            "filter_nees": {"units": "1", "description": "NEES of the UPF / KF position at their fix epochs (3 dof)"},
-        }
+        return dict(FOCUS_ATTRS)
 
     def extra_coords(self, cfg: dict) -> dict:
         prm = self.parse(cfg)
@@ -176,21 +148,8 @@ class NavFocusKind(SourceKind):
                 "filter": (self.filters(prm), {"units": "", "description": "filters with a covariance"}),
                 "pulse": (pt, {"units": "s", "description": "pulse times"})}
 
-    def simulate(self, cfg: dict, run_ids, seeds) -> list[RunRecord]:
-        one_seed_per_run(run_ids, seeds)
-        if len(run_ids) == 0:
-            return []
-        prm = self.parse(cfg)
-        res = run_focus(list(seeds), prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
-                        prm.fix_correlated, prm.fix_tau)
-        filters = self.filters(prm)
-        rec = source_records(res.fix_times, res.fix_errors, res.fix_covs, filters, filters, 0.0)
-        extras = {"focus": (("source", "reflector", "metric"), res.focus),
-                  "focus_censored": (("source", "reflector"), res.censored.astype("int8")),
-                  "los_error_rms": (("source", "reflector"), res.los_rms),
-                  "nav_error": (("pulse", "source", "axis"), res.nav_error),
-                  "source_ms": (("source",), (res.nav_error**2).sum(-1).mean(1))}
-        return records(rec, run_ids, extras, sources=False)
+    def run_batch(self, prm: FocusParams, seeds, run_ids) -> list[RunRecord]:
+        return run_focus_records(prm, seeds, run_ids)
 
     def summary_extras(self, results) -> dict:
         from sarnav.analysis.sources import focus_table

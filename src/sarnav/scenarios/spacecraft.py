@@ -1,11 +1,12 @@
 """The ``spacecraft`` scenario kind: the open-loop Monte Carlo of Pogorelsky et al. 2022 §VI.B-VII (scenarios
 ``spacecraft-tc1``, ``spacecraft-tc2``; docs/spacecraft.md).
 
-Configuration and wiring only; the physics is ``simulation.spacecraft.run_open_loop`` (truth orbit RK4 + J2, the
-MEKF of ``filters.mekf`` at 100 Hz, the centre-pixel measurement of ``measurements.spacecraft``, Lear
-underweighting of ``filters.underweighting``). The measurements are synthesised from the truth as the paper's open
-loop does (r_f = boresight ∩ WGS-84 + N(0, D), range + N(0, 1 m^2), speed + N(0, 0.54^2)): the kind's only
-measurement mode, named ``oracle`` (``[measurement] mode``) as the project's rule for truth-made measurements asks.
+Configuration and wiring only; the physics is ``simulation.spacecraft.run_open_loop`` (as records
+``run_open_loop_records``: truth orbit RK4 + J2, the MEKF of ``filters.mekf`` at 100 Hz, the centre-pixel
+measurement of ``measurements.spacecraft``, Lear underweighting of ``filters.underweighting``). The measurements are
+synthesised from the truth as the paper's open loop does (r_f = boresight ∩ WGS-84 + N(0, D), range + N(0, 1 m^2),
+speed + N(0, 0.54^2)): the kind's only measurement mode, named ``oracle`` (``[measurement] mode``) as the project's
+rule for truth-made measurements asks.
 The closed loop from raw echoes is the ``spacecraft-closed-loop`` kind (``scenarios.spacecraft_closed_loop``).
 
 Random draws: run i uses only ``Generator(PCG64(seeds[i]))`` in the order of ``run_open_loop`` (9 initial-error
@@ -29,25 +30,14 @@ from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.kind_base import one_seed_per_run
-from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry, radial_intrack_crosstrack, run_open_loop
+from sarnav.simulation.spacecraft import BLOCK_NAMES, MEAS_UNITS, RIC_NAMES, RIC_UNITS, STATE_UNITS, OpenLoopParams, \
+    check_geometry, run_open_loop_records
+from sarnav.simulation.spacecraft import OPEN_LOOP_ATTRS as EXTRA_ATTRS
 from sarnav.trajectory.orbit import MIN_PERIGEE_RADIUS, STEERING, table2_elements
 from sarnav.frames.earth import WGS84_A
 
-STATE_UNITS = ("m", "m", "m", "m/s", "m/s", "m/s", "rad", "rad", "rad")
-MEAS_UNITS = ("1", "1", "m", "m/s")
-RIC_NAMES = ("pR", "pI", "pC", "vR", "vI", "vC")
-RIC_UNITS = ("m", "m", "m", "m/s", "m/s", "m/s")
-BLOCK_NAMES = ("position", "velocity", "misalignment")
 #: longest simulated flight [s] (one day: the truth orbit and the records are allocated up front)
 MAX_DURATION = 86400.0
-EXTRA_ATTRS = {
-    "error_ric": {"units": "m, m/s (see ric_units)", "description": "position / velocity error in the radial, "
-                  "in-track, cross-track frame of the true orbit (truth - estimate)"},
-    "sigma_ric": {"units": "m, m/s (see ric_units)", "description": "filter 1-sigma in the radial, in-track, "
-                  "cross-track frame (the ECEF covariance blocks rotated)"},
-    "nees_block": {"units": "1", "description": "NEES of the position, velocity and misalignment blocks (3 dof each)"},
-    "beta": {"units": "1", "description": "Lear underweighting factor beta applied at each update (0: none)"},
-}
 
 
 def _elements_table() -> dict:
@@ -233,24 +223,9 @@ class SpacecraftKind(ScenarioKind):
         one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
-        return open_loop_records(run_open_loop(parse(cfg), list(seeds)), run_ids)
+        return run_open_loop_records(parse(cfg), list(seeds), run_ids)
 
     def figures(self, results, outdir) -> list[str]:
         from sarnav.report.spacecraft_figures import write_spacecraft_figures
 
         return write_spacecraft_figures(results, outdir)
-
-
-def open_loop_records(res, run_ids) -> list[RunRecord]:
-    """One :class:`RunRecord` per run of an ``OpenLoopResult`` (extras: RIC errors and sigmas, block NEES, beta)."""
-    err_ric, sig_ric = radial_intrack_crosstrack(res)
-    out = []
-    for i, rid in enumerate(run_ids):
-        out.append(RunRecord(
-            run=int(rid), time=res.time.copy(), error=res.error[i], sigma=res.sigma[i], nees=res.nees[i],
-            update_time=res.update_time.copy(), residual=res.residual[i], residual_sigma=res.residual_sigma[i],
-            nis=res.nis[i], nis_dof=np.full(res.update_time.size, 4, dtype=int),
-            extras={"error_ric": (("time", "ric"), err_ric[i]), "sigma_ric": (("time", "ric"), sig_ric[i]),
-                    "nees_block": (("time", "block"), res.nees_blocks[i]), "beta": (("update",), res.beta[i])}))
-    return out
-

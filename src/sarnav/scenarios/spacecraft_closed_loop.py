@@ -4,8 +4,9 @@ PALSAR data; docs/spacecraft.md).
 
 Configuration and wiring only: the world and the image chain are ``measurements.spacecraft_image`` (terrain, echoes
 along the true orbit, RDA with the estimated effective velocity, hill-climbing autofocus -> v_ic, registration against
-a geocoded reference -> r_f), the filter loop ``simulation.spacecraft_closed_loop``. ``[measurement] mode = "oracle"``
-runs the paper's open loop (§VI.B: r_f + N(0, D), V_r + N(0, sigma_vic^2)) on the same updates and world (claim T19).
+a geocoded reference -> r_f), the filter loop ``simulation.spacecraft_closed_loop`` (as records:
+``run_closed_loop_records``). ``[measurement] mode = "oracle"`` runs the paper's open loop (§VI.B: r_f + N(0, D),
+V_r + N(0, sigma_vic^2)) on the same updates and world (claim T19).
 R and B use ``[measurement] sigma_vic`` and ``D``, set from the Monte Carlo of the first measurement
 (``first_measurement_statistics``; docs/spacecraft.md gives the command and the numbers), as the paper does.
 """
@@ -24,23 +25,8 @@ from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
-from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop
-
-EXTRA_ATTRS = dict(sc.EXTRA_ATTRS)
-EXTRA_ATTRS.pop("beta")
-EXTRA_ATTRS.update({
-    "vic_error": {"units": "m/s", "description": "autofocus in-track (effective) velocity v_ic minus the true V_r "
-                                                "(oracle: the drawn noise)"},
-    "geolocation_error": {"units": "m", "description": "geolocated centre pixel r_f minus the true one (ECEF x, y, z; "
-                                                      "NaN where the image gave no match)"},
-    "v0_error": {"units": "m/s", "description": "processor starting velocity (from the estimate) minus the true V_r"},
-    "n_inliers": {"units": "1", "description": "RANSAC inliers of the affine registration (correlation: 1 = peak "
-                                               "accepted)"},
-    "skipped": {"units": "1", "description": "1 where the image gave no match (fewer than min_inliers): no update"},
-    "stage_seconds": {"units": "s", "description": "wall time per image and stage (echoes: the shared world of the "
-                                                   "update, both passes and the reference)"},
-    "autofocus_evaluations": {"units": "1", "description": "images formed by the hill climb"},
-})
+from sarnav.simulation.spacecraft_closed_loop import CLOSED_LOOP_ATTRS as EXTRA_ATTRS
+from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop_records
 
 
 def default_config() -> dict:
@@ -176,23 +162,9 @@ class ClosedLoopKind(ScenarioKind):
 
     def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
         one_seed_per_run(run_ids, seeds)
-        runs = run_closed_loop(parse(cfg), list(seeds)) if len(seeds) else []
-        return [_record(int(i), r) for i, r in zip(run_ids, runs)]
+        return run_closed_loop_records(parse(cfg), list(seeds), run_ids)
 
     def figures(self, results, outdir) -> list[str]:
         from sarnav.report.spacecraft_figures import write_spacecraft_figures
 
         return write_spacecraft_figures(results, outdir)
-
-
-def _record(run: int, r) -> RunRecord:
-    ex = {"error_ric": (("time", "ric"), r.error_ric), "sigma_ric": (("time", "ric"), r.sigma_ric),
-          "nees_block": (("time", "block"), r.nees_blocks), "vic_error": (("update",), r.vic_error),
-          "geolocation_error": (("update", "xyz"), r.geolocation_error), "v0_error": (("update",), r.v0_error),
-          "n_inliers": (("update",), r.n_inliers), "skipped": (("update",), r.skipped),
-          "stage_seconds": (("update", "stage"), r.stage_seconds),
-          "autofocus_evaluations": (("update",), r.autofocus_evaluations)}
-    return RunRecord(run=run, time=r.time, error=r.error, sigma=r.sigma, nees=r.nees, update_time=r.update_time,
-                     residual=r.residual, residual_sigma=r.residual_sigma, nis=r.nis, nis_dof=r.nis_dof.astype(int),
-                     extras=ex)
-

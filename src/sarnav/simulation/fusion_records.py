@@ -1,5 +1,5 @@
 """Per-run arrays of the navigation-source experiments (multi-IMU fusion, UPF flight, per-pulse sources) in the
-shape of a campaign record (``sarnav.montecarlo.record.RunRecord``; the scenario kinds wrap them).
+shape of a campaign record (``sarnav.record.RunRecord``: :func:`run_records`; the scenario kinds name them).
 
 Two kinds of output (docs/particles.md "Scenarios"):
 
@@ -20,11 +20,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from sarnav.errors import InputDataError
+from sarnav.record import RunRecord
 
-__all__ = ["SourceRecords", "source_records", "stacked_nees", "filter_nees", "mean_square_after", "AXES"]
+__all__ = ["SourceRecords", "source_records", "run_records", "stacked_nees", "filter_nees", "mean_square_after", "AXES",
+           "SOURCE_ATTRS"]
 
 #: the ``axis`` coordinate of ``source_error``
 AXES = ("N", "E", "D")
+#: attributes of the record variables of :func:`run_records` (results.nc)
+SOURCE_ATTRS = {
+    "source_error": {"units": "m", "description": "estimate minus truth of every navigation source, NED [m], at the "
+                                                  "output epochs (fused sources included)"},
+    "source_ms": {"units": "m2", "description": "per run: mean over the epochs after the settling time of the "
+                                                "squared 3-D position error [m^2]; summary.json rmse = sqrt(mean "
+                                                "over runs)"},
+    "filter_nees": {"units": "1", "description": "NEES of each filter's position, e^T P^-1 e with its own "
+                                                 "covariance (cloud sample covariance / KF P), 3 dof"},
+}
 
 
 @dataclass
@@ -105,3 +117,22 @@ def source_records(times, errors: dict, covariances: dict, filters, sources, set
     return SourceRecords(times[sel], list(filters), np.concatenate(list(e), -1), np.concatenate(list(sigma), -1),
                          per.sum(axis=0), list(sources), np.stack([errors[s][:, sel] for s in sources], 2),
                          source_ms, np.moveaxis(per, 0, -1))
+
+
+def run_records(rec: SourceRecords, run_ids, extras=None, sources: bool = True) -> list[RunRecord]:
+    """One RunRecord per run: states = the filters' position errors, no measurement residuals (the filters'
+    updates are the fixes; their consistency is the NEES), ``filter_nees``, (``sources``) ``source_error`` /
+    ``source_ms`` and ``extras`` name -> (dims, (R, ...) array) as kind variables."""
+    out = []
+    for i, run in enumerate(run_ids):
+        ex = {"filter_nees": (("time", "filter"), rec.filter_nees[i])}
+        if sources:
+            ex["source_error"] = (("time", "source", "axis"), rec.source_error[i])
+            ex["source_ms"] = (("source",), rec.source_ms[i])
+        for name, (dims, arr) in (extras or {}).items():
+            ex[name] = (dims, arr[i])
+        out.append(RunRecord(run=int(run), time=rec.time.copy(), error=rec.error[i], sigma=rec.sigma[i],
+                             nees=rec.nees[i], update_time=rec.time[:0].copy(), residual=rec.error[i, :0, :0],
+                             residual_sigma=rec.error[i, :0, :0], nis=rec.time[:0].copy(),
+                             nis_dof=rec.time[:0].astype(int), extras=ex))
+    return out

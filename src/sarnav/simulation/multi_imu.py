@@ -8,14 +8,18 @@
   (Figs. 5.10, 5.12, 5.13, T20-T23);
 * :func:`run_upf_flight` — the one-hour flight (climb, figure-eights, racetracks) with the NovAtel model,
   200 Hz IMU + 20 Hz fix, the 2000-particle UPF and the interpolated KF at 3 kHz (Figs. 5.8, 5.26, T10-T13);
-* :func:`navigation_sources_at_pulses` — per-pulse antenna positions from every navigation source for the
-  back-projection focus comparison (Figs. 6.5-6.9, 6.12-6.13).
+* the campaigns of the kinds ``multi-imu-path1``, ``multi-imu`` and ``upf-flight``: their parameters
+  (:class:`Path1Params`, :class:`MultiImuParams`, :class:`UpfParams`) and runs to records
+  (:func:`run_path1_records`, :func:`run_multi_imu_records`, :func:`run_upf_flight_records`).
+
+The rig, its flights, fixes and aided PFs are ``simulation.imu_rig``; the per-pulse antenna positions of every
+navigation source (Figs. 6.5-6.9) are ``simulation.nav_sources`` (both kept importable from here).
 
 Every function takes a ``numpy.random.SeedSequence`` (or int) and spawns one child per run; runs are
 independent of how they are batched. Errors are point-estimate position errors in NED metres against the
 noise-free truth; "rmse" is the 3-D RMS over runs and epochs after ``settle`` seconds (the source's
 "3-dimensional positional accuracy", Fig. 5.24; its eq. 5.22 cloud RMS is reported as ``cloud_rmse`` where a
-cloud exists, gap G18). Parameter choices where the source is silent are the module constants below and are
+cloud exists, gap G18). Parameter choices where the source is silent are the module constants and are
 discussed in docs/particles.md.
 """
 
@@ -26,49 +30,35 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sarnav.errors import ConfigError, InputDataError
+from sarnav.errors import ConfigError
 from sarnav.filters.fusion import cloud_mean, draw_sensors, mean_fuse, sensor_log_weights, virtual_imu
 from sarnav.filters.grid_kalman import GridKalmanFilter
 from sarnav.filters.grid_particle import GridParticleFilter
-from sarnav.filters.pulse_grid import TIME_TOLERANCE, FixStream, GridOutput, ImuStream, NavFrame, uniform_times
-from sarnav.frames.wgs84 import geodetic_difference_ned, ned_offset_to_geodetic
-from sarnav.rotations import quat_to_dcm
-from sarnav.sensors import ImuModel, imu_grade
-from sarnav.sensors.gauss_markov import fogm_coefficients, fogm_path
-from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
-from sarnav.trajectory import Maneuvering, RateProfile
+from sarnav.filters.pulse_grid import FixStream, GridOutput, ImuStream, NavFrame, uniform_times
+from sarnav.frames.wgs84 import geodetic_difference_ned
+from sarnav.record import RunRecord
+from sarnav.simulation.fusion_records import SOURCE_ATTRS, run_records, source_records
+# the rig and the per-pulse sources, kept importable from here (their home until sarnav 0.3)
+from sarnav.simulation.imu_rig import (ADIS_LEVER_ARMS, FIX_SIGMA, ORIGIN, SPEC_HORIZON, WHITE_BIAS_TAU,
+                                       aided_pf, cart_track, climb_and_turn, correlated_fix_errors, gnss_ins_sim_imu,
+                                       rig_imu, rngs_for, seed_sequences, simulate_fixes, spec_accel_psd,
+                                       survey_flight, truth_native)
+from sarnav.simulation.nav_sources import (NAV_SOURCES, NavSources, navigation_sources,
+                                           navigation_sources_at_pulses)
+from sarnav.trajectory import Maneuvering
 from sarnav.trajectory.geodetic import GeodeticFlight
 
-#: origin of the simulated flights: Norman, Oklahoma (the source's test area), 1000 m
-ORIGIN = (np.radians(35.2), np.radians(-97.44), 1000.0)
-#: fix (GPS) standard deviation per NED axis [m] (extraction §8 default; the source gives none, G8/G20)
-FIX_SIGMA = np.array([0.3, 0.3, 0.5])
-#: gnss-ins-sim draws a bias stability with infinite correlation time as white noise at every sample; an
-#: FOGM with a correlation time far below the sample interval is that process (sarnav.sensors.imu docstring)
-WHITE_BIAS_TAU = 1e-9
+__all__ = ["PATH1_SIGMAS", "FusionResult", "single_step_sir", "path1", "run_path1", "run_multi_imu", "UpfFlightResult",
+           "cloud_settle_time", "run_upf_flight", "Path1Params", "MultiImuParams", "UpfParams", "UPF_ATTRS",
+           "run_path1_records", "run_multi_imu_records", "run_upf_flight_records",
+           # simulation.imu_rig and simulation.nav_sources
+           "ADIS_LEVER_ARMS", "FIX_SIGMA", "ORIGIN", "SPEC_HORIZON", "WHITE_BIAS_TAU", "aided_pf", "cart_track",
+           "climb_and_turn", "correlated_fix_errors", "gnss_ins_sim_imu", "rig_imu", "rngs_for", "seed_sequences",
+           "simulate_fixes", "spec_accel_psd", "survey_flight", "truth_native", "NAV_SOURCES", "NavSources",
+           "navigation_sources", "navigation_sources_at_pulses"]
+
 #: Table 5.1 noise standard deviations of the three path-1 sensors [m]
 PATH1_SIGMAS = (0.5, 1.0, 0.1)
-#: lever arms of the three ADIS16465 on the rig (body frame, metres from the reference point / GPS antenna)
-ADIS_LEVER_ARMS = np.array([[0.10, 0.08, 0.0], [0.10, -0.08, 0.0], [-0.12, 0.0, 0.02]])
-#: horizon [s] over which :func:`spec_accel_psd` lets the gyro-driven tilt error grow
-SPEC_HORIZON = 100.0
-
-
-def _seeds(seed, runs):
-    """One SeedSequence per run: ``seed`` (int or SeedSequence) spawns ``runs`` children; a list of SeedSequences
-    (a campaign's run seeds, ``sarnav.montecarlo.seeding.run_seeds``) is used as given, one per run."""
-    if isinstance(seed, (list, tuple)):
-        if len(seed) != runs or not all(isinstance(s, np.random.SeedSequence) for s in seed):
-            raise InputDataError("seeds", f"need {runs} SeedSequences (one per run), got {len(seed)}")
-        return list(seed)
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    return ss.spawn(runs)
-
-
-def rngs_for(seqs, stream):
-    """One Generator per run for a named stream (sensor noise, fixes, filter s, fusion) of that run."""
-    return [np.random.default_rng(np.random.SeedSequence(s.entropy, spawn_key=s.spawn_key + (stream,)))
-            for s in seqs]
 
 
 def _rms(err, t, settle):
@@ -149,7 +139,7 @@ def run_path1(runs: int = 4, seed=0, duration: float = 100.0, sensor_sigmas=PATH
     ``accel_psd`` and is updated with that sensor's noisy positions at ``rate``; SIR weights use a separate
     fix of ``fix_sigma`` per axis (gap G19: the source states none). Returns rmse for ``sensor1..S``,
     ``mean``, ``sir`` and ``fix``."""
-    seqs = _seeds(seed, runs)
+    seqs = seed_sequences(seed, runs)
     frame = NavFrame()
     t_imu, t_fix = uniform_times(0.0, duration, 10 * rate), uniform_times(0.0, duration, rate)
     _, _, a = path1(t_imu)
@@ -190,67 +180,7 @@ def _cloud_rms(out: GridOutput, err, t, settle):
 
 
 # --------------------------------------------------------------------------------------------------------
-# IMU rigs over the rotating Earth
-
-def gnss_ins_sim_imu(name: str, rate: float) -> ImuModel:
-    """An ImuModel of the named preset with gnss-ins-sim's semantics for the bias stability (white, G23)."""
-    return ImuModel(imu_grade(name), rate, WHITE_BIAS_TAU, WHITE_BIAS_TAU)
-
-
-def rig_imu(flight: GeodeticFlight, times, lever_arm, model: ImuModel, rngs) -> ImuStream:
-    """Measured samples of an IMU at body offset ``lever_arm`` from the flight's reference point."""
-    f, w = flight.imu(times)
-    f = lever_arm_specific_force(f, w, rate_derivative(w, float(times[1] - times[0])), lever_arm)
-    ba, bg = model.initial_biases(rngs)
-    nu, om, *_ = model.measure(f, w, ba, bg, rngs)
-    return ImuStream(times, nu, om)
-
-
-def simulate_fixes(flight: GeodeticFlight, times, sigma, rngs, bias=(0.0, 0.0, 0.0)) -> FixStream:
-    """Absolute fixes of the reference point: truth + bias + N(0, diag sigma^2) in NED metres, as geodetic."""
-    s = flight.state(times)
-    d = np.asarray(bias, dtype=float) + np.asarray(sigma) * np.stack([g.standard_normal((times.size, 3)) for g in rngs])
-    lat, lon, h = ned_offset_to_geodetic(s.lat, s.lon, s.h, d)
-    return FixStream(times, np.stack([lat, lon, h], -1), np.asarray(sigma, dtype=float))
-
-
-def _truth_native(flight, t):
-    s = flight.state(t)
-    return np.stack([s.lat, s.lon, s.h], -1), s
-
-
-def _aided_pf(flight, imu, fixes, lever_arm, n_particles, accel_psd, rngs, out_times, t_end, model="geodetic"):
-    """One aided PF per IMU; returns its output translated to the reference point (R, T, 3) native."""
-    frame = NavFrame(geodetic=True, origin=ORIGIN)
-    s0 = flight.state(0.0)
-    C0 = quat_to_dcm(s0.quaternion)
-    lat, lon, h = ned_offset_to_geodetic(s0.lat, s0.lon, s0.h, C0 @ lever_arm)
-    runs = imu.specific_force.shape[0]
-    sig = fixes.sigma
-    pf = GridParticleFilter(frame, n_particles, accel_psd, model=model, noise_at="fix", ess_threshold=0.5,
-                            kernel_h=0.3, fix_lever_arm=-np.asarray(lever_arm, dtype=float))
-    pf.initialize(0.0, np.broadcast_to([lat, lon, h], (runs, 3)), np.broadcast_to(s0.velocity, (runs, 3)),
-                  s0.quaternion, np.diag(np.r_[sig**2, [0.05**2] * 3]), rngs)
-    out = pf.run(imu, t_end, fixes, out_times)
-    back = -np.einsum("rkij,j->rki", quat_to_dcm(out.quaternion), lever_arm)
-    la, lo, hh = ned_offset_to_geodetic(out.position[..., 0], out.position[..., 1], out.position[..., 2], back)
-    return np.stack([la, lo, hh], -1), out
-
-
-def climb_and_turn(duration: float = 300.0, speed: float = 50.0) -> Maneuvering:
-    """The multi-IMU flight (Fig. 5.9 "changes in latitude, longitude and altitude"): the built-in S-turn with
-    climb and descent (``Maneuvering.s_turn_climb``)."""
-    return Maneuvering.s_turn_climb([0.0, 0.0, -ORIGIN[2]], speed, np.radians(30.0), duration)
-
-
-def spec_accel_psd(name: str, rate: float, horizon: float = SPEC_HORIZON) -> float:
-    """White-acceleration PSD [m^2/s^3] for an aided PF from an IMU's specs (gap G16: "derived from the IMU
-    specifications", L1145): the accelerometer white noise (VRW^2 plus gnss-ins-sim's white bias-stability
-    term sigma_b^2 dt) plus the gyro-driven tilt error, g ARW sqrt(horizon) after ``horizon`` s, treated as
-    white over ``horizon``: ``q = VRW^2 + sigma_b^2/rate + (g ARW horizon)^2``."""
-    g = imu_grade(name)
-    return float(g.vrw**2 + g.accel_bias**2 / rate + (9.81 * g.arw * horizon) ** 2)
-
+# 3 x ADIS16465 against one NovAtel over the rotating Earth (Figs. 5.10-5.13)
 
 def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: int = 1000, n_adis: int = 3,
                   accel_psd="spec", fix_sigma=FIX_SIGMA, n_draws: int = 50, per_axis: bool = True,
@@ -267,10 +197,10 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
     """
     if not 1 <= n_adis <= len(ADIS_LEVER_ARMS):
         raise ConfigError("multi_imu.n_adis", f"must be in [1, {len(ADIS_LEVER_ARMS)}], got {n_adis}")
-    seqs = _seeds(seed, runs)
+    seqs = seed_sequences(seed, runs)
     flight = GeodeticFlight(climb_and_turn(duration, speed), *ORIGIN)
     t_fix = uniform_times(0.0, duration, 20.0)
-    truth, _ = _truth_native(flight, t_fix)
+    truth, _ = truth_native(flight, t_fix)
     fixes = simulate_fixes(flight, t_fix, fix_sigma, rngs_for(seqs, 1), fix_bias)
     fix_for = lambda s: fixes if shared_fix else simulate_fixes(flight, t_fix, fix_sigma, rngs_for(seqs, 50 + s), fix_bias)  # noqa: E731
     psd = lambda name, rate: (spec_accel_psd(name, rate) if isinstance(accel_psd, str) and accel_psd == "spec"  # noqa: E731
@@ -282,23 +212,23 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
     for s in range(n_adis):
         imu = rig_imu(flight, t_adis, ADIS_LEVER_ARMS[s], adis, rngs_for(seqs, 10 + s))
         imus.append(imu)
-        pos, out = _aided_pf(flight, imu, fix_for(s), ADIS_LEVER_ARMS[s], n_particles, psd("adis16465", 100.0),
-                             rngs_for(seqs, 20 + s), t_fix, duration)
+        pos, out = aided_pf(flight, imu, fix_for(s), ADIS_LEVER_ARMS[s], n_particles, psd("adis16465", 100.0),
+                            rngs_for(seqs, 20 + s), t_fix, duration)
         est.append(pos)
         covs[f"sensor{s + 1}"] = out.position_cov
         errors[f"sensor{s + 1}"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
         cloud[f"sensor{s + 1}"] = _cloud_rms(out, errors[f"sensor{s + 1}"], t_fix, settle)
     nov = rig_imu(flight, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), rngs_for(seqs, 5))
-    pos, out = _aided_pf(flight, nov, fixes, np.zeros(3), n_particles, psd("novatel-isa-100c", 200.0), rngs_for(seqs, 6),
-                         t_fix, duration)
+    pos, out = aided_pf(flight, nov, fixes, np.zeros(3), n_particles, psd("novatel-isa-100c", 200.0), rngs_for(seqs, 6),
+                        t_fix, duration)
     errors["novatel"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
     cloud["novatel"] = _cloud_rms(out, errors["novatel"], t_fix, settle)
     covs["novatel"] = out.position_cov
     if virtual:
         f, w = virtual_imu(np.stack([i.specific_force for i in imus]), np.stack([i.angular_rate for i in imus]),
                            ADIS_LEVER_ARMS[:n_adis], 0.01)
-        pos, out = _aided_pf(flight, ImuStream(t_adis, f, w), fix_for(9), np.zeros(3), n_particles,
-                             psd("adis16465", 100.0) / n_adis, rngs_for(seqs, 7), t_fix, duration)
+        pos, out = aided_pf(flight, ImuStream(t_adis, f, w), fix_for(9), np.zeros(3), n_particles,
+                            psd("adis16465", 100.0) / n_adis, rngs_for(seqs, 7), t_fix, duration)
         errors["vimu"] = geodetic_difference_ned(*np.moveaxis(pos, -1, 0), *np.moveaxis(truth, -1, 0))
         covs["vimu"] = out.position_cov
     # fusion in NED metres about the truth (any common origin gives the same weights)
@@ -317,29 +247,6 @@ def run_multi_imu(runs: int = 2, seed=0, duration: float = 300.0, n_particles: i
 
 # --------------------------------------------------------------------------------------------------------
 # the one-hour UPF flight (Figs. 5.25-5.28) and the NovAtel-model comparison of KF and PF (Fig. 5.8)
-
-def survey_flight(duration: float = 3600.0, speed: float = 50.0, climb: float = 3.0) -> Maneuvering:
-    """A flight like the source's Piper Warrior sortie (L1273): climb (``climb`` m/s for the first 1/6), then
-    figure-eights (a right and a left 360 deg turn at 3 deg/s) alternating with racetracks (straight 60 s,
-    180 deg turn, straight 60 s, 180 deg turn), then a descent over the last 1/12. Transitions 4 s."""
-    d = np.radians(3.0)
-    starts, turn = [0.0], [0.0]
-    t = duration / 12.0
-    pattern = [(120.0, d), (120.0, -d), (30.0, 0.0), (60.0, 0.0), (60.0, d), (60.0, 0.0), (60.0, d), (30.0, 0.0)]
-    i = 0
-    while t + pattern[i % len(pattern)][0] < duration - 10.0:
-        length, rate = pattern[i % len(pattern)]
-        starts.append(t)
-        turn.append(rate)
-        t += length
-        i += 1
-    starts.append(t)
-    turn.append(0.0)
-    keep = np.concatenate([[True], np.diff(starts) >= 8.0])
-    starts, turn = list(np.asarray(starts)[keep]), list(np.asarray(turn)[keep])
-    c_starts = [0.0, duration / 6.0, 11.0 * duration / 12.0]
-    return Maneuvering([0.0, 0.0, -ORIGIN[2]], speed, np.radians(200.0), RateProfile(tuple(starts), tuple(turn), 4.0),
-                       RateProfile(tuple(c_starts), (climb, 0.0, -2.0 * climb), 4.0), duration)
 
 
 @dataclass
@@ -395,7 +302,7 @@ def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles:
     so that one hour at 3 kHz fits in memory. Errors accumulate as sums of squares per run; the filters' fix-epoch
     estimates and covariances are kept at ``record_rate`` (a divisor of ``fix_rate``). ``kf_coriolis`` gives the
     KF the Coriolis and transport-rate terms (``GridKalmanFilter(coriolis=True)``; False: the source's eq. 3.10)."""
-    seqs = _seeds(seed, runs)
+    seqs = seed_sequences(seed, runs)
     flat = flight if flight is not None else survey_flight(duration)
     geo = GeodeticFlight(flat, *ORIGIN)
     frame = NavFrame(geodetic=True, origin=ORIGIN)
@@ -422,7 +329,7 @@ def run_upf_flight(runs: int = 1, seed=0, duration: float = 3600.0, n_particles:
         nu, om, _, _, ba, bg = model.measure(f, w, ba, bg, rng["imu"])
         fixes = simulate_fixes(geo, uniform_times(t0, t1, fix_rate)[1:], sig, rng["fix"])
         t_out = uniform_times(t0, t1, out_rate)[1:]
-        truth = (_truth_native(geo, t_out)[0], _truth_native(geo, fixes.times)[0])  # once for both filters
+        truth = (truth_native(geo, t_out)[0], truth_native(geo, fixes.times)[0])  # once for both filters
         for name, filt in filters.items():
             tic = time.perf_counter()
             out = filt.run(ImuStream(t_imu, nu, om), t1, fixes, t_out)
@@ -488,161 +395,162 @@ class _UpfAccumulator:
                                record_fix_errors=np.concatenate(self.rec_fix, axis=1))
 
 
+
+
 # --------------------------------------------------------------------------------------------------------
-# per-pulse antenna positions of every navigation source (for the back-projection focus comparison)
+# the campaigns of the kinds multi-imu-path1, multi-imu and upf-flight (scenarios.multi_imu): parameters -> records
 
-NAV_SOURCES = ("truth", "upf", "kf-interp", "spline-gps", "spline-kf", "spline-pf", "sir-3adis", "novatel")
-
-
-def cart_track(duration: float, speed: float = 1.0, heading: float = np.pi / 2) -> Maneuvering:
-    """The ground-test cart (§3.7 of the extraction): straight at ``speed`` m/s, level, at the origin height."""
-    return Maneuvering([0.0, 0.0, -ORIGIN[2]], speed, heading, RateProfile((0.0,), (0.0,), 1.0),
-                       RateProfile((0.0,), (0.0,), 1.0), duration)
+def _run_ids(run_ids, seeds) -> list:
+    return list(range(len(seeds))) if run_ids is None else list(run_ids)
 
 
-@dataclass
-class NavSources:
-    """What :func:`navigation_sources` returns: ``positions`` source -> (R, P, 3) antenna positions at the pulses,
-    NED metres relative to the true first-pulse position (``truth`` (1, P, 3)); for the filters with a covariance
-    (``upf``, ``kf-interp``) at their fix epochs ``fix_times`` (K,): ``fix_errors`` name -> (R, K, 3) estimate -
-    truth [m] after the update and ``fix_covs`` name -> (R, K, 3, 3) [m^2] (cloud sample covariance / KF P)."""
+@dataclass(frozen=True)
+class Path1Params:
+    """The ``multi-imu-path1`` campaign (arguments of :func:`run_path1`, SI): path ``duration`` [s], one PF per
+    sensor of ``sensor_sigmas`` [m] updated at ``rate`` [Hz], ``n_particles``, ``accel_psd`` [m^2/s^3], ``settle``
+    [s], the weighting fix ``fix_sigma`` [m], SIR ``n_draws`` and ``per_axis``."""
 
-    positions: dict
-    fix_times: np.ndarray | None = None
-    fix_errors: dict = field(default_factory=dict)
-    fix_covs: dict = field(default_factory=dict)
+    runs: int
+    duration: float
+    sensor_sigmas: tuple
+    rate: float
+    n_particles: int
+    accel_psd: float
+    settle: float
+    fix_sigma: float
+    n_draws: int
+    per_axis: bool
 
+    def filters(self) -> list[str]:
+        """The filters with a covariance (the records' states)."""
+        return [f"sensor{i + 1}" for i in range(len(self.sensor_sigmas))]
 
-def navigation_sources_at_pulses(pulse_times, runs: int = 1, seed=0, track: Maneuvering | None = None,
-                                 n_particles: int = 2000, adis_particles: int = 1000, fix_sigma=FIX_SIGMA,
-                                 accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES):
-    """The positions of :func:`navigation_sources` (dict source -> (R, P, 3))."""
-    return navigation_sources(pulse_times, runs, seed, track, n_particles, adis_particles, fix_sigma, accel_psd,
-                              n_draws, sources).positions
-
-
-def correlated_fix_errors(times, sigma, tau, rngs) -> np.ndarray:
-    """(R, K, 3) first-order Gauss-Markov fix errors (stationary 1-sigma ``sigma`` (3,) [m], correlation time
-    ``tau`` [s]; ``sensors.gauss_markov``, exact discretisation) at uniformly spaced ``times`` (K,): the slowly
-    varying part of a GNSS position error (multipath, atmosphere, orbits)."""
-    sigma = np.asarray(sigma, dtype=float)
-    phi, drive = fogm_coefficients(sigma, tau, float(times[1] - times[0]) if len(times) > 1 else 1.0)
-    b0 = sigma * np.stack([g.standard_normal(3) for g in rngs])
-    w = np.stack([g.standard_normal((len(times) - 1, 3)) for g in rngs])
-    path, last = fogm_path(b0, w, phi, drive)
-    return np.concatenate([path, last[:, None]], axis=1)
+    def sources(self) -> list[str]:
+        """Every navigation source of the records."""
+        return self.filters() + ["mean", "sir", "fix"]
 
 
-def navigation_sources(pulse_times, runs: int = 1, seed=0, track: Maneuvering | None = None,
-                       n_particles: int = 2000, adis_particles: int = 1000, fix_sigma=FIX_SIGMA,
-                       accel_psd="spec", n_draws: int = 50, sources=NAV_SOURCES,
-                       fix_correlated=(0.0, 0.0, 0.0), fix_tau: float = 300.0) -> NavSources:
-    """Antenna (reference point) positions at every pulse from each navigation source, NED metres relative to
-    the true position at the first pulse: ``positions`` source -> (R, P, 3) (``truth`` is (1, P, 3)), and the
-    fix-epoch errors and covariances of the UPF and the interpolated KF (:class:`NavSources`).
-
-    ``pulse_times`` (P,) [s] must start after a run-in (the filters start at t = 0 from the first fix and
-    converge, e.g. 30 s, then the aperture). Sources (L1332-1403): ``upf`` (NovAtel + 20 Hz fix, 2000-particle
-    UPF on the pulse grid), ``kf-interp`` (the KF on the pulse grid), ``spline-gps`` (cubic spline of the 20 Hz
-    fixes), ``spline-kf`` / ``spline-pf`` (cubic splines of the KF / PF output at the 200 Hz IMU epochs),
-    ``sir-3adis`` (three ADIS16465 PFs on the pulse grid, SIR-fused at each fix, indices held in between),
-    ``novatel`` (the NovAtel PF on the pulse grid: the UPF with ``adis_particles`` particles, the multi-IMU
-    comparison's single-IMU solution). The lever arm IMU -> antenna is zero (gap G12).
-
-    Fix errors: white N(0, ``fix_sigma``^2) per NED axis at every fix (gnss-ins-sim's model, the default) plus,
-    when ``fix_correlated`` (3,) [m] is non-zero, a first-order Gauss-Markov error of that stationary 1-sigma and
-    correlation time ``fix_tau`` (:func:`correlated_fix_errors`); the filters assume the total 1-sigma
-    ``sqrt(fix_sigma^2 + fix_correlated^2)`` as white (what a receiver's specification gives them).
-    """
-    from sarnav.filters.pulse_grid import spline_positions
-
-    pulse_times = np.asarray(pulse_times, dtype=float)
-    t_end = float(pulse_times[-1]) + 0.1
-    flat = track if track is not None else cart_track(np.ceil(t_end) + 1.0)
-    geo = GeodeticFlight(flat, *ORIGIN)
-    frame = NavFrame(geodetic=True, origin=ORIGIN)
-    seqs = _seeds(seed, runs)
-    sig = np.asarray(fix_sigma, dtype=float)
-    t_fix = uniform_times(0.0, t_end, 20.0)
-    corr = np.asarray(fix_correlated, dtype=float)
-    bias = correlated_fix_errors(t_fix, corr, fix_tau, rngs_for(seqs, 5)) if np.any(corr > 0) else np.zeros(3)
-    fixes = simulate_fixes(geo, t_fix, sig, rngs_for(seqs, 1), bias)
-    sig = np.hypot(sig, corr)  # what the filters assume
-    fixes = FixStream(fixes.times, fixes.position, sig)
-    truth0 = _truth_native(geo, pulse_times[:1])[0][0]
-    to_ned = lambda p: geodetic_difference_ned(p[..., 0], p[..., 1], p[..., 2], *truth0)  # noqa: E731
-    out = {"truth": to_ned(_truth_native(geo, pulse_times)[0])[None]}
-    s0 = geo.state(0.0)
-    p0 = np.diag(np.r_[sig**2, [0.05**2] * 3])
-    v0 = np.broadcast_to(s0.velocity, (runs, 3))
-    t_nov = uniform_times(0.0, t_end, 200.0)
-    nov = rig_imu(geo, t_nov, np.zeros(3), gnss_ins_sim_imu("novatel-isa-100c", 200.0), rngs_for(seqs, 2))
-    q_nov = spec_accel_psd("novatel-isa-100c", 200.0) if accel_psd == "spec" else float(accel_psd)
-    t_win = t_nov[(t_nov >= pulse_times[0] - 0.05) & (t_nov <= pulse_times[-1] + 0.05)]
-    # the filters' grid merges epochs closer than TIME_TOLERANCE (filters.pulse_grid): an IMU sample that close to a
-    # pulse is the pulse's epoch, or the outputs would not line up with these times
-    j = np.clip(np.searchsorted(pulse_times, t_win), 1, pulse_times.size - 1) if pulse_times.size > 1 else None
-    if j is not None:
-        gap = np.minimum(np.abs(t_win - pulse_times[j - 1]), np.abs(t_win - pulse_times[j]))
-        t_win = t_win[gap > TIME_TOLERANCE]
-    both = np.union1d(pulse_times, t_win)
-    at_pulse = np.searchsorted(both, pulse_times)
-    want = set(sources)
-    res = NavSources(out, fixes.times[1:])
-
-    def keep_fix(name, o):
-        res.fix_errors[name] = frame.error_ned(o.fix_position, _truth_native(geo, o.fix_times)[0])
-        res.fix_covs[name] = o.position_cov
-
-    if want & {"upf", "spline-pf"}:
-        pf = GridParticleFilter(frame, n_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
-        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, rngs_for(seqs, 3))
-        o = pf.run(nov, t_end, fixes, both)
-        out["upf"] = to_ned(o.position[:, at_pulse])
-        k = np.isin(both, t_nov)
-        out["spline-pf"] = to_ned(spline_positions(both[k], o.position[:, k], pulse_times))
-        keep_fix("upf", o)
-    if want & {"kf-interp", "spline-kf"}:
-        kf = GridKalmanFilter(frame, q_nov).initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0)
-        o = kf.run(nov, t_end, fixes, both)
-        out["kf-interp"] = to_ned(o.position[:, at_pulse])
-        k = np.isin(both, t_nov)
-        out["spline-kf"] = to_ned(spline_positions(both[k], o.position[:, k], pulse_times))
-        keep_fix("kf-interp", o)
-    if "spline-gps" in want:
-        out["spline-gps"] = to_ned(spline_positions(t_fix, fixes.position, pulse_times))
-    if "novatel" in want:
-        pf = GridParticleFilter(frame, adis_particles, q_nov, model="geodetic", ess_threshold=0.5, kernel_h=0.3)
-        pf.initialize(0.0, fixes.position[:, 0], v0, s0.quaternion, p0, rngs_for(seqs, 4))
-        out["novatel"] = to_ned(pf.run(nov, t_end, fixes, pulse_times).position)
-    if "sir-3adis" in want:
-        out["sir-3adis"] = _sir_at_pulses(geo, fixes, pulse_times, t_end, adis_particles, accel_psd, n_draws,
-                                          seqs, to_ned)
-    res.positions = {k: out[k] for k in sources if k in out}
-    return res
+def run_path1_records(prm: Path1Params, seeds, run_ids=None) -> list[RunRecord]:
+    """One record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...): :func:`run_path1` at the fix
+    epochs (the covariances' epochs), ``fusion_records.run_records``."""
+    seeds = list(seeds)
+    r = run_path1(runs=len(seeds), seed=seeds, duration=prm.duration, sensor_sigmas=prm.sensor_sigmas,
+                  fix_sigma=prm.fix_sigma, n_particles=prm.n_particles, accel_psd=prm.accel_psd, rate=prm.rate,
+                  n_draws=prm.n_draws, per_axis=prm.per_axis, settle=prm.settle)
+    errors = {k: v[:, 1:] for k, v in r.errors.items()}  # the fix epochs (the covariances' epochs)
+    rec = source_records(r.times[1:], errors, r.covariances, prm.filters(), prm.sources(), prm.settle)
+    return run_records(rec, _run_ids(run_ids, seeds))
 
 
-def _sir_at_pulses(geo, fixes, pulse_times, t_end, n_particles, accel_psd, n_draws, seqs, to_ned):
-    """Three ADIS PFs on the pulse grid (outputs at pulses and fixes), SIR indices drawn at each fix and held."""
-    t_adis = uniform_times(0.0, t_end, 100.0)
-    model = gnss_ins_sim_imu("adis16465", 100.0)
-    q = spec_accel_psd("adis16465", 100.0) if accel_psd == "spec" else float(accel_psd)
-    grid = np.union1d(pulse_times, fixes.times)
-    est = []
-    for s in range(3):
-        imu = rig_imu(geo, t_adis, ADIS_LEVER_ARMS[s], model, rngs_for(seqs, 60 + s))
-        pos, _ = _aided_pf(geo, imu, fixes, ADIS_LEVER_ARMS[s], n_particles, q, rngs_for(seqs, 70 + s), grid, t_end)
-        est.append(to_ned(pos))
-    est = np.stack(est, 1)  # (R, 3, T, 3)
-    fix_ned = to_ned(fixes.position)
-    is_fix = np.isin(grid, fixes.times)
-    rngs = rngs_for(seqs, 80)
-    fused = np.empty((est.shape[0], grid.size, 3))
-    idx = np.zeros((est.shape[0], n_draws, 3), dtype=np.int64)  # equal draws before the first fix
-    idx[:, :, :] = np.arange(n_draws)[None, :, None] % 3
-    for k in range(grid.size):
-        if is_fix[k] and grid[k] > 0:
-            j = int(np.searchsorted(fixes.times, grid[k] - 1e-9))
-            idx = draw_sensors(sensor_log_weights(est[:, :, k], fix_ned[:, j], fixes.sigma), n_draws, rngs)
-        fused[:, k] = cloud_mean(est[:, :, k], idx)
-    return fused[:, np.searchsorted(grid, pulse_times)]
+@dataclass(frozen=True)
+class MultiImuParams:
+    """The ``multi-imu`` campaign (arguments of :func:`run_multi_imu`, SI): flight ``duration`` [s] and ``speed``
+    [m/s], ``n_adis`` ADIS16465, fix ``fix_sigma`` / ``fix_bias`` (3,) [m] and ``shared_fix``, ``n_particles``,
+    ``psd_scale`` (x :func:`spec_accel_psd` of each IMU), ``settle`` [s], SIR ``n_draws`` and ``per_axis``,
+    ``virtual`` (the virtual-IMU PF), records every ``stride`` fix epochs."""
+
+    runs: int
+    duration: float
+    speed: float
+    n_adis: int
+    fix_sigma: tuple
+    fix_bias: tuple
+    shared_fix: bool
+    n_particles: int
+    psd_scale: float
+    settle: float
+    n_draws: int
+    per_axis: bool
+    virtual: bool
+    stride: int
+
+    def filters(self) -> list[str]:
+        """The filters with a covariance (the records' states)."""
+        return [f"sensor{i + 1}" for i in range(self.n_adis)] + ["novatel"] + (["vimu"] if self.virtual else [])
+
+    def sources(self) -> list[str]:
+        """Every navigation source of the records."""
+        return self.filters() + ["mean", "sir", "fix"]
+
+
+def run_multi_imu_records(prm: MultiImuParams, seeds, run_ids=None) -> list[RunRecord]:
+    """One record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...): :func:`run_multi_imu` at the fix
+    epochs, the time series every ``prm.stride`` epochs (``source_ms`` from all of them)."""
+    seeds = list(seeds)
+    psd = {n: prm.psd_scale * spec_accel_psd(n, r) for n, r in (("adis16465", 100.0), ("novatel-isa-100c", 200.0))}
+    r = run_multi_imu(runs=len(seeds), seed=seeds, duration=prm.duration, n_particles=prm.n_particles,
+                      n_adis=prm.n_adis, accel_psd=psd, fix_sigma=prm.fix_sigma, n_draws=prm.n_draws,
+                      per_axis=prm.per_axis, settle=prm.settle, virtual=prm.virtual, fix_bias=prm.fix_bias,
+                      shared_fix=prm.shared_fix, speed=prm.speed)
+    errors = {k: v[:, 1:] for k, v in r.errors.items()}
+    rec = source_records(r.times[1:], errors, r.covariances, prm.filters(), prm.sources(), prm.settle,
+                         stride=prm.stride)
+    return run_records(rec, _run_ids(run_ids, seeds))
+
+
+@dataclass(frozen=True)
+class UpfParams:
+    """The ``upf-flight`` campaign (arguments of :func:`run_upf_flight` over :func:`survey_flight`, SI): flight
+    ``duration`` [s], ``speed`` and ``climb`` [m/s]; the ``imu`` preset at ``imu_rate`` [Hz]; fixes ``fix_sigma``
+    (3,) [m] at ``fix_rate`` [Hz]; ``n_particles``, ``psd_scale`` (x :func:`spec_accel_psd`), ``noise_at``,
+    ``settle`` [s]; outputs at ``out_rate`` [Hz], records at ``record_rate`` [Hz]; ``kf_coriolis``."""
+
+    runs: int
+    duration: float
+    speed: float
+    climb: float
+    imu: str
+    imu_rate: float
+    fix_sigma: tuple
+    fix_rate: float
+    n_particles: int
+    psd_scale: float
+    noise_at: str
+    settle: float
+    out_rate: float
+    record_rate: float
+    kf_coriolis: bool = False
+
+    def filters(self) -> list[str]:
+        """The filters with a covariance (the records' states)."""
+        return ["upf", "kf-interp"]
+
+    def sources(self) -> list[str]:
+        """Every navigation source of the records (``pf`` / ``kf``: the UPF / KF at the fix epochs)."""
+        return ["upf", "kf-interp", "pf", "kf", "fix"]
+
+
+#: attributes of the record variables of :func:`run_upf_flight_records` (results.nc)
+UPF_ATTRS = dict(SOURCE_ATTRS)
+UPF_ATTRS.update({
+    "source_error": {"units": "m", "description": "estimate minus truth after the update at the record epochs (fix "
+                                                  "epochs): upf and kf-interp; NaN-free copies for pf (= upf) and kf "
+                                                  "(= kf-interp); fix = the fix"},
+    "cloud_var": {"units": "m2", "description": "UPF cloud position variance per NED axis after the update (Fig. "
+                                                "5.26), at the record epochs"},
+    "settle_time": {"units": "s", "description": "T13: time after which the UPF cloud variance (5-s average) stays "
+                                                 "within +50 % of its late median"},
+    "filter_seconds": {"units": "s", "description": "wall time of each filter over the flight per run (the batch's "
+                                                    "time / its runs; T12; one core; not reproducible bit for bit)"},
+})
+
+
+def run_upf_flight_records(prm: UpfParams, seeds, run_ids=None) -> list[RunRecord]:
+    """One record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...): :func:`run_upf_flight` at the
+    record epochs (``source_ms`` accumulated at the output rate), with ``cloud_var``, ``settle_time`` and
+    ``filter_seconds`` (:data:`UPF_ATTRS`)."""
+    seeds = list(seeds)
+    q = prm.psd_scale * spec_accel_psd(prm.imu, prm.imu_rate)
+    u = run_upf_flight(runs=len(seeds), seed=seeds, n_particles=prm.n_particles, out_rate=prm.out_rate,
+                       imu=prm.imu, imu_rate=prm.imu_rate, accel_psd=q, fix_sigma=prm.fix_sigma,
+                       settle=prm.settle, noise_at=prm.noise_at, record_rate=prm.record_rate, fix_rate=prm.fix_rate,
+                       flight=survey_flight(prm.duration, prm.speed, prm.climb), kf_coriolis=prm.kf_coriolis)
+    e = dict(u.record_errors)
+    e["pf"], e["kf"] = e["upf"], e["kf-interp"]
+    e["fix"] = u.record_fix_errors
+    rec = source_records(u.record_times, e, u.record_covs, prm.filters(), prm.sources(), prm.settle, ms=u.ms)
+    R = len(seeds)  # the batch's wall time shared equally by its runs
+    secs = np.broadcast_to([u.seconds["upf"] / R, u.seconds["kf-interp"] / R], (R, 2))
+    return run_records(rec, _run_ids(run_ids, seeds), {"cloud_var": (("time", "axis"), u.record_cloud_var),
+                                                       "settle_time": ((), u.settle_times),
+                                                       "filter_seconds": (("filter",), secs)})

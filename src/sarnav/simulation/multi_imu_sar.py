@@ -3,7 +3,7 @@ filter and weights the SIR fusion is made by the image-aided machinery of rda-na
 
 The flight is rda-nav's (straight and level, 10 m/s, 1000 m, flat non-rotating Earth, nav-paper-sim radar at PRF
 100 Hz, one geolocated reference reflector plus clutter per 1-s sub-aperture). The rig carries ``n_adis``
-ADIS16465 (100 Hz, lever arms ``multi_imu.ADIS_LEVER_ARMS``) and one NovAtel IMU-ISA-100C (200 Hz) at the
+ADIS16465 (100 Hz, lever arms ``imu_rig.ADIS_LEVER_ARMS``) and one NovAtel IMU-ISA-100C (200 Hz) at the
 reference point, which is the antenna phase centre. Each IMU has its own aided PF (``filters.grid_particle``,
 linear model in the flat frame, process noise from the IMU's specs). Per sub-aperture u (pulses u .. u + 1 s):
 
@@ -60,12 +60,14 @@ from sarnav.radar.scene import Scene, beside_track, clutter_beside_track, point_
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
 from sarnav.simulation.sar_echoes import simulated_imager
-from sarnav.simulation.fusion_records import SourceRecords, source_records
-from sarnav.simulation.multi_imu import ADIS_LEVER_ARMS, gnss_ins_sim_imu, rngs_for, spec_accel_psd
+from sarnav.record import RunRecord
+from sarnav.simulation.fusion_records import SOURCE_ATTRS, SourceRecords, run_records, source_records
+from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS, gnss_ins_sim_imu, rngs_for, spec_accel_psd
 from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.sampled import closest_approach
 
-__all__ = ["FIX_SOURCES", "SAR_UPDATES", "SarFixSetup", "run_sar_fix", "reference_targets", "sensor_names"]
+__all__ = ["FIX_SOURCES", "SAR_UPDATES", "SAR_FIX_ATTRS", "SarFixSetup", "run_sar_fix", "run_sar_fix_records",
+           "reference_targets", "sensor_names"]
 
 FIX_SOURCES = ("sar", "oracle", "gps")
 #: how each PF takes a SAR fix: Gaussian particle filter update (default) or adaptive tempering of the bootstrap SIR
@@ -74,6 +76,13 @@ SAR_UPDATES = ("gaussian", "tempered")
 LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
 #: estimated-track epochs per second handed to the imager (the INS history of rda-nav is 10 Hz)
 TRACK_RATE = 10.0
+#: attributes of the record variables of :func:`run_sar_fix_records` (results.nc)
+SAR_FIX_ATTRS = dict(SOURCE_ATTRS)
+SAR_FIX_ATTRS.update({
+    "sar_registration_error": {"units": "m", "description": "image-derived minus geometric truth per sub-aperture: "
+                               "range of closest approach, along-track V x TOC error (NaN unless fix.source = 'sar')"},
+    "fix_time": {"units": "s", "description": "epoch of each SAR fix (the TOC used; NaN for GPS)"},
+})
 
 
 @dataclass(frozen=True)
@@ -335,6 +344,17 @@ def run_sar_fix(setup: SarFixSetup, seeds, settle: float = 5.0) -> tuple[SourceR
     covs = {k: np.concatenate([r[1][k] for r in runs]) for k in names}
     extras = {k: np.stack([r[3][k] for r in runs]) for k in runs[0][3]}
     return source_records(runs[0][2], errors, covs, names, names + ["mean", "sir"], settle), extras
+
+
+def run_sar_fix_records(setup: SarFixSetup, seeds, run_ids=None, settle: float = 5.0) -> list[RunRecord]:
+    """One record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...): :func:`run_sar_fix` as
+    ``fusion_records.run_records`` with ``sar_registration_error (aperture, sar_axis)`` and ``fix_time (aperture)``
+    (:data:`SAR_FIX_ATTRS`)."""
+    seeds = list(seeds)
+    rec, ex = run_sar_fix(setup, seeds, settle)
+    return run_records(rec, list(range(len(seeds))) if run_ids is None else list(run_ids),
+                       {"sar_registration_error": (("aperture", "sar_axis"), ex["registration_error"]),
+                        "fix_time": (("aperture",), ex["fix_time"])})
 
 
 def _one_run(setup: SarFixSetup, seed):

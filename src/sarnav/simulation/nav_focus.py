@@ -5,7 +5,7 @@ Per run: the cart (1 m/s, straight, level) carries the NovAtel-model IMU (200 Hz
 20 Hz fix; after a run-in the radar (``radar.presets.sun_ku_cart``: 16.6 GHz, 300 MHz, PRF 3 kHz, no window)
 records ``n_pulses`` pulses. Echoes are simulated along the **true** track (the same for every run: noise-free
 echoes of three reflectors about 20 m to the right); each navigation source of
-``simulation.multi_imu.navigation_sources`` gives the antenna positions at every pulse, and the pulses are
+``simulation.nav_sources.navigation_sources`` gives the antenna positions at every pulse, and the pulses are
 back-projected (``imaging.backprojection.backproject``) with those positions onto a ground chip around each
 reflector. Per source and reflector (``focus_metrics``):
 
@@ -23,6 +23,9 @@ The phase error a position error makes is ``(4 pi / lambda) u . delta`` (eq. 4.1
 ``los_error_rms`` reports, per source and reflector, the RMS over the aperture of ``u . delta`` after removing
 its mean and linear trend (a constant offset only translates the image, a linear drift shifts it along track;
 the rest defocuses when above lambda/16, eq. 4.13, T31).
+
+The ``nav-source-focus`` campaign: :class:`FocusParams` -> :func:`run_focus_records` (the records of
+``simulation.fusion_records``: states = the UPF / KF position errors at their fix epochs, and the focus variables).
 """
 
 from __future__ import annotations
@@ -42,13 +45,30 @@ from sarnav.radar.presets import sun_ku_cart
 from sarnav.radar.scene import point_targets
 from sarnav.signal.data import PulseData
 from sarnav.signal.metrics import impulse_response, index_to_coordinate, peak_location
-from sarnav.simulation.multi_imu import NAV_SOURCES, cart_track, navigation_sources
+from sarnav.record import RunRecord
+from sarnav.simulation.fusion_records import run_records, source_records
+from sarnav.simulation.imu_rig import cart_track
+from sarnav.simulation.nav_sources import NAV_SOURCES, navigation_sources
 
-__all__ = ["FOCUS_METRICS", "FocusGeometry", "FocusRun", "reflector_positions", "focus_metrics", "form_chips",
-           "run_focus", "los_error_rms"]
+__all__ = ["FOCUS_METRICS", "FOCUS_FILTERS", "FOCUS_ATTRS", "FocusGeometry", "FocusParams", "FocusRun",
+           "reflector_positions", "focus_metrics", "form_chips", "run_focus", "run_focus_records", "los_error_rms"]
 
 #: the per-reflector metrics, in the order of ``focus (source, reflector, metric)`` and focus.csv
 FOCUS_METRICS = ("irw_along_m", "pslr_along_db", "peak_offset_m", "entropy", "kurtosis")
+#: the sources whose filter has a covariance (recorded as the states), and the source that carries each
+FOCUS_FILTERS = {"upf": ("upf", "spline-pf"), "kf-interp": ("kf-interp", "spline-kf")}
+#: attributes of the record variables of :func:`run_focus_records` (results.nc)
+FOCUS_ATTRS = {
+    "focus": {"units": "m, dB, m, nats, 1", "description": "per source and reflector: irw_along_m, pslr_along_db, "
+              "peak_offset_m, entropy, kurtosis of the BPA chip (simulation.nav_focus)"},
+    "focus_censored": {"units": "1", "description": "1 where the along-track response does not reach -3 dB or a null "
+                       "inside the chip (IRW = chip length, PSLR = 0 dB)"},
+    "los_error_rms": {"units": "m", "description": "RMS over the aperture of the line-of-sight antenna position error "
+                      "after removing its mean and linear trend (defocus above lambda/16)"},
+    "nav_error": {"units": "m", "description": "antenna position estimate minus truth at every pulse, NED"},
+    "source_ms": {"units": "m2", "description": "mean over the aperture of the squared 3-D antenna error"},
+    "filter_nees": {"units": "1", "description": "NEES of the UPF / KF position at their fix epochs (3 dof)"},
+}
 
 
 @dataclass(frozen=True)
@@ -124,7 +144,7 @@ class FocusRun:
     """Results of :func:`run_focus` for R runs: ``sources`` (S names); ``focus`` (R, S, K, 5) (:data:`FOCUS_METRICS`),
     ``censored`` (R, S, K) bool; ``los_rms`` (R, S, K) [m]; ``nav_error`` (R, P, S, 3) antenna position error at
     the pulses [m]; ``pulse_times`` (P,); ``targets`` (K, 3); the UPF / KF fix-epoch records ``fix_times``,
-    ``fix_errors``, ``fix_covs`` (``simulation.multi_imu.NavSources``); ``chips`` (first run, if asked)."""
+    ``fix_errors``, ``fix_covs`` (``simulation.nav_sources.NavSources``); ``chips`` (first run, if asked)."""
 
     sources: list
     focus: np.ndarray
@@ -151,7 +171,7 @@ def run_focus(seeds, geo: FocusGeometry | None = None, sources=NAV_SOURCES, n_pa
               fix_tau: float = 300.0) -> FocusRun:
     """The experiment of the module docstring for the runs of ``seeds`` (one SeedSequence per run); the fix
     errors: white ``fix_sigma`` plus a Gauss-Markov part ``fix_correlated``, ``fix_tau``
-    (``multi_imu.navigation_sources``)."""
+    (``nav_sources.navigation_sources``)."""
     geo = geo or FocusGeometry()
     if "truth" not in sources:
         raise ConfigError("sources", "must include 'truth' (the reference image)")
@@ -176,6 +196,44 @@ def run_focus(seeds, geo: FocusGeometry | None = None, sources=NAV_SOURCES, n_pa
                 focus[r, j, k], censored[r, j, k] = focus_metrics(chip, targets[k])
     return FocusRun(list(sources), focus, censored, los, err, pt, targets, nav.fix_times, nav.fix_errors,
                     nav.fix_covs, truth, nav.positions)
+
+
+@dataclass(frozen=True)
+class FocusParams:
+    """The ``nav-source-focus`` campaign (arguments of :func:`run_focus`, SI): the cart test ``geometry``, the
+    navigation ``sources``, ``n_particles`` (UPF) and ``adis_particles`` (each ADIS PF, the NovAtel PF), the white
+    fix 1-sigma ``fix_sigma`` (3,) [m] and its Gauss-Markov part ``fix_correlated`` (3,) [m], ``fix_tau`` [s]."""
+
+    runs: int
+    geometry: FocusGeometry
+    sources: tuple
+    n_particles: int
+    adis_particles: int
+    fix_sigma: tuple
+    fix_correlated: tuple
+    fix_tau: float
+
+    def filters(self) -> list[str]:
+        """The filters with a covariance carried by one of the sources (:data:`FOCUS_FILTERS`; the states)."""
+        return [f for f, carriers in FOCUS_FILTERS.items() if any(s in self.sources for s in carriers)]
+
+
+def run_focus_records(prm: FocusParams, seeds, run_ids=None) -> list[RunRecord]:
+    """One record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...): the states are the position errors
+    of the UPF / KF at their fix epochs (``fusion_records.run_records``), the kind's variables ``focus (source,
+    reflector, metric)``, ``focus_censored``, ``los_error_rms (source, reflector)``, ``nav_error (pulse, source,
+    axis)`` and ``source_ms (source)`` (mean over the aperture of the squared 3-D antenna error)."""
+    seeds = list(seeds)
+    res = run_focus(seeds, prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
+                    prm.fix_correlated, prm.fix_tau)
+    filters = prm.filters()
+    rec = source_records(res.fix_times, res.fix_errors, res.fix_covs, filters, filters, 0.0)
+    extras = {"focus": (("source", "reflector", "metric"), res.focus),
+              "focus_censored": (("source", "reflector"), res.censored.astype("int8")),
+              "los_error_rms": (("source", "reflector"), res.los_rms),
+              "nav_error": (("pulse", "source", "axis"), res.nav_error),
+              "source_ms": (("source",), (res.nav_error**2).sum(-1).mean(1))}
+    return run_records(rec, list(range(len(seeds))) if run_ids is None else list(run_ids), extras, sources=False)
 
 
 def scene_images(run: FocusRun, geo: FocusGeometry, run_index: int = 0, margin: float = 1.5,

@@ -15,7 +15,8 @@ or update time 3 for the true misalignment's random walk (only when ``truth_misa
 
 Output: :class:`OpenLoopResult` with per-run arrays; errors are truth - estimate in ECEF (rX rY rZ vX vY vZ) and
 about the antenna axes (muX muY muZ; z = boresight). Records are at multiples of ``record_interval`` and at the
-updates (posterior there; the prior 1-sigma at each update is in ``sigma_prior``).
+updates (posterior there; the prior 1-sigma at each update is in ``sigma_prior``); as campaign records
+(``sarnav.record.RunRecord``, the ``spacecraft`` kind): :func:`run_open_loop_records`, :func:`open_loop_records`.
 """
 
 from __future__ import annotations
@@ -32,11 +33,31 @@ from sarnav.filters.mekf import STATE_NAMES, MekfModel, disperse, error_state, p
 from sarnav.filters.underweighting import LearUnderweighting
 from sarnav.ins.orbital import OrbitalNavState
 from sarnav.navigation import fuse
+from sarnav.record import RunRecord
 from sarnav.measurements.spacecraft import MEASUREMENT_NAMES, SarMeasurementNoise, boresight_intersection, simulate_image
 from sarnav.rotations import quat_multiply, quat_normalize, rotvec_to_quat
 from sarnav.trajectory.orbit import STEERING, KeplerElements, OrbitTruth, antenna_dcm, body_dcm, lvlh_dcm, table2_elements
 
-__all__ = ["OpenLoopParams", "OpenLoopResult", "run_open_loop", "check_geometry", "radial_intrack_crosstrack", "orbit_frame_dcm"]
+__all__ = ["OpenLoopParams", "OpenLoopResult", "run_open_loop", "check_geometry", "radial_intrack_crosstrack", "orbit_frame_dcm",
+           "open_loop_records", "run_open_loop_records", "OPEN_LOOP_ATTRS", "STATE_UNITS", "MEAS_UNITS", "RIC_NAMES",
+           "RIC_UNITS", "BLOCK_NAMES"]
+
+#: units of the records' states (``filters.mekf.STATE_NAMES``) and measurements (``MEASUREMENT_NAMES``)
+STATE_UNITS = ("m", "m", "m", "m/s", "m/s", "m/s", "rad", "rad", "rad")
+MEAS_UNITS = ("1", "1", "m", "m/s")
+#: the ``ric`` and ``block`` coordinates of the records' extras
+RIC_NAMES = ("pR", "pI", "pC", "vR", "vI", "vC")
+RIC_UNITS = ("m", "m", "m", "m/s", "m/s", "m/s")
+BLOCK_NAMES = ("position", "velocity", "misalignment")
+#: attributes of the record variables of :func:`open_loop_records` (results.nc)
+OPEN_LOOP_ATTRS = {
+    "error_ric": {"units": "m, m/s (see ric_units)", "description": "position / velocity error in the radial, "
+                  "in-track, cross-track frame of the true orbit (truth - estimate)"},
+    "sigma_ric": {"units": "m, m/s (see ric_units)", "description": "filter 1-sigma in the radial, in-track, "
+                  "cross-track frame (the ECEF covariance blocks rotated)"},
+    "nees_block": {"units": "1", "description": "NEES of the position, velocity and misalignment blocks (3 dof each)"},
+    "beta": {"units": "1", "description": "Lear underweighting factor beta applied at each update (0: none)"},
+}
 
 
 def steps_of(field_name: str, value: float, dt: float) -> int:
@@ -269,3 +290,24 @@ def radial_intrack_crosstrack(result: OpenLoopResult):
         cov = np.einsum("tij,rtjk,tlk->rtil", C, result.cov_blocks[:, :, b], C)
         sig.append(np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1)))
     return err, np.concatenate(sig, axis=-1)
+
+
+def open_loop_records(res: OpenLoopResult, run_ids) -> list[RunRecord]:
+    """One :class:`RunRecord` per run of an ``OpenLoopResult`` (extras: RIC errors and sigmas, block NEES, beta)."""
+    err_ric, sig_ric = radial_intrack_crosstrack(res)
+    out = []
+    for i, rid in enumerate(run_ids):
+        out.append(RunRecord(
+            run=int(rid), time=res.time.copy(), error=res.error[i], sigma=res.sigma[i], nees=res.nees[i],
+            update_time=res.update_time.copy(), residual=res.residual[i], residual_sigma=res.residual_sigma[i],
+            nis=res.nis[i], nis_dof=np.full(res.update_time.size, 4, dtype=int),
+            extras={"error_ric": (("time", "ric"), err_ric[i]), "sigma_ric": (("time", "ric"), sig_ric[i]),
+                    "nees_block": (("time", "block"), res.nees_blocks[i]), "beta": (("update",), res.beta[i])}))
+    return out
+
+
+def run_open_loop_records(params: OpenLoopParams, seeds: Sequence[np.random.SeedSequence],
+                          run_ids=None) -> list[RunRecord]:
+    """:func:`run_open_loop` as one record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...)."""
+    seeds = list(seeds)
+    return open_loop_records(run_open_loop(params, seeds), range(len(seeds)) if run_ids is None else run_ids)

@@ -8,7 +8,8 @@ seeds the run's image (receiver noise of its acquisition, RANSAC); in ``oracle``
 propagates at ``mekf.dt`` between the records and updates, the measurement is ``CenterPixelMeasurement`` with the
 effective velocity (G9) built on the image's r_f, the update ``filters.underweighting.underweighted_update``
 (beta = 0: Joseph). An image without a match (fewer than the minimum inliers, T11) skips the update: the run goes on,
-its residual is NaN, ``skipped`` = 1.
+its residual is NaN, ``skipped`` = 1. As campaign records (``sarnav.record.RunRecord``, the ``spacecraft-closed-loop``
+kind): :func:`run_closed_loop_records`, :func:`closed_loop_records`.
 """
 
 from __future__ import annotations
@@ -24,13 +25,29 @@ from sarnav.navigation import fuse
 from sarnav.ins.orbital import OrbitalNavState
 from sarnav.measurements.spacecraft import CenterPixelMeasurement, effective_velocity
 from sarnav.measurements.spacecraft_image import STAGES, ImagingConfig, SpacecraftImager
-from sarnav.simulation.spacecraft import OpenLoopParams, orbit_frame_dcm, steps_of
+from sarnav.record import RunRecord
+from sarnav.simulation.spacecraft import OPEN_LOOP_ATTRS, OpenLoopParams, orbit_frame_dcm, steps_of
 from sarnav.trajectory.orbit import OrbitTruth, antenna_dcm, body_dcm
 
 __all__ = ["ClosedLoopParams", "ClosedLoopRun", "run_closed_loop", "first_measurement_statistics", "imager_for",
-           "MODES"]
+           "MODES", "closed_loop_records", "run_closed_loop_records", "CLOSED_LOOP_ATTRS"]
 
 MODES = ("image", "oracle")
+#: attributes of the record variables of :func:`closed_loop_records` (results.nc)
+CLOSED_LOOP_ATTRS = {k: v for k, v in OPEN_LOOP_ATTRS.items() if k != "beta"}
+CLOSED_LOOP_ATTRS.update({
+    "vic_error": {"units": "m/s", "description": "autofocus in-track (effective) velocity v_ic minus the true V_r "
+                                                "(oracle: the drawn noise)"},
+    "geolocation_error": {"units": "m", "description": "geolocated centre pixel r_f minus the true one (ECEF x, y, z; "
+                                                      "NaN where the image gave no match)"},
+    "v0_error": {"units": "m/s", "description": "processor starting velocity (from the estimate) minus the true V_r"},
+    "n_inliers": {"units": "1", "description": "RANSAC inliers of the affine registration (correlation: 1 = peak "
+                                               "accepted)"},
+    "skipped": {"units": "1", "description": "1 where the image gave no match (fewer than min_inliers): no update"},
+    "stage_seconds": {"units": "s", "description": "wall time per image and stage (echoes: the shared world of the "
+                                                   "update, both passes and the reference)"},
+    "autofocus_evaluations": {"units": "1", "description": "images formed by the hill climb"},
+})
 
 
 @dataclass(frozen=True)
@@ -121,6 +138,31 @@ def run_closed_loop(params: ClosedLoopParams, seeds: Sequence[np.random.SeedSequ
     imager = imager_for(params) if imager is None else imager
     T_bs = antenna_dcm(b.look_angle, b.squint)
     return [_one_run(params, s, imager.orbit, T_bs, imager) for s in seeds]
+
+
+def closed_loop_records(runs: Sequence[ClosedLoopRun], run_ids) -> list[RunRecord]:
+    """One :class:`RunRecord` per :class:`ClosedLoopRun`, numbered ``run_ids`` (extras: :data:`CLOSED_LOOP_ATTRS`)."""
+    return [_run_record(int(i), r) for i, r in zip(run_ids, runs)]
+
+
+def run_closed_loop_records(params: ClosedLoopParams, seeds: Sequence[np.random.SeedSequence],
+                            run_ids=None) -> list[RunRecord]:
+    """:func:`run_closed_loop` as one record per run of ``seeds`` (numbered ``run_ids``, default 0, 1, ...)."""
+    seeds = list(seeds)
+    runs = run_closed_loop(params, seeds) if len(seeds) else []
+    return closed_loop_records(runs, range(len(seeds)) if run_ids is None else run_ids)
+
+
+def _run_record(run: int, r: ClosedLoopRun) -> RunRecord:
+    ex = {"error_ric": (("time", "ric"), r.error_ric), "sigma_ric": (("time", "ric"), r.sigma_ric),
+          "nees_block": (("time", "block"), r.nees_blocks), "vic_error": (("update",), r.vic_error),
+          "geolocation_error": (("update", "xyz"), r.geolocation_error), "v0_error": (("update",), r.v0_error),
+          "n_inliers": (("update",), r.n_inliers), "skipped": (("update",), r.skipped),
+          "stage_seconds": (("update", "stage"), r.stage_seconds),
+          "autofocus_evaluations": (("update",), r.autofocus_evaluations)}
+    return RunRecord(run=run, time=r.time, error=r.error, sigma=r.sigma, nees=r.nees, update_time=r.update_time,
+                     residual=r.residual, residual_sigma=r.residual_sigma, nis=r.nis, nis_dof=r.nis_dof.astype(int),
+                     extras=ex)
 
 
 def first_measurement_statistics(params: ClosedLoopParams, seeds) -> dict:
