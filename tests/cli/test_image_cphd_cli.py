@@ -29,6 +29,7 @@ from sarnav.scenarios import cphd_image  # noqa: E402
 from sarnav.scenarios import imaging as scen  # noqa: E402
 from sarnav.scenarios.config import load_scenario  # noqa: E402
 from sarnav.signal.metrics import peak_location  # noqa: E402
+from sarnav.simulation import image_scene  # noqa: E402
 
 SETS = ["--set", "radar.range_margin_m=2.0", "--set", "scene.target_along_track_m=2.9",
         "--set", "scene.target_slant_range_m=1997.37"]
@@ -59,7 +60,7 @@ def outs(tmp_path_factory):
 
 
 def _target_ecef(cfg):
-    centre, _ = scen.scene_centre(cfg)
+    centre, _ = image_scene.scene_centre(scen.parse(cfg))
     return ned_to_ecef(centre, scen.origin_llh(cfg))
 
 
@@ -79,7 +80,7 @@ def test_written_cphd_passes_the_checker_and_reads_back_to_the_image_formed_from
         con.check()
     assert not con.failures(), con.failures()
     # the image of B (formed by the command from the file) against back-projection of the simulated pulses in NED
-    rc, _, _ = scen.build_pulses(cfg)
+    rc, _ = image_scene.build_pulses(scen.parse(cfg))
     _, default = read_collect(a / "collect.cphd")
     grid = image_grid(default, float(SPACING), tuple(float(v) for v in EXTENT.split(",")))
     pts = ecef_to_ned(grid.points(), scen.origin_llh(cfg))

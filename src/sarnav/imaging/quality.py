@@ -62,6 +62,7 @@ __all__ = [
     "normalised_variance",
     "intensity_contrast",
     "std_to_mean_contrast",
+    "quality_summary",
 ]
 
 
@@ -287,3 +288,11 @@ def quality_measure(name: str, field: str = "measure") -> QualityMeasure:
 def quality_score(image, measure: str = "kurtosis", n_bins: int = 1000) -> float:
     """Score of ``image`` by the named measure (raw value; see :data:`QUALITY_MEASURES` for its sense)."""
     return quality_measure(measure)(image, n_bins)
+
+
+def quality_summary(image) -> dict:
+    """The figures an image's ``metrics.json`` records (``sarnav image``): normalised complex kurtosis, entropy of the
+    magnitude on 100 bins, normalised intensity variance."""
+    return {"normalised_kurtosis": normalised_complex_kurtosis(image),
+            "entropy_magnitude_100": entropy_magnitude(image, 100),
+            "normalised_variance": normalised_variance(image)}

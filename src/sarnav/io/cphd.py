@@ -31,7 +31,7 @@ from sarnav.imaging.grid import PlaneGrid, regular_axis
 from sarnav.imaging.range_compression import range_compress
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
-__all__ = ["write_collect", "read_collect", "read_phase_history", "image_grid", "CPHD_NS"]
+__all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.0.1"
 _C = 299792458.0
@@ -305,6 +305,18 @@ def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None)
     rc = phase_history_to_pulses(ph, range_axis, wavelength=_C / fxc, oversample=oversample, filter=filter,
                                  metadata={"source": "cphd", "file": str(path)})
     return rc, _default_grid(xml, srp)
+
+
+def read_filter(path, field: str = "filter") -> np.ndarray:
+    """The frequency-sample weights for :func:`read_collect` from the ``.npy`` file ``path``: a 1-D array of numbers
+    (no pickles). ConfigError naming ``field`` for a file that cannot be read or holds anything else."""
+    try:
+        h = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise ConfigError(field, f"cannot read {str(path)!r} as a .npy array ({err})") from None
+    if h.ndim != 1 or h.dtype.kind not in "biufc":
+        raise ConfigError(field, f"must hold a 1-D array of weights, got shape {h.shape} dtype {h.dtype}")
+    return h
 
 
 def _positive(name: str, v) -> float:

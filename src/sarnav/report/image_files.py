@@ -1,5 +1,7 @@
-"""Files of a single image: ``image.npz`` (data, axes, radar figures, metadata), ``image.png`` (|image| in dB) and
-``metrics.json`` (strict JSON)."""
+"""Files of a single image: ``image.npz`` (data, axes, radar figures, metadata), ``image.png`` (|image| in dB),
+``metrics.json`` (strict JSON) and, through ``sarnav.io``, the image as SICD (``image.nitf``) and a simulated collect
+as CPHD (``collect.cphd``): :func:`write_image_files` for any image, :func:`write_scene_image` for the image of a
+simulated scene (``simulation.image_scene``)."""
 
 from __future__ import annotations
 
@@ -10,9 +12,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from sarnav.report.figures import save_png
+from sarnav.simulation.image_scene import ImageSceneParams, ImageSceneResult, scene_centre, sicd_geometry
 from sarnav.units import amplitude_to_db
 
-__all__ = ["PNG_DYNAMIC_RANGE_DB", "json_safe", "write_image_npz", "write_image_png", "write_json"]
+__all__ = ["PNG_DYNAMIC_RANGE_DB", "json_safe", "write_image_npz", "write_image_png", "write_json",
+           "write_image_files", "write_scene_image"]
 
 #: dynamic range of the PNG [dB below the peak]
 PNG_DYNAMIC_RANGE_DB = 50.0
@@ -65,3 +69,43 @@ def write_image_png(img, path, title: str) -> Path:
     ax.set_title(title)
     fig.colorbar(h, ax=ax, label="amplitude [dB re peak]")
     return Path(save_png(fig, path))
+
+
+def write_image_files(out, img, figures, metrics: dict, title: str, *, speed: float, scenario_toml: str = "",
+                      sicd=None) -> None:
+    """``image.npz`` (radar ``figures``: carrier_frequency, bandwidth, prf, wavelength), with ``sicd`` (an
+    ``io.sicd.SicdGeometry``) the image as SICD ``image.nitf``, ``metrics.json`` and ``image.png`` (``title``) in
+    ``out``."""
+    from sarnav.io.sicd import write_image  # sarkit, imported when a file needs it
+
+    out = Path(out)
+    write_image_npz(img, figures, out / "image.npz", speed=speed, scenario_toml=scenario_toml)
+    if sicd is not None:
+        write_image(out / "image.nitf", img, sicd)
+    write_json(metrics, out / "metrics.json")
+    write_image_png(img, out / "image.png", title)
+
+
+def write_scene_image(p: ImageSceneParams, result: ImageSceneResult, out, *, cphd: bool = False, sicd: bool = False,
+                      scenario_toml: str = "") -> dict:
+    """The files of a simulated scene's image (:func:`write_image_files`) in ``out``, with ``cphd`` the collect as
+    ``collect.cphd`` (range-compressed pulses, NED at ``p.origin_llh``; the scene reference point at the scene centre,
+    the image area its half sizes, uIAX east, uIAY north), with ``sicd`` the back-projected image as ``image.nitf``;
+    return the metrics written (the result's, with the extra files listed)."""
+    from sarnav.io.cphd import write_collect
+
+    out = Path(out)
+    if cphd:
+        centre, (half_n, half_e) = scene_centre(p)
+        write_collect(out / "collect.cphd", result.pulses, [float(x) for x in p.origin_llh], scene_point=centre,
+                      image_half_extent=(half_e, half_n))
+    metrics = dict(result.metrics)
+    files = [name for name, on in (("collect.cphd", cphd), ("image.nitf", sicd)) if on]
+    if files:
+        metrics["files"] = files
+    img = result.image
+    write_image_files(out, img, p.radar, metrics, f"{p.name or 'image'}: {p.algorithm.upper()}, "
+                                                  f"window {img.metadata.get('window', '')}",
+                      speed=float(p.speed), scenario_toml=scenario_toml,
+                      sicd=sicd_geometry(p, img, result.pulses) if sicd else None)
+    return metrics

@@ -1,11 +1,12 @@
-"""``sarnav image FILE.cphd``: an image formed from a CPHD file (wiring only).
+"""``sarnav image FILE.cphd``: an image formed from a CPHD file (the command's options and wiring only).
 
 The collect is read with :func:`sarnav.io.cphd.read_collect` (monostatic, FX domain, ECEF; an optional filter of the
-frequency samples), back-projected (``imaging.backprojection.backproject``, "bpa") or by fast factorised
-back-projection (``imaging.ffbp.ffbp``, "ffbp") onto a plane grid: the file's image grid by default, or the same
-plane resampled with ``spacing`` / ``extent`` (``io.cphd.image_grid``); an optional azimuth window weights the pulses.
-Written into ``out``: ``image.npz``, ``image.png``, ``metrics.json`` (as for a scenario) and, with ``sicd``, the image
-as SICD ``image.nitf`` (``io.sicd.write_image``). Bad input is one line naming the flag or the file's field.
+frequency samples, ``io.cphd.read_filter``) and formed by ``imaging.collect_image.form_collect_image``
+(back-projection "bpa" or fast factorised back-projection "ffbp", an optional azimuth window) onto a plane grid: the
+file's image grid by default, or the same plane resampled with ``spacing`` / ``extent`` (``io.cphd.image_grid``).
+Written into ``out`` by ``report.image_files.write_image_files``: ``image.npz``, ``image.png``, ``metrics.json`` (as
+for a scenario) and, with ``sicd``, the image as SICD ``image.nitf``. Bad input is one line naming the flag or the
+file's field.
 """
 
 from __future__ import annotations
@@ -13,18 +14,16 @@ from __future__ import annotations
 import hashlib
 import math
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
+from sarnav.imaging.collect_image import ALGORITHMS
 
 __all__ = ["ALGORITHMS", "MAX_PIXELS", "is_cphd", "run_cphd_image"]
 
-ALGORITHMS = ("bpa", "ffbp")
 #: the largest image formed from a CPHD [pixels] (complex128: 1 GiB)
 MAX_PIXELS = 2**26
-_C = 299792458.0
 
 
 def is_cphd(target: str) -> bool:
@@ -70,24 +69,11 @@ def _grid(default, spacing, extent):
     return image_grid(default, sp, ext)
 
 
-def _filter(path):
-    """The frequency-sample weights of ``--filter FILE.npy``: a 1-D array of numbers."""
-    if path is None:
-        return None
-    try:
-        h = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise ConfigError("--filter", f"cannot read {str(path)!r} as a .npy array ({err})") from None
-    if h.ndim != 1 or h.dtype.kind not in "biufc":
-        raise ConfigError("--filter", f"must hold a 1-D array of weights, got shape {h.shape} dtype {h.dtype}")
-    return h
-
-
 def _read(path: Path, filter_path):
-    from sarnav.io.cphd import read_collect
+    from sarnav.io.cphd import read_collect, read_filter
 
     try:
-        return read_collect(path, filter=_filter(filter_path))
+        return read_collect(path, filter=None if filter_path is None else read_filter(filter_path, "--filter"))
     except InputDataError as err:   # the filter's length against the collect's frequency samples
         if err.field in ("phase_history.data", "filter") and filter_path is not None:
             raise InputDataError("--filter", f"{err.message} ({str(filter_path)!r})") from None
@@ -101,45 +87,13 @@ def _identity(path: Path, options: dict) -> dict:
             "seed": None}
 
 
-def _form(rc, grid, algorithm: str, window: str | None):
-    from sarnav.imaging.backprojection import backproject
-    from sarnav.imaging.ffbp import ffbp
-    from sarnav.signal.windows import as_window
-
-    w = as_window(window or "none", "--window")
-    if w.name != "none":
-        rc = rc.__class__(**{**rc.__dict__, "data": rc.data * w.samples(rc.n_pulses)[:, None]})
-    img = backproject(rc, grid) if algorithm == "bpa" else ffbp(rc, grid)
-    img.metadata["window"] = w.label
-    return img
-
-
-def _report(path: Path, rc, img, algorithm: str, bandwidth: float, sicd: bool) -> dict:
-    from sarnav.imaging import quality
-
-    md = img.metadata
-    report = {"source": str(path), "algorithm": algorithm, "n_pulses": int(rc.n_pulses),
-              "n_range_samples": int(rc.data.shape[1]), "image_shape": list(img.shape),
-              "pixel_spacing_m": {img.y_name: img.dy, img.x_name: img.dx},
-              "carrier_frequency_hz": _C / rc.wavelength, "bandwidth_hz": bandwidth,
-              "interpolation": md.get("interpolation"),
-              "quality": {"normalised_kurtosis": quality.normalised_complex_kurtosis(img.data),
-                          "entropy_magnitude_100": quality.entropy_magnitude(img.data, 100),
-                          "normalised_variance": quality.normalised_variance(img.data)}}
-    if algorithm == "ffbp":
-        report["ffbp"] = {k[5:]: md[k] for k in md if k.startswith("ffbp_")}
-    if sicd:
-        report["files"] = ["image.nitf"]
-    return report
-
-
 def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=None, window: str | None = None,
                    filter_path=None, sicd: bool = False, overwrite: bool = False) -> dict:
     """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics."""
-    from sarnav.imaging.backprojection import data_oversampling
-    from sarnav.io.sicd import SicdGeometry, write_image
+    from sarnav.imaging.collect_image import collect_figures, collect_image_metrics, form_collect_image
+    from sarnav.io.sicd import SicdGeometry
     from sarnav.montecarlo.outdir import OutputFolder
-    from sarnav.report.image_files import write_image_npz, write_image_png, write_json
+    from sarnav.report.image_files import write_image_files
 
     path = Path(path)
     if not path.is_file():
@@ -151,18 +105,12 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
     options = {"algorithm": algorithm, "spacing": spacing, "extent": extent, "window": window,
                "filter": str(filter_path), "sicd": sicd}
     with OutputFolder(out, _identity(path, options), overwrite=overwrite):
-        out = Path(out)
-        img = _form(rc, grid, algorithm, window)
-        fs = _C / (2.0 * float(rc.slant_range[1] - rc.slant_range[0]))
-        bandwidth = fs / data_oversampling(rc)                  # the signal's band, from its spectrum
-        figures = SimpleNamespace(carrier_frequency=_C / rc.wavelength, bandwidth=bandwidth, wavelength=rc.wavelength,
-                                  prf=(rc.n_pulses - 1) / float(np.ptp(rc.pulse_times)))
-        speed = float(np.mean(np.sqrt(np.sum(np.diff(rc.positions, axis=0) ** 2, axis=1))) * figures.prf)
-        write_image_npz(img, figures, out / "image.npz", speed=speed)
+        img = form_collect_image(rc, grid, algorithm, window, window_field="--window")
+        figures = collect_figures(rc)
+        report = {"source": str(path), **collect_image_metrics(rc, img, algorithm, figures.bandwidth)}
         if sicd:
-            write_image(out / "image.nitf", img, SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength,
-                                                              bandwidth))
-        report = _report(path, rc, img, algorithm, bandwidth, sicd)
-        write_json(report, out / "metrics.json")
-        write_image_png(img, out / "image.png", f"{path.name}: {algorithm.upper()}")
+            report["files"] = ["image.nitf"]
+        geometry = SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength, figures.bandwidth) if sicd else None
+        write_image_files(out, img, figures, report, f"{path.name}: {algorithm.upper()}", speed=figures.speed,
+                          sicd=geometry)
         return report

@@ -26,9 +26,10 @@ The antenna flies north through ``start_ned`` at t = 0, looking right (east) by 
 0, so the aperture centre is at north = start_ned[0] and the image's along-track axis is measured from it.
 ``image.speed_error_mps`` is added to the true speed for focusing (a navigation speed error, to exercise autofocus).
 The receive window spans the imaged slant ranges plus the pulse half-extent cT/4 and ``radar.range_margin_m``.
-Configuration and wiring only: the focusing is ``imaging.straight_block``, the files ``report.image_files``, the
-collect as CPHD (``collect.cphd``, scene reference point at the scene centre) and the back-projected image as SICD
-(``image.nitf``) ``sarnav.io``.
+Configuration and wiring only: the defaults, ``parse`` (TOML -> :class:`~sarnav.simulation.image_scene.
+ImageSceneParams`) and the kind; the experiment (echoes, focusing, metrics) is ``simulation.image_scene.run``, the
+files ``report.image_files.write_scene_image`` (with the collect as CPHD ``collect.cphd``, scene reference point at
+the scene centre, and the back-projected image as SICD ``image.nitf``, through ``sarnav.io``).
 """
 
 from __future__ import annotations
@@ -37,16 +38,16 @@ import copy
 import math
 from pathlib import Path
 
-import numpy as np
 
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.scenarios.kind_base import FileKind
-from sarnav.radar.params import pulse_clock, window_over
+from sarnav.radar.params import window_over
 from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
+from sarnav.simulation.image_scene import ImageSceneParams, run
 
-__all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "build_pulses", "form_image", "run_image",
-           "write_cphd", "write_sicd", "scene_centre", "origin_llh", "ALGORITHMS", "AUTOFOCUS"]
+__all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "parse", "run_image", "origin_llh",
+           "ALGORITHMS", "AUTOFOCUS"]
 
 SCENE_TYPES = ("point", "random")
 #: snr_db at or above this value means "no receiver noise" (TOML has no None; inf is rejected)
@@ -245,171 +246,43 @@ def radar_params(cfg: dict):
     return make_radar(preset, dict(fields, **azimuth_window), **window)
 
 
-def trajectory(cfg: dict) -> tuple[np.ndarray, np.ndarray]:
-    """(pulse_times (P,), positions (P, 3) NED): straight and level, north, times centred on 0."""
-    tr = cfg["trajectory"]
-    prf = float(cfg["radar"]["prf_hz"])
-    n = int(round(tr["duration"] * prf))
-    t = pulse_clock(n, prf, 0.0, n // 2)
-    start = np.asarray(tr["start_ned"], dtype=np.float64)
-    pos = np.zeros((n, 3))
-    pos[:, 0] = start[0] + float(tr["speed"]) * t
-    pos[:, 1] = start[1]
-    pos[:, 2] = start[2]
-    return t, pos
+#: ImageSceneParams field -> [scene] key, of each scene type (the other type's keys are not read)
+_SCENE_KEYS = {"point": {"target_along_track": "target_along_track_m", "target_slant_range": "target_slant_range_m"},
+               "random": {"along_track_extent": "along_track_extent_m", "slant_range_min": "slant_range_min_m",
+                          "slant_range_max": "slant_range_max_m", "density": "density_per_m2"}}
 
 
-def _ground(r0, h, side):
-    return (1.0 if side == "right" else -1.0) * math.sqrt(r0**2 - h**2)
-
-
-def scene(cfg: dict):
-    """The :class:`~sarnav.radar.scene.Scene` (random fields drawn from ``scene.seed``)."""
-    from sarnav.radar.scene import point_targets, random_scatterers
-
-    s = cfg["scene"]
-    h = altitude(cfg)
-    side = cfg["radar"]["look_side"]
-    n0, e0 = (float(v) for v in cfg["trajectory"]["start_ned"][:2])
-    if s["type"] == "point":
-        return point_targets([n0 + float(s["target_along_track_m"]), e0 + _ground(s["target_slant_range_m"], h, side),
-                              0.0])
-    rng = np.random.default_rng(np.random.SeedSequence(int(s["seed"])))
-    half = 0.5 * float(s["along_track_extent_m"])
-    g = sorted(e0 + _ground(float(s[k]), h, side) for k in ("slant_range_min_m", "slant_range_max_m"))
-    # homogeneous Poisson field on the flat ground (density per m^2 of ground)
-    return random_scatterers(rng, ((n0 - half, n0 + half), tuple(g)), float(s["density_per_m2"]), s["amplitude_law"])
-
-
-def build_pulses(cfg: dict):
-    """Simulate and range-compress the echoes of a validated configuration: (rc, scene, params)."""
-    from sarnav.imaging.range_compression import range_compress
-    from sarnav.radar.echoes import simulate_echoes
-
+def parse(cfg: dict) -> ImageSceneParams:
+    """Validate ``cfg`` (:func:`validate`) and convert it to the :class:`ImageSceneParams` of the experiment."""
     validate(cfg)
-    params = radar_params(cfg)
-    t, pos = trajectory(cfg)
-    sc = scene(cfg)
-    snr = float(cfg["radar"]["snr_db"])
-    noisy = snr < NO_NOISE_SNR_DB
-    rng = np.random.default_rng(np.random.SeedSequence([int(cfg["scene"]["seed"]), 1])) if noisy else None
-    raw = simulate_echoes(params, pos, t, sc, snr_db=snr if noisy else None, rng=rng,
-                          pattern=bool(cfg["radar"]["antenna_pattern"]))
-    return range_compress(raw), sc, params
-
-
-def form_image(cfg: dict, rc):
-    """(SarImage, autofocus report or None): ``rc`` focused as ``[image]`` says, along the true straight track
-    flown at the true speed plus ``image.speed_error_mps``."""
-    from sarnav.imaging.straight_block import focus_straight_block
-
-    im = cfg["image"]
-    v_hat = float(cfg["trajectory"]["speed"]) + float(im["speed_error_mps"])
-    return focus_straight_block(rc, v_hat, np.asarray(cfg["trajectory"]["start_ned"], dtype=np.float64),
-                                look_side=cfg["radar"]["look_side"], algorithm=im["algorithm"], window=im["window"],
-                                rcmc_kernel=im["rcmc_kernel"], azimuth_model=im["azimuth_model"],
-                                autofocus=im["autofocus"], bpa_interpolation=im["bpa_interpolation"])
-
-
-def image_report(cfg: dict, img, sc, params, af) -> dict:
-    """The content of ``metrics.json``: image size and spacing, quality, autofocus, point-target figures."""
-    from sarnav.imaging import quality
-    from sarnav.signal.metrics import point_target_report
-
-    report = {"scenario": cfg["scenario"]["name"], "algorithm": cfg["image"]["algorithm"],
-              "n_targets": int(sc.n_targets), "image_shape": list(img.shape),
-              "pixel_spacing_m": {"along_track": img.dy, "slant_range": img.dx},
-              "quality": {"normalised_kurtosis": quality.normalised_complex_kurtosis(img.data),
-                          "entropy_magnitude_100": quality.entropy_magnitude(img.data, 100),
-                          "normalised_variance": quality.normalised_variance(img.data)}}
-    if af is not None:
-        report["autofocus"] = dict(af, speed_true=float(cfg["trajectory"]["speed"]))
-    s = cfg["scene"]
-    if s["type"] == "point":
-        aperture = float(cfg["trajectory"]["speed"]) * float(cfg["trajectory"]["duration"])
-        report["point_target"] = point_target_report(
-            img, float(s["target_along_track_m"]), float(s["target_slant_range_m"]), params.bandwidth,
-            params.wavelength, aperture, cfg["radar"]["range_window"], cfg["image"]["window"])
-    return report
-
-
-def scene_centre(cfg: dict) -> tuple[np.ndarray, tuple[float, float]]:
-    """(NED centre of the imaged scene on the ground, (north, east) half sizes [m]) — the CPHD's scene reference
-    point and image area (a point target: +-10 m about it)."""
-    s = cfg["scene"]
-    h = altitude(cfg)
-    side = cfg["radar"]["look_side"]
-    n0, e0 = (float(v) for v in cfg["trajectory"]["start_ned"][:2])
-    if s["type"] == "point":
-        return np.array([n0 + float(s["target_along_track_m"]), e0 + _ground(s["target_slant_range_m"], h, side),
-                         0.0]), (10.0, 10.0)
-    g = sorted(e0 + _ground(float(s[k]), h, side) for k in ("slant_range_min_m", "slant_range_max_m"))
-    return (np.array([n0, 0.5 * (g[0] + g[1]), 0.0]),
-            (0.5 * float(s["along_track_extent_m"]) + 5.0, 0.5 * (g[1] - g[0]) + 5.0))
-
-
-def write_cphd(cfg: dict, rc, path) -> None:
-    """The simulated collect (range-compressed pulses, NED at ``scene.origin_llh``) as CPHD: the scene reference point
-    at the scene centre, the image area its half sizes (uIAX east, uIAY north), the image grid at the range sample
-    spacing."""
-    from sarnav.io.cphd import write_collect
-
-    centre, (half_n, half_e) = scene_centre(cfg)
-    write_collect(path, rc, origin_llh(cfg), scene_point=centre, image_half_extent=(half_e, half_n))
-
-
-def write_sicd(cfg: dict, img, rc, params, path) -> None:
-    """A back-projected scenario image (slant plane of the processor's straight track) as SICD: its grid and the
-    processor's antenna positions mapped from NED to ECEF at ``scene.origin_llh``."""
-    from sarnav.imaging.grid import PlaneGrid
-    from sarnav.io.frames import grid_to_ecef, ned_to_ecef
-    from sarnav.io.sicd import SicdGeometry, write_image
-
-    ref = origin_llh(cfg)
-    m = img.metadata
-    grid = grid_to_ecef(PlaneGrid(m["grid_origin"], m["grid_direction"], m["grid_normal"], img.y, img.x,
-                                  img.y_name, img.x_name), ref)
-    v_hat = float(cfg["trajectory"]["speed"]) + float(cfg["image"]["speed_error_mps"])
-    track = np.asarray(cfg["trajectory"]["start_ned"], dtype=np.float64) + rc.pulse_times[:, None] * [v_hat, 0, 0]
-    write_image(path, img, SicdGeometry(grid, ned_to_ecef(track, ref), rc.pulse_times, params.wavelength,
-                                        params.bandwidth))
+    tr, s, im, snr = cfg["trajectory"], cfg["scene"], cfg["image"], float(cfg["radar"]["snr_db"])
+    scene = {field: float(s[key]) for field, key in _SCENE_KEYS[s["type"]].items()}
+    if s["type"] == "random":
+        scene["amplitude_law"] = s["amplitude_law"]
+    return ImageSceneParams(
+        radar=radar_params(cfg), start_ned=tuple(float(v) for v in tr["start_ned"]), speed=float(tr["speed"]),
+        duration=float(tr["duration"]), scene=s["type"], seed=int(s["seed"]), **scene,
+        snr_db=snr if snr < NO_NOISE_SNR_DB else None, antenna_pattern=cfg["radar"]["antenna_pattern"],
+        algorithm=im["algorithm"], window=im["window"], rcmc_kernel=im["rcmc_kernel"],
+        azimuth_model=im["azimuth_model"], autofocus=im["autofocus"], bpa_interpolation=im["bpa_interpolation"],
+        speed_error=float(im["speed_error_mps"]), origin_llh=tuple(origin_llh(cfg)), name=cfg["scenario"]["name"])
 
 
 def run_image(cfg: dict, out, overwrite: bool = False, *, cphd: bool = False, sicd: bool = False) -> dict:
-    """Simulate, focus, measure; write ``image.npz``, ``image.png`` and ``metrics.json`` into ``out`` (claimed as
-    ``montecarlo.outdir.OutputFolder``: ``overwrite`` replaces another scenario's results), with ``cphd`` also the
-    collect as ``collect.cphd``, with ``sicd`` the image as ``image.nitf`` (BPA only); return the metrics."""
+    """Simulate, focus, measure (``simulation.image_scene.run``); write ``image.npz``, ``image.png`` and
+    ``metrics.json`` into ``out`` (claimed as ``montecarlo.outdir.OutputFolder``: ``overwrite`` replaces another
+    scenario's results), with ``cphd`` also the collect as ``collect.cphd``, with ``sicd`` the image as ``image.nitf``
+    (BPA only; ``report.image_files.write_scene_image``); return the metrics."""
     from sarnav.montecarlo.outdir import OutputFolder, identity
-
-    validate(cfg)
-    if sicd and cfg["image"]["algorithm"] != "bpa":
-        raise ConfigError("--sicd", f"a SICD holds a back-projected image on a plane; {cfg['image']['algorithm']!r} "
-                          "images have none: use --algorithm bpa (or sarnav image FILE.cphd --sicd)")
-    with OutputFolder(out, identity(cfg), overwrite=overwrite):
-        return _image_files(cfg, Path(out), cphd, sicd)
-
-
-def _image_files(cfg: dict, out: Path, cphd: bool = False, sicd: bool = False) -> dict:
-    from sarnav.report.image_files import write_image_npz, write_image_png, write_json
+    from sarnav.report.image_files import write_scene_image
     from sarnav.tomlio import dump_toml
 
-    rc, sc, params = build_pulses(cfg)
-    if cphd:
-        write_cphd(cfg, rc, out / "collect.cphd")
-    img, af = form_image(cfg, rc)
-    write_image_npz(img, params, out / "image.npz", speed=float(cfg["trajectory"]["speed"]),
-                    scenario_toml=dump_toml(cfg))
-    report = image_report(cfg, img, sc, params, af)
-    if sicd:
-        write_sicd(cfg, img, rc, params, out / "image.nitf")
-    files = [name for name, on in (("collect.cphd", cphd), ("image.nitf", sicd)) if on]
-    if files:
-        report["files"] = files
-    write_json(report, out / "metrics.json")
-    name = cfg["scenario"]["name"] or "image"
-    write_image_png(img, out / "image.png", f"{name}: {cfg['image']['algorithm'].upper()}, "
-                                            f"window {img.metadata.get('window', '')}")
-    return report
+    prm = parse(cfg)
+    if sicd and prm.algorithm != "bpa":
+        raise ConfigError("--sicd", f"a SICD holds a back-projected image on a plane; {prm.algorithm!r} "
+                          "images have none: use --algorithm bpa (or sarnav image FILE.cphd --sicd)")
+    with OutputFolder(out, identity(cfg), overwrite=overwrite):
+        return write_scene_image(prm, run(prm), Path(out), cphd=cphd, sicd=sicd, scenario_toml=dump_toml(cfg))
 
 
 class ImageKind(FileKind):

@@ -1,0 +1,79 @@
+"""The image of a collect: range-compressed pulses at their own antenna positions (such as a CPHD file read by
+``io.cphd.read_collect``) formed on a plane grid, and the figures that describe the collect and the image.
+
+Formation: back-projection (``imaging.backprojection.backproject``, ``"bpa"``) or fast factorised back-projection
+(``imaging.ffbp.ffbp``, ``"ffbp"``), an optional azimuth window weighting the pulses in slow time. The collect's
+figures are read from the data alone: the signal's band from its range spectrum
+(``backprojection.data_oversampling``: fs / B with fs = c / 2 dr), the PRF from the pulse times, the speed from the
+mean spacing of the antenna positions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sarnav.errors import ConfigError
+from sarnav.imaging import quality
+from sarnav.imaging.backprojection import backproject, data_oversampling
+from sarnav.imaging.ffbp import ffbp
+from sarnav.signal.data import PulseData, SarImage
+from sarnav.signal.windows import as_window
+from sarnav.units import C
+
+__all__ = ["ALGORITHMS", "CollectFigures", "collect_figures", "form_collect_image", "collect_image_metrics"]
+
+ALGORITHMS = ("bpa", "ffbp")
+
+
+@dataclass(frozen=True)
+class CollectFigures:
+    """A collect's radar figures, read from its pulses (the ``image.npz`` fields of ``report.image_files``)."""
+
+    carrier_frequency: float  # c / wavelength [Hz]
+    bandwidth: float  # the signal's band [Hz], from its range spectrum
+    wavelength: float  # [m]
+    prf: float  # mean pulse rate [Hz]
+    speed: float  # mean antenna speed [m/s]
+
+
+def collect_figures(rc: PulseData) -> CollectFigures:
+    """The :class:`CollectFigures` of ``rc`` (module docstring)."""
+    fs = C / (2.0 * float(rc.slant_range[1] - rc.slant_range[0]))
+    bandwidth = fs / data_oversampling(rc)                  # the signal's band, from its spectrum
+    prf = (rc.n_pulses - 1) / float(np.ptp(rc.pulse_times))
+    speed = float(np.mean(np.sqrt(np.sum(np.diff(rc.positions, axis=0) ** 2, axis=1))) * prf)
+    lam = rc.carrier_wavelength
+    return CollectFigures(C / lam, bandwidth, lam, prf, speed)
+
+
+def form_collect_image(rc: PulseData, grid, algorithm: str = "bpa", window=None, *,
+                       window_field: str = "window") -> SarImage:
+    """The image of ``rc`` on ``grid`` (a plane or point grid, ``imaging.grid``) by ``algorithm`` (one of
+    :data:`ALGORITHMS`), the pulses weighted by the azimuth ``window`` (None: none; errors name ``window_field``);
+    the window's label is recorded in the image metadata."""
+    if algorithm not in ALGORITHMS:
+        raise ConfigError("algorithm", f"must be one of {ALGORITHMS}, got {algorithm!r}")
+    w = as_window(window or "none", window_field)
+    if w.name != "none":
+        rc = rc.__class__(**{**rc.__dict__, "data": rc.data * w.samples(rc.n_pulses)[:, None]})
+    img = backproject(rc, grid) if algorithm == "bpa" else ffbp(rc, grid)
+    img.metadata["window"] = w.label
+    return img
+
+
+def collect_image_metrics(rc: PulseData, img: SarImage, algorithm: str, bandwidth: float) -> dict:
+    """The figures of an image of a collect (``metrics.json`` of ``sarnav image FILE.cphd``): the collect's size,
+    carrier and band, the image's size and spacing, its quality (``quality.quality_summary``) and, for FFBP, the
+    factorisation's figures (``ffbp_*`` metadata, among them its predicted error)."""
+    md = img.metadata
+    report = {"algorithm": algorithm, "n_pulses": int(rc.n_pulses),
+              "n_range_samples": int(rc.data.shape[1]), "image_shape": list(img.shape),
+              "pixel_spacing_m": {img.y_name: img.dy, img.x_name: img.dx},
+              "carrier_frequency_hz": C / rc.carrier_wavelength, "bandwidth_hz": bandwidth,
+              "interpolation": md.get("interpolation"),
+              "quality": quality.quality_summary(img.data)}
+    if algorithm == "ffbp":
+        report["ffbp"] = {k[5:]: md[k] for k in md if k.startswith("ffbp_")}
+    return report
