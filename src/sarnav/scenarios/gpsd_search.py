@@ -123,11 +123,10 @@ def _figures(rows, prm: GpsdSearchParams, figdir: Path) -> None:
     figdir.mkdir(exist_ok=True)
     methods = ["source", "source-carry", "source-oracle", "source-random"]
     sigma, drifts = noise_drifts(prm)
-    for si in prm.block_pulses:
-        for L in prm.candidates:
-            plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
-            plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")
-            plot_noise_runs(rows, si, L, sigma, drifts, figdir / f"fig4_25_Si{si}_L{L}.png")
+    for si, L in prm.configurations:
+        plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
+        plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")
+        plot_noise_runs(rows, si, L, sigma, drifts, figdir / f"fig4_25_Si{si}_L{L}.png")
     plot_failure(rows, figdir / "failure_analysis.png")
     plot_methods(rows, figdir / "methods.png")
 

@@ -12,9 +12,9 @@
 Until sarnav 0.3 the ``[geometry]`` table of 0.2 is read with a notice per key (``scenarios.aliases``).
 
 Configuration only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry` (docs/quality.md §2), the
-scene :class:`sarnav.simulation.quality_scene.QualitySceneSpec` (drawn by ``simulation.quality_scene.make_scene``). Every
-value is checked here with its range, so that a scenario of any size is refused before anything is allocated (echo
-data pulses x range samples, scatterers x pulses of echo work).
+scene :class:`sarnav.simulation.quality_scene.QualitySceneSpec` (drawn by ``simulation.quality_scene.make_scene``).
+Every value is checked here with its range, so that a scenario of any size is refused before anything is allocated
+(echo data pulses x range samples, scatterers x pulses of echo work).
 """
 
 from __future__ import annotations

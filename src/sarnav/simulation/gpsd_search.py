@@ -54,6 +54,11 @@ class GpsdSearchParams:
     span_sigmas: float
     measure: str
 
+    @property
+    def configurations(self) -> tuple[tuple[int, int], ...]:
+        """The (S_i, L) of the sweep in the order it runs them: per block length, each candidate count."""
+        return tuple((si, L) for si in self.block_pulses for L in self.candidates)
+
 
 @dataclass(frozen=True)
 class SearchResult:
@@ -69,12 +74,11 @@ def search_rows(prm: GpsdSearchParams, problem):
                                                                    if c in prm.controls]
     improved = tuple(m for m in prm.methods if m in ("grid", "brent"))
     sigmas = fs.table41_sigmas(prm.sigmas)
-    for si in prm.block_pulses:
-        for L in prm.candidates:
-            yield from fs.table41_rows(problem, si, L, realisations=range(prm.runs), seed=prm.seed,
-                                       sigmas=sigmas, n_spacings=prm.spacings, bias=prm.bias, scorers=scorers,
-                                       improved=improved, span_sigmas=prm.span_sigmas,
-                                       carry="source-carry" in prm.methods, single="one" in prm.controls)
+    for si, L in prm.configurations:
+        yield from fs.table41_rows(problem, si, L, realisations=range(prm.runs), seed=prm.seed,
+                                   sigmas=sigmas, n_spacings=prm.spacings, bias=prm.bias, scorers=scorers,
+                                   improved=improved, span_sigmas=prm.span_sigmas,
+                                   carry="source-carry" in prm.methods, single="one" in prm.controls)
 
 
 def run(prm: GpsdSearchParams, progress: Callable[[int, float], None] | None = None) -> SearchResult:
@@ -96,22 +100,21 @@ def summary(rows: list[dict], prm: GpsdSearchParams, seconds: float) -> dict:
     numbers; the widest reach bound; failed runs."""
     out = {"source": SOURCE_RHO, "seconds": seconds, "rows": len(rows),
            "failed_runs": [r for r in rows if r["error"]][:20], "configurations": {}}
-    for si in prm.block_pulses:
-        for L in prm.candidates:
-            sel = [r for r in rows if r["block_pulses"] == si and r["candidates"] in (L, 1)]
-            fa = fs.failure_analysis(sel)
-            per_sigma = {}
-            for lab in {r["method"] for r in sel if r["candidates"] == L}:
-                sig = sorted({r["sigma"] for r in sel if r["method"] == lab})
-                per_sigma[lab] = [float(np.nanmean([r["rho"] for r in sel if r["method"] == lab and r["sigma"] == x
-                                                    and r["candidates"] == L])) for x in sig]
-            reach = [r["reach"] for r in sel if r["method"] == "source" and np.isfinite(r["reach"])]
-            fa["per_sigma_mean"] = per_sigma
-            fa["source_reach_max"] = float(max(reach)) if reach else float("nan")
-            for lab in list(fa):
-                if isinstance(fa[lab], dict) and "rho" in fa[lab]:
-                    fa[lab].pop("rho")
-            out["configurations"][f"S_i={si},L={L}"] = fa
+    for si, L in prm.configurations:
+        sel = [r for r in rows if r["block_pulses"] == si and r["candidates"] in (L, 1)]
+        fa = fs.failure_analysis(sel)
+        per_sigma = {}
+        for lab in {r["method"] for r in sel if r["candidates"] == L}:
+            sig = sorted({r["sigma"] for r in sel if r["method"] == lab})
+            per_sigma[lab] = [float(np.nanmean([r["rho"] for r in sel if r["method"] == lab and r["sigma"] == x
+                                                and r["candidates"] == L])) for x in sig]
+        reach = [r["reach"] for r in sel if r["method"] == "source" and np.isfinite(r["reach"])]
+        fa["per_sigma_mean"] = per_sigma
+        fa["source_reach_max"] = float(max(reach)) if reach else float("nan")
+        for lab in list(fa):
+            if isinstance(fa[lab], dict) and "rho" in fa[lab]:
+                fa[lab].pop("rho")
+        out["configurations"][f"S_i={si},L={L}"] = fa
     return out
 
 
