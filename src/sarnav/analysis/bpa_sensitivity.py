@@ -15,6 +15,8 @@ For each injected error:
    loss against the reference image; azimuth IRW;
 5. predicted offset: thesis eq. 4.41 through the linear model (``analysis.sensitivity``); predicted peak
    loss from the first-order FM-rate error and the Fresnel integral.
+
+The study of the scenario is :func:`run` (:class:`BpaSensitivityParams`).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.range_compression import range_compress
 from sarnav.radar.echoes import simulate_echoes
-from sarnav.radar.params import pulse_clock
+from sarnav.radar.params import RadarParams, pulse_clock
 from sarnav.radar.scene import point_targets
 from sarnav.signal.metrics import impulse_response, interpolate_value, peak_location
 from sarnav.trajectory.sampled import closest_approach
@@ -39,7 +41,7 @@ from sarnav.units import G0
 
 __all__ = ["THESIS_SIM_ERRORS", "ImageSettings", "Geometry", "make_geometry", "injected_error",
            "estimated_trajectory", "CaseResult", "CasePlan", "plan_case", "image_pixels", "run_case", "run_study",
-           "CSV_FIELDS", "MAX_PIXEL_PULSES"]
+           "CSV_FIELDS", "MAX_PIXEL_PULSES", "BpaSensitivityParams", "run"]
 
 
 @dataclass(frozen=True)
@@ -285,6 +287,23 @@ def run_study(geo: Geometry, params, errors: dict, image: ImageSettings) -> tupl
     irw_ref = _irw_along(ref, pk_ref)
     results = [run_case(n, float(v), geo, rc, amp_ref, irw_ref, image) for n, v in errors.items()]
     return results, ref
+
+
+@dataclass(frozen=True)
+class BpaSensitivityParams:
+    """The study: the flight and target ``geometry``, the ``radar`` (receive window around the target), the injected
+    ``errors`` (name of :data:`THESIS_SIM_ERRORS` -> value, in its unit) and the ``image`` settings."""
+
+    geometry: Geometry
+    radar: RadarParams
+    errors: dict
+    image: ImageSettings
+
+
+def run(prm: BpaSensitivityParams, names=None) -> tuple[list[CaseResult], object]:
+    """:func:`run_study` of every error of ``prm`` (or the named ones, in that order): results and reference image."""
+    errors = {n: prm.errors[n] for n in (list(prm.errors) if names is None else names)}
+    return run_study(prm.geometry, prm.radar, errors, prm.image)
 
 
 CSV_FIELDS = ("name", "value", "unit", "pred_offset_range", "pred_offset_along", "meas_offset_range",

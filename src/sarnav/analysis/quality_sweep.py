@@ -15,12 +15,15 @@ is a rotation of the track about the vertical through p(n0), so it shifts (by ~e
 rotates the image without defocusing it (docs/quality.md, "cross-track").
 
 Everything returns numpy arrays or an ``xarray.Dataset`` (dims ``size``, ``bins``, ``error``); figures are
-drawn elsewhere. Grids keep the ground extent of the geometry and vary the pixel count (gap 4).
+drawn elsewhere. Grids keep the ground extent of the geometry and vary the pixel count (gap 4). The experiment of
+the ``quality-sweep`` scenario is :func:`run` (:class:`QualitySweepParams`): the sweeps, the T3 example, the claims
+and the T16 reliability study.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -32,13 +35,14 @@ from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.quality import QUALITY_MEASURES, quality_measure
 from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.registration import register
-from sarnav.radar.quality_scenes import QualityGeometry, simulate_pulses
+from sarnav.radar.quality_scenes import QualityGeometry, point_clutter_scene, simulate_pulses
+from sarnav.simulation.quality_scene import QualitySceneSpec, make_scene
 
 __all__ = ["DIRECTIONS", "FIGURES", "DEFAULT_MEASURES", "compressed_pulses", "image_grid", "velocity_error_positions",
            "focus_depth", "error_grid", "score_images", "quality_sweep", "figure_data", "extremum_error",
            "count_local_extrema", "local_minimum_near", "curve_correlation", "reliability_study", "t3_example",
            "SOURCE_CLAIMS", "trough_depth", "monotone_steps", "along_claims", "cross_claims", "reliability_claims",
-           "mean_to_rms"]
+           "mean_to_rms", "ReliabilitySpec", "QualitySweepParams", "run"]
 
 DIRECTIONS = ("along", "cross")
 #: the measures of the thesis' USU study (Figs. 4.2-4.8) plus the mean-removed kurtosis (Figs. 4.11, 4.17)
@@ -377,3 +381,75 @@ def mean_to_rms(image) -> float:
     """|mean pixel| / rms pixel of an image (T17: the thesis' 'three orders of magnitude smaller')."""
     y = np.asarray(getattr(image, "data", image)).ravel()
     return float(abs(y.mean()) / np.sqrt(np.mean(np.abs(y) ** 2)))
+
+
+# ---------------------------------------------------------------------------------------------
+# the experiment of scenario quality-sweep
+
+@dataclass(frozen=True)
+class ReliabilitySpec:
+    """The T16 study: ``scenes`` point/clutter scenes (0: none) drawn from ``seed`` at ``clutter_density``
+    [1/m^2], each swept along-track at ``size`` x ``size`` pixels and ``bins`` histogram bins, scored by
+    ``measures``."""
+
+    scenes: int
+    size: int
+    bins: int
+    seed: int
+    clutter_density: float
+    measures: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class QualitySweepParams:
+    """The sweep of scenario ``quality-sweep``: the geometry and scene; per direction (:data:`DIRECTIONS`) the
+    images of ``sizes`` pixels scored by ``measures`` (``bins`` histogram bins) at 2 ``steps`` + 1 errors over
+    +- ``span_depths`` focus depths about ``pivot``; the figures' image size ``figure_size``; the T16 study."""
+
+    geometry: QualityGeometry
+    scene: QualitySceneSpec
+    directions: tuple[str, ...]
+    sizes: tuple[int, ...]
+    bins: tuple[int, ...]
+    measures: tuple[str, ...]
+    steps: int
+    span_depths: float
+    figure_size: int
+    pivot: str
+    reliability: ReliabilitySpec
+
+
+def _reliability(prm: QualitySweepParams) -> tuple[dict, np.ndarray, np.ndarray] | None:
+    """(T16 claims, extremum errors in steps (scenes, measures), errors) of the reliability study, or None."""
+    rel, geo = prm.reliability, prm.geometry
+    if rel.scenes == 0:
+        return None
+    errors = error_grid(geo, "along", prm.steps, prm.span_depths)
+    scenes = [point_clutter_scene(np.random.default_rng(s), geo.scene_center, geo.scene_extent,
+                                  clutter_density=rel.clutter_density)
+              for s in np.random.SeedSequence(rel.seed).spawn(rel.scenes)]
+    best = reliability_study(geo, scenes, errors, rel.size, rel.bins, tuple(rel.measures))
+    return reliability_claims(best, errors, rel.measures), best / (errors[1] - errors[0]), errors
+
+
+def run(prm: QualitySweepParams) -> dict:
+    """The sweeps ({direction: :func:`quality_sweep` Dataset}), the claims (T3, T7-T17 beside
+    :data:`SOURCE_CLAIMS`), the T3 example (:func:`t3_example`) and the reliability study (or None)."""
+    geo = prm.geometry
+    scene, rng, snr = make_scene(prm.scene, geo)
+    rc = compressed_pulses(geo, scene, snr, rng)
+    sweeps = {d: quality_sweep(rc, geo, error_grid(geo, d, prm.steps, prm.span_depths), d, prm.sizes, prm.bins,
+                               prm.measures, prm.pivot) for d in prm.directions}
+    claims = {"source": SOURCE_CLAIMS, "focus_depth": focus_depth(geo),
+              "step": {d: float(ds["error"].values[1] - ds["error"].values[0]) for d, ds in sweeps.items()}}
+    if "along" in sweeps:
+        claims.update(along_claims(sweeps["along"], prm.figure_size))
+    if "cross" in sweeps:
+        claims.update(cross_claims(sweeps["cross"], prm.figure_size))
+    t3 = t3_example(rc, geo, prm.figure_size)
+    claims["T3"] = {k: v for k, v in t3.items() if not isinstance(v, np.ndarray)}
+    claims.setdefault("T17", {})["mean_over_rms"] = mean_to_rms(t3["reference"])
+    rel = _reliability(prm)
+    if rel is not None:
+        claims["T16"] = rel[0]
+    return {"sweeps": sweeps, "claims": claims, "t3": t3, "reliability": rel}

@@ -1,7 +1,9 @@
 """Study ``bpa-sensitivity``: image shift and blur of a BPA image formed with an erroneous trajectory (thesis ch. 4).
 
-Configuration and wiring; the study itself is ``sarnav.analysis.bpa_sensitivity``, its table and figure
-``sarnav.report.sensitivity`` (docs/scenarios/bpa-sensitivity.md).
+Configuration and wiring only: the defaults, ``parse`` (TOML ->
+:class:`~sarnav.analysis.bpa_sensitivity.BpaSensitivityParams`) and the kind; the study itself is
+``sarnav.analysis.bpa_sensitivity.run``, its table and figure ``sarnav.report.sensitivity``
+(docs/scenarios/bpa-sensitivity.md).
 
 Geometry (the thesis gives none for ch. 4): 10 m/s north at 1000 m, target on the ground 1800 m east of the track
 at mid-aperture, 6-s aperture, nav-paper radar (9.75 GHz, 500 MHz, 1 GHz sampling) at PRF 100 Hz with a 0.2 us
@@ -12,8 +14,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sarnav.analysis.bpa_sensitivity import (MAX_PIXEL_PULSES, THESIS_SIM_ERRORS, ImageSettings, image_pixels,
-                                             make_geometry, plan_case, run_study)
+from sarnav.analysis.bpa_sensitivity import (MAX_PIXEL_PULSES, THESIS_SIM_ERRORS, BpaSensitivityParams,
+                                             ImageSettings, image_pixels, make_geometry, plan_case, run)
 from sarnav.errors import ConfigError, require_finite
 from sarnav.scenarios.fields import choice, get, number, positive, table
 from sarnav.scenarios.kind_base import FileKind
@@ -41,8 +43,8 @@ def default_config() -> dict:
     }
 
 
-def validate(cfg: dict) -> None:
-    """Raise ConfigError naming the first bad field."""
+def parse(cfg: dict) -> BpaSensitivityParams:
+    """Checked content of the study; ConfigError names the first bad field and its range."""
     r, e = table(cfg, "radar"), table(cfg, "errors")
     read_altitude(cfg, 0.0, MAX_ALTITUDE)
     positive_up_to("trajectory.speed", get(cfg, "trajectory", "speed"), MAX_SPEED, "m/s")
@@ -65,10 +67,15 @@ def validate(cfg: dict) -> None:
         require_finite(f"errors.{name}", e[name], -10.0, 10.0, THESIS_SIM_ERRORS[name][3])
     if not e:
         raise ConfigError("errors", "needs at least one injected error")
-    _validate_physics(cfg)
+    return _physics(cfg)
 
 
-def _validate_physics(cfg: dict) -> None:
+def validate(cfg: dict) -> None:
+    """Raise ConfigError naming the first bad field (:func:`parse`)."""
+    parse(cfg)
+
+
+def _physics(cfg: dict) -> BpaSensitivityParams:
     """What ``run`` would otherwise find out while simulating (``show`` refuses the same): the radar (RadarParams,
     the Doppler band at the study's speed: ``radar.prf_hz``), the echo block's size, and per injected error an
     estimated track whose closest approach to the target lies in the aperture and an image of bounded size."""
@@ -85,6 +92,7 @@ def _validate_physics(cfg: dict) -> None:
                           "smaller margin")
     for name, value in cfg["errors"].items():
         plan_case(name, float(value), geo, settings)
+    return BpaSensitivityParams(geometry=geo, radar=params, errors=dict(cfg["errors"]), image=settings)
 
 
 def geometry(cfg: dict):
@@ -102,13 +110,8 @@ def radar(cfg: dict, geo):
 
 
 def study(cfg: dict, names=None):
-    """(results, reference image) of every error of ``cfg`` (or the named ones)."""
-    validate(cfg)
-    geo = geometry(cfg)
-    im = cfg["image"]
-    errors = {n: cfg["errors"][n] for n in (list(cfg["errors"]) if names is None else names)}
-    return run_study(geo, radar(cfg, geo), errors,
-                     ImageSettings(float(im["spacing"]), float(im["margin"]), im["interpolation"]))
+    """(results, reference image) of every error of ``cfg`` (or the named ones): ``analysis.bpa_sensitivity.run``."""
+    return run(parse(cfg), names)
 
 
 def run_sensitivity(cfg: dict, out_dir, figures: bool = True, overwrite: bool = False) -> Path:
@@ -118,9 +121,9 @@ def run_sensitivity(cfg: dict, out_dir, figures: bool = True, overwrite: bool = 
     from sarnav.report.sensitivity import plot_grid, write_csv
 
     out = Path(out_dir)
-    validate(cfg)
+    prm = parse(cfg)
     with OutputFolder(out, identity(cfg), overwrite=overwrite):
-        results, ref = study(cfg)
+        results, ref = run(prm)
         path = write_csv(results, out / "sensitivity.csv")
         if figures:
             plot_grid(results, ref, out / "sensitivity.png")

@@ -1,8 +1,10 @@
 """Scenario kind ``gpsd-search``: the velocity-offset search of Hathaway (2023) Alg. 3.3, its controls and searches
 that work (docs/quality.md §4-§6).
 
-Configuration and wiring; the search is ``sarnav.measurements.focus_search`` (``table41_rows``: Alg. 3.3 exactly,
-the controls, the spanning grid and Brent), the files and figures ``sarnav.report.quality_figures``. Scenarios:
+Configuration and wiring only: the defaults, ``parse`` (TOML ->
+:class:`~sarnav.simulation.gpsd_search.GpsdSearchParams`) and the kind; the sweep is ``sarnav.simulation.gpsd_search``
+(over ``sarnav.measurements.focus_search.table41_rows``: Alg. 3.3 exactly, the controls, the spanning grid and Brent),
+the files and figures ``sarnav.report.quality_figures``. Scenarios:
 
 * ``gpsd-search``: a reduced Table 4.1 sweep (S_i = 500, L = 11, the ten sigma of Table 4.1, 5 spacings, one
   noise realisation), about two minutes on 2 cores;
@@ -26,26 +28,21 @@ analysis; the source's numbers) and ``figures/``.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
-
-import numpy as np
 
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
-from sarnav.measurements import focus_search as fs
+from sarnav.measurements.focus_search import DIAGNOSTIC_COLUMNS, ROW_COLUMNS, TABLE41_BIAS
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
 from sarnav.scenarios.kind_base import FileKind
-from sarnav.scenarios.quality_tables import default_scene, default_tables, make_scene, read_geometry, read_scene
+from sarnav.scenarios.quality_tables import default_scene, default_tables, read_geometry, read_scene
+from sarnav.simulation.gpsd_search import (SEARCH_CONTROLS, SEARCH_METHODS, SOURCE_RHO, GpsdSearchParams,
+                                           noise_drifts, run)
 
 __all__ = ["GpsdSearchKind", "default_config", "table41_config", "parse", "run_search_scenario", "SEARCH_METHODS",
-           "SEARCH_CONTROLS"]
+           "SEARCH_CONTROLS", "GpsdSearchParams", "SOURCE_RHO"]
 
-SEARCH_METHODS = ("source", "source-carry", "grid", "brent")
-SEARCH_CONTROLS = ("one", "oracle", "random")
-#: the thesis' numbers (L712, L722-724)
-SOURCE_RHO = {"min": 0.2735, "max": 2.7707, "per_sigma_mean_min": 0.8110, "per_sigma_mean_max": 1.3918}
 #: search runs that form images (controls need none): about 1 s each for S_i = 500 at 200 x 200 on 2 cores
 MAX_IMAGE_RUNS = 20_000
 
@@ -61,7 +58,7 @@ def default_config() -> dict:
         "image": {"size": 200},
         "search": {"method": ["source", "grid", "brent"], "controls": ["one", "oracle", "random"],
                    "candidates": [11], "block_pulses": [500], "initial_pulses": 1000, "sigmas": 10, "spacings": 5,
-                   "bias": fs.TABLE41_BIAS, "span_sigmas": 3.0, "measure": "kurtosis"},
+                   "bias": TABLE41_BIAS, "span_sigmas": 3.0, "measure": "kurtosis"},
     }
 
 
@@ -99,88 +96,49 @@ def _parse_search(cfg: dict, geo) -> dict:
     return s
 
 
-def parse(cfg: dict) -> dict:
+def parse(cfg: dict) -> GpsdSearchParams:
     """Checked content of a gpsd-search scenario; ConfigError names the first bad key and its range."""
     runs, seed = validate_campaign(cfg)
     geo = read_geometry(cfg)
-    prm = {"runs": runs, "seed": seed, "geometry": geo, "scene": read_scene(cfg, geo),
-           "size": integer(cfg, "image", "size", 2, 400), "search": _parse_search(cfg, geo)}
-    s = prm["search"]
+    scene = read_scene(cfg, geo)
+    size = integer(cfg, "image", "size", 2, 400)
+    s = _parse_search(cfg, geo)
     per = s["sigmas"] * (s["spacings"] * sum(m.startswith("source") for m in s["methods"])
                          + sum(m in ("grid", "brent") for m in s["methods"]))
     image_runs = runs * len(s["candidates"]) * len(s["block_pulses"]) * per
     if image_runs > MAX_IMAGE_RUNS:
         raise ConfigError("campaign.runs", f"{image_runs} search runs that form images; at most {MAX_IMAGE_RUNS} "
                           "(fewer realisations, spacings, sigmas or configurations)")
-    work = image_runs * geo.n_pulses * prm["size"] ** 2 * 4
+    work = image_runs * geo.n_pulses * size ** 2 * 4
     if work > 1e14:
         raise ConfigError("image.size", f"{work:.3g} pixel-pulse moment evaluations; at most 1e14")
-    return prm
+    return GpsdSearchParams(runs=runs, seed=seed, geometry=geo, scene=scene, size=size,
+                            **{k: tuple(v) if isinstance(v, list) else v for k, v in s.items()})
 
 
-def _rows(prm: dict, problem):
-    """Every row of the scenario, in order: per (S_i, L), the rows of ``focus_search.table41_rows``."""
-    s = prm["search"]
-    scorers = ([s["measure"]] if "source" in s["methods"] else []) + [c for c in ("oracle", "random")
-                                                                       if c in s["controls"]]
-    improved = tuple(m for m in s["methods"] if m in ("grid", "brent"))
-    sigmas = fs.table41_sigmas(s["sigmas"])
-    for si in s["block_pulses"]:
-        for L in s["candidates"]:
-            yield from fs.table41_rows(problem, si, L, realisations=range(prm["runs"]), seed=prm["seed"],
-                                       sigmas=sigmas, n_spacings=s["spacings"], bias=s["bias"], scorers=scorers,
-                                       improved=improved, span_sigmas=s["span_sigmas"],
-                                       carry="source-carry" in s["methods"], single="one" in s["controls"])
-
-
-def _summary(rows: list[dict], prm: dict, seconds: float) -> dict:
-    """Per (S_i, L): the failure analysis of ``focus_search.failure_analysis`` and per-sigma means; the source's
-    numbers; the widest reach bound; failed runs."""
-    out = {"source": SOURCE_RHO, "seconds": seconds, "rows": len(rows),
-           "failed_runs": [r for r in rows if r["error"]][:20], "configurations": {}}
-    for si in prm["search"]["block_pulses"]:
-        for L in prm["search"]["candidates"]:
-            sel = [r for r in rows if r["block_pulses"] == si and r["candidates"] in (L, 1)]
-            fa = fs.failure_analysis(sel)
-            per_sigma = {}
-            for lab in {r["method"] for r in sel if r["candidates"] == L}:
-                sig = sorted({r["sigma"] for r in sel if r["method"] == lab})
-                per_sigma[lab] = [float(np.nanmean([r["rho"] for r in sel if r["method"] == lab and r["sigma"] == x
-                                                    and r["candidates"] == L])) for x in sig]
-            reach = [r["reach"] for r in sel if r["method"] == "source" and np.isfinite(r["reach"])]
-            fa["per_sigma_mean"] = per_sigma
-            fa["source_reach_max"] = float(max(reach)) if reach else float("nan")
-            for lab in list(fa):
-                if isinstance(fa[lab], dict) and "rho" in fa[lab]:
-                    fa[lab].pop("rho")
-            out["configurations"][f"S_i={si},L={L}"] = fa
-    return out
-
-
-def _figures(rows, prm, figdir: Path) -> None:
+def _figures(rows, prm: GpsdSearchParams, figdir: Path) -> None:
     from sarnav.report.quality_figures import (plot_failure, plot_methods, plot_noise_runs, plot_realisations,
                                                plot_whiskers)
 
     figdir.mkdir(exist_ok=True)
     methods = ["source", "source-carry", "source-oracle", "source-random"]
-    s, geo = prm["search"], prm["geometry"]
-    k = min(3, s["sigmas"] - 1)  # Fig. 4.25: the fourth sigma, 3.266e-5 (L694)
-    sigma = float(fs.table41_sigmas(s["sigmas"])[k])
-    drifts = {r: fs.noise_drift(prm["seed"], r, k, s["sigmas"], geo.n_pulses, s["initial_pulses"], s["bias"], sigma)
-              for r in range(min(prm["runs"], 3))}
-    for si in s["block_pulses"]:
-        for L in s["candidates"]:
-            plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
-            plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")
-            plot_noise_runs(rows, si, L, sigma, drifts, figdir / f"fig4_25_Si{si}_L{L}.png")
+    sigma, drifts = noise_drifts(prm)
+    for si, L in prm.configurations:
+        plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
+        plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")
+        plot_noise_runs(rows, si, L, sigma, drifts, figdir / f"fig4_25_Si{si}_L{L}.png")
     plot_failure(rows, figdir / "failure_analysis.png")
     plot_methods(rows, figdir / "methods.png")
 
 
+def _progress(rows: int, seconds: float) -> None:
+    print(f"gpsd-search: {rows} runs, {seconds:.0f} s", flush=True)
+
+
 def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = False, quiet: bool = True) -> Path:
-    """Run the sweep into ``out`` (``INCOMPLETE`` until the end; ``rho.csv`` is written, through ``rho.csv.partial``,
-    only when every row is done, so an interrupted sweep never leaves a file that looks complete). Returns the path of
-    ``rho.csv``."""
+    """Run the sweep (``simulation.gpsd_search.run``) into ``out`` (``INCOMPLETE`` until the end; ``rho.csv`` is
+    written, through ``rho.csv.partial``, only when every row is done, so an interrupted sweep never leaves a file
+    that looks complete). Returns the path of ``rho.csv``."""
     from sarnav.montecarlo.outdir import OutputFolder, identity
     from sarnav.report.quality_figures import write_rows_csv, write_strict_json
 
@@ -189,21 +147,12 @@ def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = 
     with OutputFolder(out, identity(cfg), overwrite=overwrite):
         marker = out / "INCOMPLETE"
         marker.write_text("gpsd-search running\n")
-        t0 = time.perf_counter()
-        geo = prm["geometry"]
-        scene, rng, snr = make_scene(prm["scene"], geo)
-        problem = fs.search_problem(geo, scene, prm["size"], prm["search"]["initial_pulses"],
-                                    prm["search"]["measure"], snr, rng)
-        rows = []
-        for row in _rows(prm, problem):
-            rows.append(row)
-            if not quiet and len(rows) % 50 == 0:
-                print(f"gpsd-search: {len(rows)} runs, {time.perf_counter() - t0:.0f} s", flush=True)
-        path = write_rows_csv(rows, out / "rho.csv", fs.ROW_COLUMNS)
-        write_rows_csv(rows, out / "rho_diagnostics.csv", fs.ROW_COLUMNS + fs.DIAGNOSTIC_COLUMNS)
-        write_strict_json(_summary(rows, prm, time.perf_counter() - t0), out / "search.json")
+        res = run(prm, None if quiet else _progress)
+        path = write_rows_csv(res.rows, out / "rho.csv", ROW_COLUMNS)
+        write_rows_csv(res.rows, out / "rho_diagnostics.csv", ROW_COLUMNS + DIAGNOSTIC_COLUMNS)
+        write_strict_json(res.summary, out / "search.json")
         if figures:
-            _figures(rows, prm, out / "figures")
+            _figures(res.rows, prm, out / "figures")
         marker.unlink()
     return path
 

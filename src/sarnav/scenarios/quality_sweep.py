@@ -1,8 +1,9 @@
 """Scenario kind ``quality-sweep``: focus score versus along- and cross-track velocity error (Hathaway 2023 §4.1.1).
 
-Configuration and wiring; the sweep is ``sarnav.analysis.quality_sweep`` (score of BPA images formed along tracks
-with a constant velocity error), the measures ``sarnav.imaging.quality``, the files and figures
-``sarnav.report.quality_figures`` (docs/quality.md §3). ``sarnav run quality-sweep`` writes into ``--out``:
+Configuration and wiring only: the defaults, ``parse`` (TOML ->
+:class:`~sarnav.analysis.quality_sweep.QualitySweepParams`) and the kind; the sweep is
+``sarnav.analysis.quality_sweep.run`` (score of BPA images formed along tracks with a constant velocity error), the
+measures ``sarnav.imaging.quality``, the files and figures ``sarnav.report.quality_figures`` (docs/quality.md §3). ``sarnav run quality-sweep`` writes into ``--out``:
 
 * ``sweep.nc``: every measure versus error for each image size and bin count, both directions;
 * ``claims.json``: the thesis' claims T3, T7-T17 with the numbers of this sweep beside the source's statement;
@@ -17,17 +18,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
-from sarnav.analysis import quality_sweep as qs
+from sarnav.analysis.quality_sweep import DIRECTIONS, QualitySweepParams, ReliabilitySpec, run
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
-from sarnav.radar.quality_scenes import point_clutter_scene
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
 from sarnav.scenarios.kind_base import FileKind
-from sarnav.scenarios.quality_tables import default_scene, default_tables, make_scene, read_geometry, read_scene
+from sarnav.scenarios.quality_tables import default_scene, default_tables, read_geometry, read_scene
 
-__all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep"]
+__all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep", "QualitySweepParams"]
 
 MEASURES = ("kurtosis", "kurtosis_mean_removed", "normalised_kurtosis", "entropy_magnitude", "entropy_sum",
             "intensity_entropy")
@@ -53,112 +51,78 @@ def default_config() -> dict:
 
 
 def _parse_sweep(cfg: dict) -> dict:
-    return {"directions": name_list(cfg, "sweep", "directions", qs.DIRECTIONS),
-            "sizes": sorted(int_list(cfg, "sweep", "sizes", 2, 400)),
-            "bins": sorted(int_list(cfg, "sweep", "bins", 2, 100_000)),
-            "measures": name_list(cfg, "sweep", "measures", sorted(QUALITY_MEASURES)),
+    return {"directions": tuple(name_list(cfg, "sweep", "directions", DIRECTIONS)),
+            "sizes": tuple(sorted(int_list(cfg, "sweep", "sizes", 2, 400))),
+            "bins": tuple(sorted(int_list(cfg, "sweep", "bins", 2, 100_000))),
+            "measures": tuple(name_list(cfg, "sweep", "measures", sorted(QUALITY_MEASURES))),
             "steps": integer(cfg, "sweep", "steps", 1, 50),
             "span_depths": number(cfg, "sweep", "span_depths", 0.1, 100.0, "focus depths"),
             "figure_size": integer(cfg, "sweep", "figure_size", 2, 400),
             "pivot": choice(cfg, "sweep", "pivot", PIVOTS)}
 
 
-def _parse_reliability(cfg: dict) -> dict:
-    return {"scenes": integer(cfg, "reliability", "scenes", 0, 200),
-            "size": integer(cfg, "reliability", "size", 2, 400),
-            "bins": integer(cfg, "reliability", "bins", 2, 100_000),
-            "seed": integer(cfg, "reliability", "seed", 0, 2**63 - 1),
-            "clutter_density": number(cfg, "reliability", "clutter_density", 0.01, 100.0, "1/m^2"),
-            "measures": name_list(cfg, "reliability", "measures", sorted(QUALITY_MEASURES))}
+def _parse_reliability(cfg: dict) -> ReliabilitySpec:
+    return ReliabilitySpec(scenes=integer(cfg, "reliability", "scenes", 0, 200),
+                           size=integer(cfg, "reliability", "size", 2, 400),
+                           bins=integer(cfg, "reliability", "bins", 2, 100_000),
+                           seed=integer(cfg, "reliability", "seed", 0, 2**63 - 1),
+                           clutter_density=number(cfg, "reliability", "clutter_density", 0.01, 100.0, "1/m^2"),
+                           measures=tuple(name_list(cfg, "reliability", "measures", sorted(QUALITY_MEASURES))))
 
 
-def parse(cfg: dict) -> dict:
+def parse(cfg: dict) -> QualitySweepParams:
     """Checked, SI content of a quality-sweep scenario; ConfigError names the first bad key and its range."""
     geo = read_geometry(cfg)
-    prm = {"geometry": geo, "scene": read_scene(cfg, geo), "sweep": _parse_sweep(cfg),
-           "reliability": _parse_reliability(cfg)}
-    sw, rel = prm["sweep"], prm["reliability"]
-    n_err = 2 * sw["steps"] + 1
-    work = geo.n_pulses * n_err * (len(sw["directions"]) * sum(n * n for n in sw["sizes"]) + sw["figure_size"] ** 2)
+    prm = QualitySweepParams(geometry=geo, scene=read_scene(cfg, geo), **_parse_sweep(cfg),
+                             reliability=_parse_reliability(cfg))
+    rel = prm.reliability
+    n_err = 2 * prm.steps + 1
+    work = geo.n_pulses * n_err * (len(prm.directions) * sum(n * n for n in prm.sizes) + prm.figure_size ** 2)
     if work > MAX_BPA_WORK:
         raise ConfigError("sweep.sizes", f"{work:.3g} pixel-pulses of back-projection; at most {MAX_BPA_WORK:.0e} "
                           "(fewer or smaller sizes, fewer steps, fewer pulses)")
-    rel_work = rel["scenes"] * geo.n_pulses * n_err * rel["size"] ** 2
+    rel_work = rel.scenes * geo.n_pulses * n_err * rel.size ** 2
     if rel_work > MAX_BPA_WORK:
         raise ConfigError("reliability.scenes", f"{rel_work:.3g} pixel-pulses of back-projection; at most "
                           f"{MAX_BPA_WORK:.0e}")
-    if rel["scenes"] and rel["clutter_density"] * geo.scene_extent**2 * geo.n_pulses > 1e8:
+    if rel.scenes and rel.clutter_density * geo.scene_extent**2 * geo.n_pulses > 1e8:
         raise ConfigError("reliability.clutter_density", "too many clutter scatterers x pulses (at most 1e8)")
     return prm
 
 
-def _reliability(prm: dict) -> tuple[dict, np.ndarray, np.ndarray] | None:
-    rel, geo = prm["reliability"], prm["geometry"]
-    if rel["scenes"] == 0:
-        return None
-    errors = qs.error_grid(geo, "along", prm["sweep"]["steps"], prm["sweep"]["span_depths"])
-    scenes = [point_clutter_scene(np.random.default_rng(s), geo.scene_center, geo.scene_extent,
-                                  clutter_density=rel["clutter_density"])
-              for s in np.random.SeedSequence(rel["seed"]).spawn(rel["scenes"])]
-    best = qs.reliability_study(geo, scenes, errors, rel["size"], rel["bins"], tuple(rel["measures"]))
-    return qs.reliability_claims(best, errors, rel["measures"]), best / (errors[1] - errors[0]), errors
-
-
-def sweep(prm: dict) -> dict:
-    """The sweeps, the T3 example, the claims (and the reliability study) of a parsed scenario."""
-    geo, sw = prm["geometry"], prm["sweep"]
-    scene, rng, snr = make_scene(prm["scene"], geo)
-    rc = qs.compressed_pulses(geo, scene, snr, rng)
-    sweeps = {d: qs.quality_sweep(rc, geo, qs.error_grid(geo, d, sw["steps"], sw["span_depths"]), d, sw["sizes"],
-                                  sw["bins"], sw["measures"], sw["pivot"]) for d in sw["directions"]}
-    claims = {"source": qs.SOURCE_CLAIMS, "focus_depth": qs.focus_depth(geo),
-              "step": {d: float(ds["error"].values[1] - ds["error"].values[0]) for d, ds in sweeps.items()}}
-    if "along" in sweeps:
-        claims.update(qs.along_claims(sweeps["along"], sw["figure_size"]))
-    if "cross" in sweeps:
-        claims.update(qs.cross_claims(sweeps["cross"], sw["figure_size"]))
-    t3 = qs.t3_example(rc, geo, sw["figure_size"])
-    claims["T3"] = {k: v for k, v in t3.items() if not isinstance(v, np.ndarray)}
-    claims.setdefault("T17", {})["mean_over_rms"] = qs.mean_to_rms(t3["reference"])
-    rel = _reliability(prm)
-    if rel is not None:
-        claims["T16"] = rel[0]
-    return {"sweeps": sweeps, "claims": claims, "t3": t3, "reliability": rel}
-
-
-def _figures(res: dict, prm: dict, figdir: Path) -> list[Path]:
+def _figures(res: dict, prm: QualitySweepParams, figdir: Path) -> list[Path]:
     from sarnav.report.quality_figures import plot_reliability, plot_score_curves, plot_t3
 
-    sw, geo = prm["sweep"], prm["geometry"]
     figdir.mkdir(exist_ok=True)
-    fig_n = min(sw["sizes"], key=lambda n: abs(n - sw["figure_size"]))
-    b0, bmax = sw["bins"][0], sw["bins"][-1]
-    paths = [plot_t3(res["t3"], geo.grid_spacing(sw["figure_size"]), figdir / "fig4_1_images.png")]
-    three = [m for m in ("kurtosis", "entropy_magnitude", "entropy_sum") if m in sw["measures"]] or sw["measures"][:3]
+    measures = list(prm.measures)
+    fig_n = min(prm.sizes, key=lambda n: abs(n - prm.figure_size))
+    b0, bmax = prm.bins[0], prm.bins[-1]
+    paths = [plot_t3(res["t3"], prm.geometry.grid_spacing(prm.figure_size), figdir / "fig4_1_images.png")]
+    three = [m for m in ("kurtosis", "entropy_magnitude", "entropy_sum") if m in measures] or measures[:3]
     for d, ds in res["sweeps"].items():
-        sizes = [(n, bmax) for n in sw["sizes"]]
-        bins = [(fig_n, b) for b in sw["bins"]]
+        sizes = [(n, bmax) for n in prm.sizes]
+        bins = [(fig_n, b) for b in prm.bins]
         if d == "along":
             paths.append(plot_score_curves(ds, three, [(fig_n, b0)], figdir / f"fig4_2_along_{fig_n}.png",
                                            f"Fig. 4.2: along-track, {fig_n}x{fig_n}, N = {b0}", scatter=True))
-            paths.append(plot_score_curves(ds, sw["measures"], sizes, figdir / "fig4_3-4_6_sizes.png",
+            paths.append(plot_score_curves(ds, measures, sizes, figdir / "fig4_3-4_6_sizes.png",
                                            f"Figs. 4.3-4.6: along-track, N = {bmax}"))
         else:
-            paths.append(plot_score_curves(ds, sw["measures"], sizes, figdir / "cross_sizes.png",
+            paths.append(plot_score_curves(ds, measures, sizes, figdir / "cross_sizes.png",
                                            f"cross-track (T8), N = {bmax}"))
-        ent = [m for m in sw["measures"] if QUALITY_MEASURES[m].uses_bins] or sw["measures"][:1]
+        ent = [m for m in measures if QUALITY_MEASURES[m].uses_bins] or measures[:1]
         name = "fig4_7_bins_along.png" if d == "along" else "fig4_8_bins_cross.png"
         paths.append(plot_score_curves(ds, ent, bins, figdir / name,
                                        f"Fig. {'4.7' if d == 'along' else '4.8'}: {d}-track, {fig_n}x{fig_n}"))
     if res["reliability"] is not None:
-        paths.append(plot_reliability(res["reliability"][1], prm["reliability"]["measures"],
+        paths.append(plot_reliability(res["reliability"][1], list(prm.reliability.measures),
                                       figdir / "t16_reliability.png"))
     return paths
 
 
 def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> Path:
-    """Run the sweep into ``out`` (claimed as ``montecarlo.outdir.OutputFolder``; ``INCOMPLETE`` until the end);
-    returns the path of ``sweep.nc``."""
+    """Run the sweep (``analysis.quality_sweep.run``) into ``out`` (claimed as ``montecarlo.outdir.OutputFolder``;
+    ``INCOMPLETE`` until the end); returns the path of ``sweep.nc``."""
     from sarnav.montecarlo.outdir import OutputFolder, identity
     from sarnav.report.quality_figures import sweep_dataset, write_strict_json
 
@@ -167,7 +131,7 @@ def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> 
     with OutputFolder(out, identity(cfg), overwrite=overwrite):
         marker = out / "INCOMPLETE"
         marker.write_text("quality-sweep running\n")
-        res = sweep(prm)
+        res = run(prm)
         ds = sweep_dataset(res["sweeps"], {"scenario": cfg["scenario"]["name"], "source": "Hathaway 2023 §4.1.1"})
         path = out / "sweep.nc"
         ds.to_netcdf(out / "sweep.nc.partial")

@@ -11,10 +11,10 @@
 
 Until sarnav 0.3 the ``[geometry]`` table of 0.2 is read with a notice per key (``scenarios.aliases``).
 
-Configuration and wiring only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry` (docs/quality.md
-§2), the scenes are ``usu_picture``/``binary_scene`` (the USU-like binary picture) and ``point_clutter_scene``. Every
-value is checked here with its range, so that a scenario of any size is refused before anything is allocated (echo
-data pulses x range samples, scatterers x pulses of echo work).
+Configuration only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry` (docs/quality.md §2), the
+scene :class:`sarnav.simulation.quality_scene.QualitySceneSpec` (drawn by ``simulation.quality_scene.make_scene``).
+Every value is checked here with its range, so that a scenario of any size is refused before anything is allocated
+(echo data pulses x range samples, scatterers x pulses of echo work).
 """
 
 from __future__ import annotations
@@ -23,14 +23,14 @@ import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError
-from sarnav.radar.quality_scenes import QualityGeometry, binary_scene, point_clutter_scene, usu_picture
+from sarnav.radar.quality_scenes import QualityGeometry, usu_picture
 from sarnav.scenarios.fields import boolean, choice, integer, number, table
 from sarnav.scenarios.vocabulary import read_altitude
+from sarnav.simulation.quality_scene import SCENE_TYPES, QualitySceneSpec
 
 __all__ = ["SCENE_TYPES", "RADAR_KEYS", "default_tables", "default_scene", "read_geometry", "read_scene",
-           "make_scene", "MAX_ECHO_SAMPLES", "MAX_ECHO_WORK"]
+           "MAX_ECHO_SAMPLES", "MAX_ECHO_WORK"]
 
-SCENE_TYPES = ("usu", "point-clutter")
 #: the ``[radar]`` keys of the quality kinds (the radar itself is the thesis' FlexSAR, docs/quality.md §2)
 RADAR_KEYS = ("preset", "pulse_length_us", "range_margin_m", "snr_db", "receiver_noise")
 #: echo data held at once (pulses x range samples, complex128: 16 bytes each): 2^24 = 256 MiB
@@ -91,23 +91,23 @@ def read_geometry(cfg: dict) -> QualityGeometry:
     return geo
 
 
-def read_scene(cfg: dict, geo: QualityGeometry) -> dict:
+def read_scene(cfg: dict, geo: QualityGeometry) -> QualitySceneSpec:
     """``[scene]`` checked (type, seed, points, point_to_clutter_db, clutter_density [1/m^2], usu_cells) with the
     receiver of ``[radar]``: receiver_noise, snr_db (per-sample SNR of the strongest scatterer [dB], radar.echoes;
     used when receiver_noise is true)."""
-    kind = choice(cfg, "scene", "type", SCENE_TYPES)
-    out = {"type": kind, "seed": integer(cfg, "scene", "seed", 0, 2**63 - 1),
-           "points": integer(cfg, "scene", "points", 0, 1000),
-           "point_to_clutter_db": number(cfg, "scene", "point_to_clutter_db", -40.0, 80.0, "dB"),
-           "clutter_density": number(cfg, "scene", "clutter_density", 0.0, 100.0, "1/m^2"),
-           "usu_cells": integer(cfg, "scene", "usu_cells", 24, 240),
-           "receiver_noise": boolean(cfg, "radar", "receiver_noise"),
-           "snr_db": number(cfg, "radar", "snr_db", -60.0, 100.0, "dB")}
-    if kind == "point-clutter":
-        scatterers = out["points"] + out["clutter_density"] * geo.scene_extent**2
+    out = QualitySceneSpec(type=choice(cfg, "scene", "type", SCENE_TYPES),
+                           seed=integer(cfg, "scene", "seed", 0, 2**63 - 1),
+                           points=integer(cfg, "scene", "points", 0, 1000),
+                           point_to_clutter_db=number(cfg, "scene", "point_to_clutter_db", -40.0, 80.0, "dB"),
+                           clutter_density=number(cfg, "scene", "clutter_density", 0.0, 100.0, "1/m^2"),
+                           usu_cells=integer(cfg, "scene", "usu_cells", 24, 240),
+                           receiver_noise=boolean(cfg, "radar", "receiver_noise"),
+                           snr_db=number(cfg, "radar", "snr_db", -60.0, 100.0, "dB"))
+    if out.type == "point-clutter":
+        scatterers = out.points + out.clutter_density * geo.scene_extent**2
         field = "scene.clutter_density"
     else:
-        scatterers = float(np.count_nonzero(usu_picture((out["usu_cells"],) * 2)))
+        scatterers = float(np.count_nonzero(usu_picture((out.usu_cells,) * 2)))
         field = "scene.usu_cells"
     if scatterers < 1:
         raise ConfigError("scene.points", "the scene has no scatterer: give points or clutter_density > 0")
@@ -115,20 +115,3 @@ def read_scene(cfg: dict, geo: QualityGeometry) -> dict:
         raise ConfigError(field, f"{scatterers:.0f} scatterers x {geo.n_pulses} pulses = {scatterers * geo.n_pulses:.3g}"
                           f" echo evaluations; at most {MAX_ECHO_WORK:.0e}")
     return out
-
-
-def make_scene(scene: dict, geo: QualityGeometry, seed_offset: int = 0):
-    """(Scene, receiver-noise Generator or None, snr_db or None) of a checked ``[scene]``; the point/clutter draw and
-    the noise come from ``SeedSequence([scene.seed, seed_offset])``."""
-    ss = np.random.SeedSequence([scene["seed"], seed_offset])
-    scene_ss, noise_ss = ss.spawn(2)
-    if scene["type"] == "usu":
-        pic = usu_picture((scene["usu_cells"],) * 2)
-        sc = binary_scene(pic, geo.scene_center, geo.scene_extent)
-    else:
-        sc = point_clutter_scene(np.random.default_rng(scene_ss), geo.scene_center, geo.scene_extent,
-                                 n_points=scene["points"], point_to_clutter_db=scene["point_to_clutter_db"],
-                                 clutter_density=scene["clutter_density"])
-    if not scene["receiver_noise"]:
-        return sc, None, None
-    return sc, np.random.default_rng(noise_ss), scene["snr_db"]

@@ -10,12 +10,13 @@ A study scenario (kind ``"study"``)::
     [[figures]] name, title, cases = [labels], states = [...]   # optional; default one with all
     [[sweeps]]  name, title, x_label, x = [values], cases = [labels]   # optional: statistics against a swept value
 
-Running it (:func:`run_study`) runs each case as a campaign into ``OUT/<label>/`` (resumable like
-any campaign), draws the 3σ comparison figure(s) ``OUT/study_<name>.png`` (thesis Figs 3.8-3.11:
-filter 3σ of each case, mean over runs) and writes ``OUT/study.json`` with each case's final 1σ/3σ
-and time-averaged 3σ per state. A ``[[sweeps]]`` entry draws ``OUT/sweep_<name>.png``: the registration sigma
+Running it (:func:`run_study`) runs each case as a campaign into ``OUT/<label>/`` (resumable like any campaign;
+``montecarlo.study.run`` with the cases of :func:`parse`), draws the 3σ comparison figure(s) ``OUT/study_<name>.png``
+(thesis Figs 3.8-3.11: filter 3σ of each case, mean over runs) and writes ``OUT/study.json`` with each case's final
+1σ/3σ and time-averaged 3σ per state. A ``[[sweeps]]`` entry draws ``OUT/sweep_<name>.png``: the registration sigma
 (predicted and measured), mean NEES, NIS/dof and final position 3σ of its cases against ``x``, and adds them to
 ``study.json``. The three chapter 3 studies of Lindstrom (2020) and the rda-nav robustness study are defined here.
+Configuration and wiring only: the case tables, :func:`parse`, the kind, the figures and ``study.json``.
 """
 
 from __future__ import annotations
@@ -27,11 +28,13 @@ from pathlib import Path
 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.montecarlo.study import StudyCase, StudyParams, run
 from sarnav.scenarios.config import set_value, validate_scenario
 
 __all__ = [
     "StudyKind",
     "case_config",
+    "parse",
     "run_study",
     "imu_grade_study",
     "noise_study",
@@ -193,61 +196,55 @@ def _figure_specs(cfg: dict) -> list[dict]:
     return [{"name": f["name"], "title": f.get("title", ""), "cases": f.get("cases", labels), "states": f.get("states", states)} for f in figs]
 
 
+def parse(cfg: dict) -> StudyParams:
+    """The checked study (``StudyKind.validate``): each case's complete scenario (:func:`case_config`) and the base
+    kind; ConfigError names the first bad key."""
+    validate_scenario(cfg)
+    return StudyParams(kind=_base_kind(cfg),
+                       cases=tuple(StudyCase(c["label"], case_config(cfg, i)) for i, c in enumerate(cfg["cases"])))
+
+
 def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     """Run every case of the study ``cfg`` into ``out/<label>/`` and write ``out/study.json``.
 
-    ``campaign_options`` go to :func:`sarnav.montecarlo.campaign.run_campaign` (executor, workers,
-    scheduler, resume, quiet, chunk_size, overwrite). Returns the ``study.json`` content.
+    ``campaign_options`` go to :func:`sarnav.montecarlo.study.run` (executor, workers, scheduler) and
+    :func:`sarnav.montecarlo.campaign.run_campaign` (resume, quiet, chunk_size, overwrite). Returns the
+    ``study.json`` content.
     """
     from sarnav.montecarlo.outdir import OutputFolder, identity
 
-    validate_scenario(cfg)
+    prm = parse(cfg)
     out = Path(out)
     with OutputFolder(out, identity(cfg), resume=campaign_options.get("resume", False),
                       overwrite=campaign_options.get("overwrite", False)):
         (out / "study.json").unlink(missing_ok=True)
-        return _run_cases(cfg, out, figures, campaign_options)
+        outcomes = run(prm, out, **campaign_options)
+        return _write(cfg, prm, outcomes, out, figures)
 
 
-def _run_cases(cfg: dict, out: Path, figures: bool, campaign_options: dict) -> dict:
-    from sarnav.analysis.consistency import case_statistics, mean_three_sigma
-    from sarnav.montecarlo.campaign import run_campaign
-    from sarnav.montecarlo.executors import ChunkRunner
+def _write(cfg: dict, prm: StudyParams, outcomes, out: Path, figures: bool) -> dict:
+    """The case figures, the comparison and sweep figures, and ``study.json``."""
     from sarnav.report.figures import write_campaign_figures
     from sarnav.report.study_figure import plot_study_comparison, plot_sweep, sweep_points, write_study_json
     from sarnav.tomlio import dump_toml
 
-    kind = _base_kind(cfg)
-    curves = {}
-    cases_out = []
-    runner = ChunkRunner(
-        campaign_options.pop("executor", "processes"),
-        campaign_options.pop("workers", None),
-        campaign_options.pop("scheduler", None),
-    )
-    with runner:  # one set of workers for all cases
-        results = [
-            run_campaign(case_config(cfg, i), out / case["label"], executor=runner, kind=kind, **campaign_options)
-            for i, case in enumerate(cfg["cases"])
-        ]
-    for case, res in zip(cfg["cases"], results):
-        ds = res.dataset
-        curves[case["label"]] = mean_three_sigma(ds)
-        cases_out.append({"label": case["label"], "set": case.get("set", {}), "dir": case["label"],
-                          "states": case_statistics(res.summary, curves[case["label"]])})
-        if figures:
-            write_campaign_figures(ds, out / case["label"], kind=kind)
+    by_label = {o.label: o for o in outcomes}
+    cases_out = [{"label": case["label"], "set": case.get("set", {}), "dir": case["label"],
+                  "states": by_label[case["label"]].states} for case in cfg["cases"]]
+    if figures:
+        for o in outcomes:
+            write_campaign_figures(o.result.dataset, out / o.label, kind=prm.kind)
     fig_paths = []
     if figures:
+        style = {c["label"]: c.get("style", STYLES[k % len(STYLES)]) for k, c in enumerate(cfg["cases"])}
         for spec in _figure_specs(cfg):
-            style = {c["label"]: c.get("style", STYLES[k % len(STYLES)]) for k, c in enumerate(cfg["cases"])}
-            sel = [(lab, *curves[lab][:2], style[lab]) for lab in spec["cases"]]
+            sel = [(lab, *by_label[lab].curves[:2], style[lab]) for lab in spec["cases"]]
             path = out / f"study_{spec['name']}.png"
-            fig_paths.append(plot_study_comparison(sel, curves[spec["cases"][0]][2], spec["states"], spec["title"], path))
+            fig_paths.append(plot_study_comparison(sel, by_label[spec["cases"][0]].curves[2], spec["states"],
+                                                   spec["title"], path))
     sweeps = {}
     for sw in cfg.get("sweeps", []):
-        summaries = [results[[c["label"] for c in cfg["cases"]].index(lab)].summary for lab in sw["cases"]]
-        sweeps[sw["name"]] = sweep_points(summaries, sw["x"])
+        sweeps[sw["name"]] = sweep_points([by_label[lab].result.summary for lab in sw["cases"]], sw["x"])
         if figures:
             fig_paths.append(plot_sweep(sweeps[sw["name"]], sw.get("x_label", ""), sw.get("title", ""),
                                         out / f"sweep_{sw['name']}.png"))
