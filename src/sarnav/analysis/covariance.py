@@ -18,8 +18,9 @@ from typing import Callable
 import numpy as np
 
 from sarnav.errors import ConfigError
-from sarnav.filters import joseph_update, propagate_covariance
+from sarnav.filters import propagate_covariance
 from sarnav.filters.prediction import Prediction, stack_predictions
+from sarnav.filters.update import fuse
 from sarnav.ins import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.measurements.telemetry import AltimeterMeasurement
@@ -53,7 +54,7 @@ def truth_linearised_covariance(model, trajectory, p0_sigma, n_updates: int, ste
             Phi, Qd = model.discretize(T, f_n, step)
             P = propagate_covariance(P, Phi, Qd)
         pred = predict(u, trajectory.state(np.array([(u + 1) * interval])))
-        _, P, _ = joseph_update(P, pred.H, pred.R, np.zeros((1, pred.dim)))
+        P = fuse(P, pred, pred.z_hat).update.P  # the filters' one update; the covariance does not see z
         sig.append(np.sqrt(np.diag(P[0])))
     return np.array(sig)
 
