@@ -123,13 +123,14 @@ def test_bad_configuration_names_the_key(key, value, field):
 @pytest.mark.slow
 def test_campaign_of_100_runs_is_consistent_and_beats_the_free_ins(tmp_path):
     from sarnav.montecarlo.campaign import run_campaign
+    from sarnav.simulation.quality_nav import kappa_for
 
     cfg = qn.default_config()
     # serial: kappa is calibrated once, in this process (numba uses both cores inside each fix)
     res = run_campaign(cfg, tmp_path / "qn", KIND, executor="serial", quiet=True)
     ds, summary = res.dataset, res.summary
     focus, nis, nees = summary["focus"], summary["nis"], summary["nees"]
-    kappa = qn.kappa_for(qn.parse(cfg))
+    kappa = kappa_for(qn.parse(cfg))
     print("\nquality-nav summary: nees", nees, "\nnis", nis, "\nfocus", focus, "\nkappa", kappa["kappa"],
           "used", kappa["used"], "rel SE", kappa["relative_se"])
     runs = ds.sizes["run"]

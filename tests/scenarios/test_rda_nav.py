@@ -12,6 +12,7 @@ from scipy.stats import chi2
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters import correlated_update
 from sarnav.scenarios import rda_nav as rn
+from sarnav.simulation.rda_nav import measurement_sigma, reference_targets
 
 KIND = rn.RdaNavKind()
 
@@ -191,18 +192,18 @@ def test_image_mode_registration_error_is_small_and_justifies_r(image_runs):
 def test_image_mode_measurement_sigma_comes_from_each_image_unless_overridden():
     prm = rn.parse(rn.default_config())
     assert prm.registration_sigma is None  # R from each image's predicted registration sigma
-    sig, add = rn.measurement_sigma(prm, image=False)  # oracle: Table 2
+    sig, add = measurement_sigma(prm, image=False)  # oracle: Table 2
     np.testing.assert_allclose(sig, [0.25, 0.25])
     assert add == 1.0
     cfg = rn.default_config()
     cfg["sar"]["registration_sigma_m"] = [0.002, 0.03]  # the optional constant override
     prm = rn.parse(cfg)
-    sig, add = rn.measurement_sigma(prm, image=True)
+    sig, add = measurement_sigma(prm, image=True)
     np.testing.assert_array_equal(sig, [0.002, 0.03])
     assert add == 0.0
     cfg["sar"]["image_added_noise"] = True
     prm = rn.parse(cfg)
-    sig, add = rn.measurement_sigma(prm, image=True)
+    sig, add = measurement_sigma(prm, image=True)
     np.testing.assert_allclose(sig, np.hypot([0.25, 0.25], [0.002, 0.03]))
     assert add == 1.0
 
@@ -221,7 +222,7 @@ def test_image_mode_predicted_registration_sigma_is_recorded_and_matches_the_err
 
 def test_image_mode_measured_toc_is_the_true_zero_doppler_time(image_runs):
     prm = rn.parse(rn.default_config())
-    toc_true = rn.reference_targets(prm)[:8, 0] / prm.trajectory.speed
+    toc_true = reference_targets(prm)[:8, 0] / prm.trajectory.speed
     for r in image_runs:
         toc = r.extras["toc"][1]
         assert np.all(np.abs(toc - toc_true) < 0.03)  # 0.3 m at 10 m/s
@@ -270,7 +271,7 @@ def test_fixed_scene_shares_the_reference_pass_but_not_the_in_flight_noise():
 
 def test_reference_targets_lie_in_the_swath_with_toc_inside_each_aperture():
     prm = rn.parse(rn.default_config())
-    t = rn.reference_targets(prm)
+    t = reference_targets(prm)
     assert t.shape == (50, 3)
     toc = t[:, 0] / 10.0
     assert np.all((toc > np.arange(50) + 0.25 - 1e-12) & (toc < np.arange(50) + 0.75 + 1e-12))

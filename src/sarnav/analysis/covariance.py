@@ -24,9 +24,11 @@ from sarnav.filters.update import fuse
 from sarnav.ins import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.measurements.telemetry import AltimeterMeasurement
+from sarnav.navigation import error_model
 from sarnav.rotations import quat_to_dcm
+from sarnav.simulation.rda_nav import COV_STEP, STATE_LAYOUT, RdaNavParams, reference_targets
 
-__all__ = ["truth_linearised_covariance", "sar_covariance_study"]
+__all__ = ["truth_linearised_covariance", "sar_covariance_study", "rda_nav_covariance_study"]
 
 
 def _nav(state, n_bias: int = 3) -> NavState:
@@ -108,3 +110,15 @@ def sar_covariance_study(model, trajectory, p0_sigma, alt_sigma: float, targets,
     steps = int(round(1.0 / step))
     sig = truth_linearised_covariance(model, trajectory, p0_sigma, n_upd, steps, step, predict)
     return {"time": np.arange(n_upd + 1, dtype=np.float64), "sigma": sig, "states": L.state_names()}
+
+
+def rda_nav_covariance_study(prm: RdaNavParams, range_sigma: float, cross_sigma: float, ground_ranges=None,
+                             cross_model: str | None = None) -> dict:
+    """:func:`sar_covariance_study` of an rda-nav scenario's filter for a given SAR noise: its IMU model, altimeter,
+    biases, P0, trajectory and (first) reference targets; ``cross_model`` defaults to the scenario's
+    ``sar.cross_range_model``; ``ground_ranges``: several targets per aperture (``scenarios.rda_nav`` names it
+    ``covariance_study``)."""
+    model = error_model(STATE_LAYOUT, prm.imu_filter, prm.bias_sigma, prm.bias_tau)
+    return sar_covariance_study(model, prm.trajectory, prm.p0_sigma, prm.alt_sigma, reference_targets(prm),
+                                range_sigma, cross_sigma, ground_ranges=ground_ranges,
+                                cross_model=prm.cross_model if cross_model is None else cross_model, step=COV_STEP)

@@ -22,7 +22,8 @@ from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.windows import as_window
 from sarnav.units import C
 
-__all__ = ["ALGORITHMS", "CollectFigures", "collect_figures", "form_collect_image", "collect_image_metrics"]
+__all__ = ["ALGORITHMS", "CollectFigures", "collect_figures", "form_collect_image", "collect_image_metrics",
+           "run_collect_image"]
 
 ALGORITHMS = ("bpa", "ffbp")
 
@@ -77,3 +78,12 @@ def collect_image_metrics(rc: PulseData, img: SarImage, algorithm: str, bandwidt
     if algorithm == "ffbp":
         report["ffbp"] = {k[5:]: md[k] for k in md if k.startswith("ffbp_")}
     return report
+
+
+def run_collect_image(rc: PulseData, grid, algorithm: str = "bpa", window=None, *,
+                      window_field: str = "window") -> tuple[SarImage, CollectFigures, dict]:
+    """What ``sarnav image FILE.cphd`` computes: the image of ``rc`` on ``grid`` (:func:`form_collect_image`), the
+    collect's figures (:func:`collect_figures`) and the image's metrics (:func:`collect_image_metrics`)."""
+    img = form_collect_image(rc, grid, algorithm, window, window_field=window_field)
+    figures = collect_figures(rc)
+    return img, figures, collect_image_metrics(rc, img, algorithm, figures.bandwidth)

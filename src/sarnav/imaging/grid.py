@@ -16,6 +16,7 @@ track, i.e. range of closest approach — the axes an RDA image has), and :class
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +42,13 @@ def regular_axis(center: float, spacing: float, n: int, name: str = "axis") -> n
     if not np.isfinite(center):
         raise ConfigError(f"{name}.center", f"must be finite, got {center!r}")
     return float(center) + (np.arange(n, dtype=np.float64) - 0.5 * (n - 1)) * spacing
+
+
+def _positive_length(name: str, v) -> float:
+    v = float(v) if isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) else math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError(name, f"must be finite and > 0 m, got {v!r}")
+    return v
 
 
 def _check_axis(name: str, values) -> np.ndarray:
@@ -239,6 +247,35 @@ class PlaneGrid:
     def metadata(self) -> dict:
         return {"grid": "plane", "grid_origin": self.origin.tolist(), "grid_row_direction": self.row_direction.tolist(),
                 "grid_col_direction": self.col_direction.tolist()}
+
+    def resampled(self, spacing=None, extent=None) -> "PlaneGrid":
+        """This grid (a CPHD's image grid, ``io.cphd.read_collect``) resampled on the same plane about the same
+        centre.
+
+        spacing : pixel spacing [m] along both axes (default: the grid's own row and column spacings).
+        extent : (x, y) full size [m] along the row and column axes (uIAX, uIAY), or one number for both
+            (default: the grid's own extent). The pixels are ``centre + (i - (n-1)/2) spacing`` with
+            ``n = floor(extent / spacing) + 1``.
+        """
+        rows, cols = np.asarray(self.rows), np.asarray(self.cols)
+        if spacing is None:
+            sp = (float(rows[1] - rows[0]), float(cols[1] - cols[0]))
+        else:
+            sp = (_positive_length("spacing", spacing),) * 2
+        if extent is None:
+            ext = (float(rows[-1] - rows[0]), float(cols[-1] - cols[0]))
+        else:
+            ext = tuple(extent) if np.ndim(extent) == 1 else (extent, extent)
+            if len(ext) != 2:
+                raise ConfigError("extent", f"must be one or two sizes [m], got {extent!r}")
+            ext = tuple(_positive_length("extent", e) for e in ext)
+        n = [int(math.floor(e / s + 1e-9)) + 1 for e, s in zip(ext, sp)]
+        if min(n) < 2:
+            raise ConfigError("extent", f"must span at least two pixels of {sp[0]:g} m, got {ext[0]:g} x {ext[1]:g} m")
+        new_rows = regular_axis(0.5 * float(rows[0] + rows[-1]), sp[0], n[0], "grid.rows")
+        new_cols = regular_axis(0.5 * float(cols[0] + cols[-1]), sp[1], n[1], "grid.cols")
+        return PlaneGrid(self.origin, self.row_direction, self.col_direction, new_rows, new_cols, self.row_name,
+                         self.col_name)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ import sarkit.wgs84 as wgs84
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData
 from sarnav.signal.phase_history import PhaseHistory, phase_history_to_pulses, pulses_to_phase_history
-from sarnav.imaging.grid import PlaneGrid, regular_axis
+from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
@@ -319,37 +319,8 @@ def read_filter(path, field: str = "filter") -> np.ndarray:
     return h
 
 
-def _positive(name: str, v) -> float:
-    v = float(v) if isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) else math.nan
-    if not (math.isfinite(v) and v > 0):
-        raise ConfigError(name, f"must be finite and > 0 m, got {v!r}")
-    return v
-
-
 def image_grid(grid: PlaneGrid, spacing=None, extent=None) -> PlaneGrid:
-    """``grid`` (a CPHD's image grid, ``read_collect``) resampled on the same plane about the same centre.
-
-    spacing : pixel spacing [m] along both axes (default: the grid's own row and column spacings).
-    extent : (x, y) full size [m] along the row and column axes (uIAX, uIAY), or one number for both
-        (default: the grid's own extent). The pixels are ``centre + (i - (n-1)/2) spacing`` with
-        ``n = floor(extent / spacing) + 1``.
-    """
-    rows, cols = np.asarray(grid.rows), np.asarray(grid.cols)
-    if spacing is None:
-        sp = (float(rows[1] - rows[0]), float(cols[1] - cols[0]))
-    else:
-        sp = (_positive("spacing", spacing),) * 2
-    if extent is None:
-        ext = (float(rows[-1] - rows[0]), float(cols[-1] - cols[0]))
-    else:
-        ext = tuple(extent) if np.ndim(extent) == 1 else (extent, extent)
-        if len(ext) != 2:
-            raise ConfigError("extent", f"must be one or two sizes [m], got {extent!r}")
-        ext = tuple(_positive("extent", e) for e in ext)
-    n = [int(math.floor(e / s + 1e-9)) + 1 for e, s in zip(ext, sp)]
-    if min(n) < 2:
-        raise ConfigError("extent", f"must span at least two pixels of {sp[0]:g} m, got {ext[0]:g} x {ext[1]:g} m")
-    new_rows = regular_axis(0.5 * float(rows[0] + rows[-1]), sp[0], n[0], "grid.rows")
-    new_cols = regular_axis(0.5 * float(cols[0] + cols[-1]), sp[1], n[1], "grid.cols")
-    return PlaneGrid(grid.origin, grid.row_direction, grid.col_direction, new_rows, new_cols, grid.row_name,
-                     grid.col_name)
+    """``grid`` (a CPHD's image grid, ``read_collect``) resampled on the same plane about the same centre
+    (:meth:`~sarnav.imaging.grid.PlaneGrid.resampled`: ``spacing`` [m] along both axes, ``extent`` (x, y) or one
+    size [m]; defaults the grid's own)."""
+    return grid.resampled(spacing, extent)

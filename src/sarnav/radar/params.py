@@ -11,8 +11,8 @@ t_i = 2 near_range / c + i / fs, i = 0 .. n_range_samples-1, i.e. slant ranges
 near_range + i c / (2 fs).
 
 The radar's three clocks and checks live here, one formula each: :func:`pulse_clock` (slow time of
-the pulses, :meth:`RadarParams.pulse_times`), :func:`window_over` (the receive window over a span of
-slant ranges, :meth:`RadarParams.receive_window`) and :meth:`RadarParams.check_doppler` (the PRF
+the pulses, :meth:`RadarParams.pulse_times`), :meth:`RadarParams.window_over` (the receive window over a
+span of slant ranges, :meth:`RadarParams.receive_window`) and :meth:`RadarParams.check_doppler` (the PRF
 against the beam's Doppler bandwidth). Errors name the radar's own parameters (``prf``,
 ``near_range``, ...); the scenario layer names them as the user's keys.
 """
@@ -45,28 +45,6 @@ def pulse_clock(n: int, prf: float, t0: float = 0.0, ref_pulse: float = 0) -> np
     if not (math.isfinite(t0) and math.isfinite(ref_pulse)):
         raise ConfigError("t0", f"t0 and ref_pulse must be finite, got {t0!r}, {ref_pulse!r}")
     return t0 + (np.arange(int(n)) - ref_pulse) / prf
-
-
-def window_over(span, pulse_length: float, sample_rate: float, margin: float = 0.0) -> dict:
-    """``near_range`` and ``n_range_samples`` of a receive window over the slant ranges ``span``.
-
-    The window runs from ``span[0] - pad`` with ``pad = c T / 4 + margin`` (T the pulse length: a
-    scatterer at R has its centred chirp on ``[R - cT/4, R + cT/4]`` in slant range, so every
-    scatterer of the span has its whole chirp inside) for ``ceil((span[1] - span[0] + 2 pad) / dr)
-    + 1`` samples of ``dr = c / (2 fs)``: the last sample lies at or beyond ``span[1] + pad``.
-    ``pulse_length`` 0 pads by ``margin`` alone.
-    """
-    lo, hi = span
-    if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
-        raise ConfigError("span", f"must be two finite slant ranges [m] with span[0] <= span[1], got {span!r}")
-    if pulse_length != 0:  # 0: no padding for the chirp; otherwise RadarParams' own check and message
-        require_positive("pulse_length", pulse_length)
-    fs = require_positive("sample_rate", sample_rate)
-    if not (math.isfinite(margin) and margin >= 0):
-        raise ConfigError("margin", f"must be finite and >= 0 m, got {margin!r}")
-    pad = C * pulse_length / 4.0 + margin
-    dr = C / (2.0 * fs)
-    return {"near_range": lo - pad, "n_range_samples": int(math.ceil((hi - lo + 2 * pad) / dr)) + 1}
 
 
 @dataclass(frozen=True)
@@ -281,6 +259,28 @@ class RadarParams:
         """(n,) slow times of n pulses at this PRF, pulse ``ref_pulse`` at ``t0`` [s] (:func:`pulse_clock`)."""
         return pulse_clock(n, self.prf, t0, ref_pulse)
 
+    @staticmethod
+    def window_over(span, pulse_length: float, sample_rate: float, margin: float = 0.0) -> dict:
+        """``near_range`` and ``n_range_samples`` of a receive window over the slant ranges ``span``.
+
+        The window runs from ``span[0] - pad`` with ``pad = c T / 4 + margin`` (T the pulse length: a
+        scatterer at R has its centred chirp on ``[R - cT/4, R + cT/4]`` in slant range, so every
+        scatterer of the span has its whole chirp inside) for ``ceil((span[1] - span[0] + 2 pad) / dr)
+        + 1`` samples of ``dr = c / (2 fs)``: the last sample lies at or beyond ``span[1] + pad``.
+        ``pulse_length`` 0 pads by ``margin`` alone.
+        """
+        lo, hi = span
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
+            raise ConfigError("span", f"must be two finite slant ranges [m] with span[0] <= span[1], got {span!r}")
+        if pulse_length != 0:  # 0: no padding for the chirp; otherwise RadarParams' own check and message
+            require_positive("pulse_length", pulse_length)
+        fs = require_positive("sample_rate", sample_rate)
+        if not (math.isfinite(margin) and margin >= 0):
+            raise ConfigError("margin", f"must be finite and >= 0 m, got {margin!r}")
+        pad = C * pulse_length / 4.0 + margin
+        dr = C / (2.0 * fs)
+        return {"near_range": lo - pad, "n_range_samples": int(math.ceil((hi - lo + 2 * pad) / dr)) + 1}
+
     def receive_window(self, span, margin: float = 0.0) -> dict:
         """``{"near_range", "n_range_samples"}`` of a window over the slant ranges ``span`` [m] with this
         pulse length and sample rate, widened by ``margin`` [m] each side (:func:`window_over`);
@@ -329,6 +329,10 @@ class RadarParams:
                         f"{self.pulse_half_extent:.3f} m); scene spans [{rmin:.3f}, {rmax:.3f}] m",
                     )
         return self
+
+
+#: :meth:`RadarParams.window_over` under the name the presets and the docs use
+window_over = RadarParams.window_over
 
 
 _FIELDS = {f.name: f for f in fields(RadarParams)}

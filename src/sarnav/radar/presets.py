@@ -84,3 +84,7 @@ def sun_ku_cart(imaged: tuple[float, float] = SUN_KU_CART_RANGES, **overrides) -
     )
     kw.update(overrides)
     return RadarParams(**kw)
+
+
+#: the presets by name (the vocabulary of a scenario's ``radar.preset``)
+PRESETS = {"nav-paper-sim": nav_paper_sim, "flexsar": flexsar, "sun-ku-cart": sun_ku_cart}

@@ -1,9 +1,10 @@
 """``sarnav image FILE.cphd``: an image formed from a CPHD file (the command's options and wiring only).
 
 The collect is read with :func:`sarnav.io.cphd.read_collect` (monostatic, FX domain, ECEF; an optional filter of the
-frequency samples, ``io.cphd.read_filter``) and formed by ``imaging.collect_image.form_collect_image``
-(back-projection "bpa" or fast factorised back-projection "ffbp", an optional azimuth window) onto a plane grid: the
-file's image grid by default, or the same plane resampled with ``spacing`` / ``extent`` (``io.cphd.image_grid``).
+frequency samples, ``io.cphd.read_filter``) and formed by ``imaging.collect_image.run_collect_image``
+(back-projection "bpa" or fast factorised back-projection "ffbp", an optional azimuth window; the collect's figures
+and the image's metrics) onto a plane grid: the file's image grid by default, or the same plane resampled with
+``spacing`` / ``extent`` (``imaging.grid.PlaneGrid.resampled``).
 Written into ``out`` by ``report.image_files.write_image_files``: ``image.npz``, ``image.png``, ``metrics.json`` (as
 for a scenario) and, with ``sicd``, the image as SICD ``image.nitf``. Bad input is one line naming the flag or the
 file's field.
@@ -53,8 +54,6 @@ def _extent(value):
 
 
 def _grid(default, spacing, extent):
-    from sarnav.io.cphd import image_grid
-
     sp, ext = _flag_number("--spacing", spacing), _extent(extent)
     rows, cols = default.rows, default.cols
     dy, dx = (sp, sp) if sp is not None else (rows[1] - rows[0], cols[1] - cols[0])
@@ -66,7 +65,7 @@ def _grid(default, spacing, extent):
                           "raise --spacing or lower --extent")
     if min(math.floor(ey / dy + 1e-9), math.floor(ex / dx + 1e-9)) < 1:
         raise ConfigError("--extent", f"must span at least two pixels of the spacing, got {ey:g} x {ex:g} m")
-    return image_grid(default, sp, ext)
+    return default.resampled(sp, ext)
 
 
 def _read(path: Path, filter_path):
@@ -90,7 +89,7 @@ def _identity(path: Path, options: dict) -> dict:
 def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=None, window: str | None = None,
                    filter_path=None, sicd: bool = False, overwrite: bool = False) -> dict:
     """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics."""
-    from sarnav.imaging.collect_image import collect_figures, collect_image_metrics, form_collect_image
+    from sarnav.imaging.collect_image import run_collect_image
     from sarnav.io.sicd import SicdGeometry
     from sarnav.montecarlo.outdir import OutputFolder
     from sarnav.report.image_files import write_image_files
@@ -105,9 +104,8 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
     options = {"algorithm": algorithm, "spacing": spacing, "extent": extent, "window": window,
                "filter": str(filter_path), "sicd": sicd}
     with OutputFolder(out, _identity(path, options), overwrite=overwrite):
-        img = form_collect_image(rc, grid, algorithm, window, window_field="--window")
-        figures = collect_figures(rc)
-        report = {"source": str(path), **collect_image_metrics(rc, img, algorithm, figures.bandwidth)}
+        img, figures, metrics = run_collect_image(rc, grid, algorithm, window, window_field="--window")
+        report = {"source": str(path), **metrics}
         if sicd:
             report["files"] = ["image.nitf"]
         geometry = SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength, figures.bandwidth) if sicd else None

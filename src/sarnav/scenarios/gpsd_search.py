@@ -37,8 +37,7 @@ from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
 from sarnav.scenarios.kind_base import FileKind
 from sarnav.scenarios.quality_tables import default_scene, default_tables, read_geometry, read_scene
-from sarnav.simulation.gpsd_search import (SEARCH_CONTROLS, SEARCH_METHODS, SOURCE_RHO, GpsdSearchParams,
-                                           noise_drifts, run)
+from sarnav.simulation.gpsd_search import SEARCH_CONTROLS, SEARCH_METHODS, SOURCE_RHO, GpsdSearchParams, run
 
 __all__ = ["GpsdSearchKind", "default_config", "table41_config", "parse", "run_search_scenario", "SEARCH_METHODS",
            "SEARCH_CONTROLS", "GpsdSearchParams", "SOURCE_RHO"]
@@ -122,7 +121,7 @@ def _figures(rows, prm: GpsdSearchParams, figdir: Path) -> None:
 
     figdir.mkdir(exist_ok=True)
     methods = ["source", "source-carry", "source-oracle", "source-random"]
-    sigma, drifts = noise_drifts(prm)
+    sigma, drifts = prm.noise_drifts()
     for si, L in prm.configurations:
         plot_whiskers(rows, si, L, methods, figdir / f"whiskers_Si{si}_L{L}.png")
         plot_realisations(rows, si, L, figdir / f"realisations_Si{si}_L{L}.png")

@@ -42,7 +42,7 @@ from pathlib import Path
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.scenarios.kind_base import FileKind
-from sarnav.radar.params import window_over
+from sarnav.radar.params import RadarParams
 from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 from sarnav.simulation.image_scene import ImageSceneParams, run
 
@@ -143,7 +143,7 @@ def altitude(cfg: dict) -> float:
 def validate(cfg: dict) -> None:
     """Raise :class:`ConfigError` naming the first bad field and its valid range."""
     from sarnav.imaging.rda import RCMC_KERNELS
-    from sarnav.signal.windows import as_window
+    from sarnav.signal.windows import Window
 
     _tables(cfg)
     if not isinstance(cfg["radar"]["antenna_pattern"], bool):
@@ -180,7 +180,7 @@ def validate(cfg: dict) -> None:
     echo_block_check(n_pulses, params.n_range_samples)
     _check_doppler_band(cfg, params)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
-    as_window(cfg["image"]["window"], "image.window")
+    Window.from_spec(cfg["image"]["window"], "image.window")
     _choice(cfg, "image", "rcmc_kernel", tuple(RCMC_KERNELS))
     _choice(cfg, "image", "azimuth_model", ("parabolic", "hyperbolic"))
     _num(cfg, "image", "speed_error_mps", -0.5 * cfg["trajectory"]["speed"], 0.5 * cfg["trajectory"]["speed"])
@@ -240,8 +240,8 @@ def radar_params(cfg: dict):
     for key, field in (("pulse_length_us", "pulse_length"), ("sample_rate_mhz", "sample_rate")):
         if field in fields:  # used for the receive window before RadarParams sees them
             require_positive(f"radar.{key}", fields[field])
-    window = window_over(imaged_slant_ranges(cfg), fields.get("pulse_length", 0.0), fields["sample_rate"],
-                         float(cfg["radar"]["range_margin_m"]))
+    window = RadarParams.window_over(imaged_slant_ranges(cfg), fields.get("pulse_length", 0.0), fields["sample_rate"],
+                                     float(cfg["radar"]["range_margin_m"]))
     azimuth_window = {"azimuth_window": cfg["image"]["window"]} if preset is None else {}
     return make_radar(preset, dict(fields, **azimuth_window), **window)
 

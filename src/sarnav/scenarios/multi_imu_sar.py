@@ -23,8 +23,7 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
-from sarnav.simulation.multi_imu_sar import (FIX_SOURCES, SAR_FIX_ATTRS, SAR_UPDATES, SarFixSetup, run_sar_fix_records,
-                                             sensor_names)
+from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_FIX_ATTRS, SAR_UPDATES, SarFixSetup, run_sar_fix_records
 
 __all__ = ["MultiImuSarKind", "default_config"]
 
@@ -129,10 +128,10 @@ class MultiImuSarKind(SourceKind):
         return parse(cfg)
 
     def filters(self, prm) -> list[str]:
-        return sensor_names(prm[0])
+        return prm[0].sensor_names
 
     def sources(self, prm) -> list[str]:
-        return sensor_names(prm[0]) + ["mean", "sir"]
+        return prm[0].sensor_names + ["mean", "sir"]
 
     def extra_attrs(self, cfg: dict) -> dict:
         return dict(SAR_FIX_ATTRS)

@@ -29,7 +29,7 @@ from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES
-from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRICS, FocusGeometry, FocusParams, run_focus, \
+from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRICS, FocusGeometry, FocusParams, \
     run_focus_records
 from sarnav.simulation.nav_sources import NAV_SOURCES
 
@@ -177,14 +177,12 @@ class NavFocusKind(SourceKind):
         same numbers as the stored run)."""
         from sarnav.montecarlo.seeding import run_seeds
         from sarnav.report.source_figures import plot_focus_images
-        from sarnav.simulation.nav_focus import scene_images
+        from sarnav.simulation.nav_focus import run_scene_images
         from sarnav.tomlio import parse_toml
 
         cfg = parse_toml(results.attrs["scenario"])
         prm = self.parse(cfg)
         seed0 = run_seeds(int(cfg["campaign"]["seed"]), int(cfg["campaign"]["runs"]))[0]
-        res = run_focus([seed0], prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
-                        prm.fix_correlated, prm.fix_tau)
-        images, extent = scene_images(res, prm.geometry)
+        res, images, extent = run_scene_images(prm, seed0)
         return [plot_focus_images(images, extent, res.targets[:, :2], Path(outdir) / "images.png",
                                   title=f"{cfg['scenario']['name']}: run 0, BPA per navigation source")]

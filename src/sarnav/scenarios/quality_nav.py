@@ -22,11 +22,11 @@ from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEY
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
 from sarnav.simulation.quality_nav import (COV_STEP, EXTRA_ATTRS, LAYOUT, MEAS_NAMES, MEAS_UNITS, QualityNavParams,
-                                          kappa_for, simulate_runs)
+                                          simulate_runs)
 from sarnav.tomlio import dump_toml
 from sarnav.trajectory import StraightLevel
 
-__all__ = ["QualityNavKind", "default_config", "parse", "simulate_runs", "kappa_for", "QualityNavParams"]
+__all__ = ["QualityNavKind", "default_config", "parse", "simulate_runs", "QualityNavParams"]
 
 MODES = ("image", "oracle")
 #: echo work per fix (scatterers x pulses) and image work per fix (pixels x pulses)

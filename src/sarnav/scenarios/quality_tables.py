@@ -19,11 +19,9 @@ Every value is checked here with its range, so that a scenario of any size is re
 
 from __future__ import annotations
 
-import numpy as np
-
 from sarnav import units
 from sarnav.errors import ConfigError
-from sarnav.radar.quality_scenes import QualityGeometry, usu_picture
+from sarnav.radar.quality_scenes import QualityGeometry
 from sarnav.scenarios.fields import boolean, choice, integer, number, table
 from sarnav.scenarios.vocabulary import read_altitude
 from sarnav.simulation.quality_scene import SCENE_TYPES, QualitySceneSpec
@@ -103,12 +101,8 @@ def read_scene(cfg: dict, geo: QualityGeometry) -> QualitySceneSpec:
                            usu_cells=integer(cfg, "scene", "usu_cells", 24, 240),
                            receiver_noise=boolean(cfg, "radar", "receiver_noise"),
                            snr_db=number(cfg, "radar", "snr_db", -60.0, 100.0, "dB"))
-    if out.type == "point-clutter":
-        scatterers = out.points + out.clutter_density * geo.scene_extent**2
-        field = "scene.clutter_density"
-    else:
-        scatterers = float(np.count_nonzero(usu_picture((out.usu_cells,) * 2)))
-        field = "scene.usu_cells"
+    scatterers = out.scatterers(geo)
+    field = "scene.clutter_density" if out.type == "point-clutter" else "scene.usu_cells"
     if scatterers < 1:
         raise ConfigError("scene.points", "the scene has no scatterer: give points or clutter_density > 0")
     if scatterers * geo.n_pulses > MAX_ECHO_WORK:

@@ -9,18 +9,14 @@ FlexSAR-like flight, Tables 4-6) and ``rda-nav-terrain``. Configuration and wiri
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
 from sarnav import units
-from sarnav.analysis.covariance import sar_covariance_study
+from sarnav.analysis.covariance import rda_nav_covariance_study as covariance_study
 from sarnav.errors import ConfigError, require_finite
 from sarnav.measurements.sar import CROSS_RANGE_MODELS
 from sarnav.measurements.sar_image import ALGORITHMS, FOCUS, ImagingSettings
 from sarnav.montecarlo.kind import validate_campaign
-from sarnav.navigation import error_model
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import boolean as _bool
@@ -31,17 +27,15 @@ from sarnav.scenarios.fields import vector as _vector
 from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, filter_imu_keys, read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
-from sarnav.simulation import rda_nav_world as world
-from sarnav.simulation.rda_nav import (COV_STEP, MEASUREMENT_MODES, REJECTIONS, STAGES, STATE_LAYOUT, RdaNavParams,
-                                       capture_images, extra_attrs, meas_names, measurement_sigma,
-                                       reference_targets, simulate_runs)
+from sarnav.simulation.rda_nav import (COV_STEP, EXTRA_ATTRS, MEAS_NAMES, MEASUREMENT_MODES, REJECTIONS, STAGES,
+                                       STATE_LAYOUT, RdaNavParams, run_capture_images, simulate_runs)
+from sarnav.simulation.rda_nav_world import SCENE_TYPES
 from sarnav.trajectory import StraightLevel
-from sarnav.trajectory.base import Trajectory
 
 __all__ = ["RdaNavKind", "default_config", "flexsar_config", "terrain_config", "optional_keys", "parse",
            # the experiment's names, kept importable from here (sarnav 0.2)
            "RdaNavParams", "STATE_LAYOUT", "COV_STEP", "STAGES", "REJECTIONS", "MEASUREMENT_MODES", "simulate_runs",
-           "capture_images", "covariance_study", "reference_targets", "measurement_sigma", "meas_names", "extra_attrs"]
+           "covariance_study", "MEAS_NAMES", "EXTRA_ATTRS"]
 
 #: slant-range margin of the receive window beyond the imaged scene [m] (``radar.range_margin_m``)
 DEFAULT_RANGE_MARGIN_M = 30.0
@@ -211,8 +205,8 @@ def _count(cfg, key, lo, hi) -> int:
 def _parse_scene(cfg: dict) -> dict:
     sc = _table(cfg, "scene")
     stype = sc.get("type")
-    if stype not in world.SCENE_TYPES:
-        raise ConfigError("scene.type", f"must be one of {world.SCENE_TYPES}, got {stype!r}")
+    if stype not in SCENE_TYPES:
+        raise ConfigError("scene.type", f"must be one of {SCENE_TYPES}, got {stype!r}")
     seed_s = sc.get("seed")
     if isinstance(seed_s, bool) or not isinstance(seed_s, int) or not 0 <= seed_s < 2**63:
         raise ConfigError("scene.seed", f"must be an integer in [0, 2^63), got {seed_s!r}")
@@ -246,7 +240,7 @@ def _parse_scene(cfg: dict) -> dict:
                                                   _get(cfg, "scene", "reference_coherence"), 0.0, 1.0)}
 
 
-def _parse_radar(cfg: dict, proto) -> RadarParams:
+def _parse_radar(cfg: dict, trajectory, scene: dict, side: str) -> RadarParams:
     """``[radar]`` over its preset; the receive window follows the geometry (``rda_nav_world.slant_range_span``)
     unless ``radar.near_range_m`` and ``radar.n_range_samples`` are given; PRF against the Doppler band and the echo
     block size checked before anything is allocated."""
@@ -263,8 +257,7 @@ def _parse_radar(cfg: dict, proto) -> RadarParams:
         window = {"near_range": _pos(cfg, "radar", "near_range_m", "m", hi=1.0e7), "n_range_samples": n}
     else:
         margin = require_finite("radar.range_margin_m", _get(cfg, "radar", "range_margin_m"), 0.0, 1.0e4, "m")
-        span = world.slant_range_span(proto, margin)
-        window = world.receive_window({"pulse_length": base.pulse_length, "sample_rate": base.sample_rate}, span)
+        window = RdaNavParams.receive_window(trajectory, scene, side, base.pulse_length, base.sample_rate, margin)
     radar = make_radar(preset, fields, **window)
     size = round(radar.prf) * radar.n_range_samples
     if not size <= MAX_ECHO_SAMPLES:
@@ -272,16 +265,6 @@ def _parse_radar(cfg: dict, proto) -> RadarParams:
                           f"{radar.n_range_samples} range samples is {size:.3g} samples; at most {MAX_ECHO_SAMPLES:.0e} "
                           "(lower radar.prf_hz or radar.sample_rate_mhz, or narrow the scene's ground-range band)")
     return radar  # the PRF against the Doppler band: scenarios.error_state (only when images are formed)
-
-
-@dataclass(frozen=True)
-class _Proto:
-    """What the receive window needs before the radar exists: the trajectory, the scene, the look side."""
-
-    trajectory: Trajectory
-    scene: dict
-    radar: object
-    n_updates: int
 
 
 def parse(cfg: dict) -> RdaNavParams:
@@ -306,25 +289,13 @@ def parse(cfg: dict) -> RdaNavParams:
     bias_tau = np.array([_pos(cfg, "altimeter", "tau", "s"), _pos(cfg, "sar", "tau_range", "s"), _pos(cfg, "sar", "tau_cross", "s")])
     scene = _parse_scene(cfg)
     side = _table(cfg, "radar").get("look_side", "right")
-    proto = _Proto(traj, scene, type("R", (), {"look_side": side})(), int(math.floor(traj.duration + 1e-9)))
-    radar = _parse_radar(cfg, proto)
+    radar = _parse_radar(cfg, traj, scene, side)
     snr = require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB")
     ini = read_initial(cfg, filt)
     p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"], three(bias3)])
     return RdaNavParams(runs=runs, trajectory=traj, altitude=float(-traj.start[2]), imu=imu, imu_filter=filt,
                         imu_rate=imu_rate, alt_sigma=float(alt_sigma), bias_sigma=three(bias3), bias_tau=bias_tau,
                         radar=radar, snr_db=float(snr), scene=scene, p0_sigma=p0, **read_earth(cfg), **sar)
-
-
-def covariance_study(prm: RdaNavParams, range_sigma: float, cross_sigma: float, ground_ranges=None,
-                     cross_model: str | None = None) -> dict:
-    """The truth-linearised covariance study of this scenario's filter (``analysis.covariance.sar_covariance_study``)
-    for a given SAR noise: its IMU model, altimeter, biases, P0, trajectory and (first) reference targets;
-    ``cross_model`` defaults to ``sar.cross_range_model``; ``ground_ranges``: several targets per aperture."""
-    model = error_model(STATE_LAYOUT, prm.imu_filter, prm.bias_sigma, prm.bias_tau)
-    return sar_covariance_study(model, prm.trajectory, prm.p0_sigma, prm.alt_sigma, reference_targets(prm),
-                                range_sigma, cross_sigma, ground_ranges=ground_ranges,
-                                cross_model=prm.cross_model if cross_model is None else cross_model, step=COV_STEP)
 
 
 class RdaNavKind(ErrorStateKind):
@@ -339,18 +310,18 @@ class RdaNavKind(ErrorStateKind):
         return optional_keys()
 
     layout = STATE_LAYOUT
-    measurement_names = tuple(meas_names(1))
+    measurement_names = MEAS_NAMES[:3]
     measurement_units = ("m", "m", "m")
 
     def meas_names(self, cfg: dict) -> list[str]:
-        return meas_names(_targets(cfg))
+        return list(MEAS_NAMES[:1 + 2 * _targets(cfg)])
 
     def meas_units(self, cfg: dict) -> list[str]:
         return ["m"] * (1 + 2 * _targets(cfg))
 
     parse = staticmethod(parse)
     simulate_runs = staticmethod(simulate_runs)
-    extra = extra_attrs()
+    extra = EXTRA_ATTRS
 
     def extra_coords(self, cfg: dict) -> dict:
         return {"stage": (list(STAGES), {"units": "", "description": "stages of the imaging chain and the update, "
@@ -376,7 +347,7 @@ class RdaNavKind(ErrorStateKind):
         outdir = Path(outdir)
         paths = []
         if prm.sar_enabled and prm.measurement == "image":
-            cap = capture_images(prm, seed0, min(10, prm.n_updates - 1))
+            cap = run_capture_images(prm, seed0, min(10, prm.n_updates - 1))
             if cap is not None:
                 paths.append(plot_aperture_images(cap, outdir / "sar_images_run0.png"))
         if prm.sar_enabled:

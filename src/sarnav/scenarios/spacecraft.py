@@ -33,7 +33,7 @@ from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import BLOCK_NAMES, MEAS_UNITS, RIC_NAMES, RIC_UNITS, STATE_UNITS, OpenLoopParams, \
     check_geometry, run_open_loop_records
 from sarnav.simulation.spacecraft import OPEN_LOOP_ATTRS as EXTRA_ATTRS
-from sarnav.trajectory.orbit import MIN_PERIGEE_RADIUS, STEERING, table2_elements
+from sarnav.trajectory.orbit import MIN_PERIGEE_RADIUS, STEERING, KeplerElements
 from sarnav.frames.earth import WGS84_A
 
 #: longest simulated flight [s] (one day: the truth orbit and the records are allocated up front)
@@ -110,7 +110,7 @@ def read_elements(cfg: dict):
     lon = number(cfg, "orbit", "longitude_deg", -360.0, 360.0, "deg")
     argp = number(cfg, "orbit", "argp_deg", -360.0, 360.0, "deg")
     rad = units.deg_to_rad
-    return table2_elements(float(alt), float(rad(inc)), ecc, float(rad(lat)), float(rad(lon)), float(rad(argp)))
+    return KeplerElements.table2(float(alt), float(rad(inc)), ecc, float(rad(lat)), float(rad(lon)), float(rad(argp)))
 
 
 def read_noise(cfg: dict, table: str = "measurement") -> SarMeasurementNoise:

@@ -7,8 +7,6 @@ the experiment is ``sarnav.simulation.telemetry``.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from sarnav import units
@@ -22,12 +20,8 @@ from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, read_earth, flight_size_
                                          filter_imu_keys, read_filter_imu,
                                          read_imu, read_initial, read_trajectory, result_bytes_check)
 from sarnav.simulation.telemetry import (COV_STEP_MAX, EXTRA_ATTRS, MEAS_NAMES, MEAS_UNITS, STATE_LAYOUT,
-                                        TelemetryParams, simulate_runs)
-from sarnav.trajectory.sampled import min_distance
+                                        TelemetryParams, check_target_range, simulate_runs)
 
-#: validation limit: the closest approach of the track to the target [m] (range rate and its Jacobian divide by
-#: the range)
-MIN_TARGET_RANGE = 1.0
 #: refuse campaigns whose assembled error + sigma histories would exceed this many bytes
 MAX_RESULT_BYTES = 8 * 2**30
 
@@ -61,13 +55,7 @@ def parse(cfg: dict) -> TelemetryParams:
     bias3 = np.array([_pos(cfg, "measurements", k) for k in ("bias_alt_3sigma", "bias_range_3sigma", "bias_rate_3sigma")])
     bias_tau = np.array([_pos(cfg, "measurements", k, "s") for k in ("tau_alt", "tau_range", "tau_rate")])
     target = _vector(cfg, "target", "position_ned", unit="m")
-    # range and range rate (and H, eq. 3.17) divide by |r - p|: no update epoch may be at the target
-    n_upd = int(math.floor(duration * meas_rate + 1e-9))
-    track = traj.state(np.arange(1, n_upd + 1) / meas_rate).position
-    closest = min_distance(track, target)
-    if closest < MIN_TARGET_RANGE:
-        raise ConfigError("target.position_ned", f"must be >= {MIN_TARGET_RANGE} m from the aircraft at every update (range "
-                          f"rate is undefined at the target), comes within {closest:.3g} m")
+    check_target_range(traj, meas_rate, target)  # no update epoch may be at the target
     ini = read_initial(cfg, filt)
     result_bytes_check(cfg.get("campaign", {}).get("runs", 1), duration, COV_STEP_MAX, 18, MAX_RESULT_BYTES)
     scalar3 = dict(zip(_MEAS_BIAS, bias3))  # the measurement biases' initial 3-sigma default to their FOGM figures

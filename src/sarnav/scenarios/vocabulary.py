@@ -39,12 +39,11 @@ import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_finite
-from sarnav.frames import earth_rate_tangent
-from sarnav.radar import presets
 from sarnav.radar.params import RadarParams
+from sarnav.radar.presets import PRESETS
 from sarnav.scenarios.fields import bounded_positive, get, positive, table, vector
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
-from sarnav.simulation.flight import ImuSpec
+from sarnav.simulation.flight import FlightSpec, ImuSpec
 from sarnav.trajectory import Maneuvering, StraightLevel
 
 __all__ = ["IMU_OVERRIDES", "TRAJECTORY_TYPES", "read_trajectory", "read_imu", "read_filter_imu", "read_initial",
@@ -143,8 +142,7 @@ def read_earth(cfg: dict) -> dict:
         if not isinstance(flags[key], bool):
             raise ConfigError(f"earth.{key}", f"must be a boolean (true or false), got {flags[key]!r}")
     lat = require_finite("earth.latitude_deg", get(cfg, "earth", "latitude_deg"), lo=-90.0, hi=90.0, unit="deg")
-    rate = earth_rate_tangent(units.deg_to_rad(lat)) if flags["rotation"] else None
-    return {"earth_rate": rate, "filter_earth_rate": rate if flags["modelled"] else None}
+    return FlightSpec.earth_fields(units.deg_to_rad(lat), flags["rotation"], flags["modelled"])
 
 
 # ----------------------------------------------------------------------------- IMU
@@ -248,7 +246,6 @@ RADAR_KEYS = {
     "range_window": ("range_window", None),
     "azimuth_window": ("azimuth_window", None),
 }
-PRESETS = {"nav-paper-sim": presets.nav_paper_sim, "flexsar": presets.flexsar, "sun-ku-cart": presets.sun_ku_cart}
 #: RadarParams field -> [radar] key (for error messages)
 _KEY_OF = {f: k for k, (f, _) in RADAR_KEYS.items()}
 _RADAR_FIELDS = frozenset(RadarParams.__dataclass_fields__)

@@ -74,48 +74,52 @@ class Window:
             return _sw.taylor(m, nbar=int(self.nbar), sll=-float(self.sll_db), norm=True, sym=True)
         return _sw.kaiser(m, beta=float(self.beta), sym=True)
 
+    @classmethod
+    def from_spec(cls, spec, field: str = "window") -> "Window":
+        """Normalise a window specification.
+
+        Accepts a :class:`Window`, a name (``"hamming"``), ``None`` (= ``"none"``), a dict of
+        :class:`Window` fields, or a tuple ``("taylor", nbar, sll_db)`` / ``("kaiser", beta)``.
+        Errors name ``field``.
+        """
+        try:
+            if spec is None:
+                return cls("none")
+            if isinstance(spec, cls):
+                return spec
+            if isinstance(spec, str):
+                return cls(spec.lower())
+            if isinstance(spec, dict):
+                return cls(**spec)
+            if isinstance(spec, (tuple, list)) and spec:
+                name = str(spec[0]).lower()
+                if name == "taylor":
+                    return cls(name, *([int(spec[1])] if len(spec) > 1 else []),
+                               **({"sll_db": float(spec[2])} if len(spec) > 2 else {}))
+                if name == "kaiser":
+                    return cls(name, beta=float(spec[1])) if len(spec) > 1 else cls(name)
+                if len(spec) == 1:
+                    return cls(name)
+        except ConfigError as err:  # named as the user wrote it: a table's key, a list's entry, a name itself
+            sub = err.field.split(".", 1)[-1]
+            if isinstance(spec, dict):
+                where = f"{field}.{sub}"
+            elif isinstance(spec, (tuple, list)):
+                where = f"{field}[{_POSITION.get(sub, 0)}]"
+            else:
+                where = field
+            raise ConfigError(where, err.message) from None
+        except TypeError as err:
+            raise ConfigError(field, f"bad window specification {spec!r}: {err}") from None
+        raise ConfigError(field, f"must be one of {WINDOW_NAMES}, a Window, a dict or a tuple, got {spec!r}")
+
 
 #: the entry of a ``(name, nbar, sll_db)`` / ``(name, beta)`` list that holds each Window field
 _POSITION = {"name": 0, "nbar": 1, "sll_db": 2, "beta": 1}
 
 
-def as_window(spec, field: str = "window") -> Window:
-    """Normalise a window specification.
-
-    Accepts a :class:`Window`, a name (``"hamming"``), ``None`` (= ``"none"``), a dict of
-    :class:`Window` fields, or a tuple ``("taylor", nbar, sll_db)`` / ``("kaiser", beta)``.
-    Errors name ``field``.
-    """
-    try:
-        if spec is None:
-            return Window("none")
-        if isinstance(spec, Window):
-            return spec
-        if isinstance(spec, str):
-            return Window(spec.lower())
-        if isinstance(spec, dict):
-            return Window(**spec)
-        if isinstance(spec, (tuple, list)) and spec:
-            name = str(spec[0]).lower()
-            if name == "taylor":
-                return Window(name, *([int(spec[1])] if len(spec) > 1 else []),
-                              **({"sll_db": float(spec[2])} if len(spec) > 2 else {}))
-            if name == "kaiser":
-                return Window(name, beta=float(spec[1])) if len(spec) > 1 else Window(name)
-            if len(spec) == 1:
-                return Window(name)
-    except ConfigError as err:  # named as the user wrote it: a table's key, a list's entry, a name itself
-        sub = err.field.split(".", 1)[-1]
-        if isinstance(spec, dict):
-            where = f"{field}.{sub}"
-        elif isinstance(spec, (tuple, list)):
-            where = f"{field}[{_POSITION.get(sub, 0)}]"
-        else:
-            where = field
-        raise ConfigError(where, err.message) from None
-    except TypeError as err:
-        raise ConfigError(field, f"bad window specification {spec!r}: {err}") from None
-    raise ConfigError(field, f"must be one of {WINDOW_NAMES}, a Window, a dict or a tuple, got {spec!r}")
+#: :meth:`Window.from_spec` under the name the library and the docs use
+as_window = Window.from_spec
 
 
 def frequency_weights(window, freqs: np.ndarray, bandwidth: float) -> np.ndarray:

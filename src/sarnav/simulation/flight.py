@@ -31,6 +31,7 @@ import numpy as np
 
 from sarnav.errors import ConfigError
 from sarnav.filters import ErrorStateLayout, corrupt_state, error_state, normalized_squared
+from sarnav.frames import earth_rate_tangent
 from sarnav.ins import NavState
 from sarnav.navigation import Interval, Navigator, error_model
 from sarnav.navigation.navigator import COVARIANCE_ATTITUDES
@@ -57,6 +58,14 @@ class FlightSpec:
     imu_filter: ImuSpec | None = None
     earth_rate: np.ndarray | None = None  # omega_ie^t (3,) [rad/s] of a rotating tangent frame (earth.rotation); None: off
     filter_earth_rate: object = "truth"  # what the INS and F assume: "truth" (= earth_rate), None or a vector
+
+    @staticmethod
+    def earth_fields(latitude: float, rotation: bool, modelled: bool) -> dict:
+        """``earth_rate`` and ``filter_earth_rate`` of a flight over an Earth that rotates (omega_ie^t at ``latitude``
+        [rad], ``frames.earth_rate_tangent``) or not (None), and that the filter models (the same rate) or not
+        (None: a flat-Earth filter)."""
+        rate = earth_rate_tangent(latitude) if rotation else None
+        return {"earth_rate": rate, "filter_earth_rate": rate if modelled else None}
 
     @property
     def filter_earth(self) -> np.ndarray | None:

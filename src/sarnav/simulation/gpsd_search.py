@@ -22,7 +22,7 @@ from sarnav.radar.quality_scenes import QualityGeometry
 from sarnav.simulation.quality_scene import QualitySceneSpec, make_scene
 
 __all__ = ["SEARCH_METHODS", "SEARCH_CONTROLS", "SOURCE_RHO", "GpsdSearchParams", "SearchResult", "run",
-           "search_rows", "summary", "noise_drifts"]
+           "search_rows", "summary"]
 
 SEARCH_METHODS = ("source", "source-carry", "grid", "brent")
 SEARCH_CONTROLS = ("one", "oracle", "random")
@@ -58,6 +58,14 @@ class GpsdSearchParams:
     def configurations(self) -> tuple[tuple[int, int], ...]:
         """The (S_i, L) of the sweep in the order it runs them: per block length, each candidate count."""
         return tuple((si, L) for si in self.block_pulses for L in self.candidates)
+
+    def noise_drifts(self) -> tuple[float, dict]:
+        """(sigma, {realisation: (P,) along-track drift [m]}) of Fig. 4.25: the fourth sigma of Table 4.1 (3.266e-5,
+        L694; the last one swept if fewer), the first three realisations (``focus_search.noise_drift``)."""
+        k = min(3, self.sigmas - 1)
+        sigma = float(fs.table41_sigmas(self.sigmas)[k])
+        return sigma, {r: fs.noise_drift(self.seed, r, k, self.sigmas, self.geometry.n_pulses, self.initial_pulses,
+                                         self.bias, sigma) for r in range(min(self.runs, 3))}
 
 
 @dataclass(frozen=True)
@@ -116,12 +124,3 @@ def summary(rows: list[dict], prm: GpsdSearchParams, seconds: float) -> dict:
                 fa[lab].pop("rho")
         out["configurations"][f"S_i={si},L={L}"] = fa
     return out
-
-
-def noise_drifts(prm: GpsdSearchParams) -> tuple[float, dict]:
-    """(sigma, {realisation: (P,) along-track drift [m]}) of Fig. 4.25: the fourth sigma of Table 4.1 (3.266e-5,
-    L694; the last one swept if fewer), the first three realisations (``focus_search.noise_drift``)."""
-    k = min(3, prm.sigmas - 1)
-    sigma = float(fs.table41_sigmas(prm.sigmas)[k])
-    return sigma, {r: fs.noise_drift(prm.seed, r, k, prm.sigmas, prm.geometry.n_pulses, prm.initial_pulses,
-                                     prm.bias, sigma) for r in range(min(prm.runs, 3))}

@@ -67,7 +67,7 @@ from sarnav.trajectory import StraightLevel
 from sarnav.trajectory.sampled import closest_approach
 
 __all__ = ["FIX_SOURCES", "SAR_UPDATES", "SAR_FIX_ATTRS", "SarFixSetup", "run_sar_fix", "run_sar_fix_records",
-           "reference_targets", "sensor_names"]
+           "reference_targets"]
 
 FIX_SOURCES = ("sar", "oracle", "gps")
 #: how each PF takes a SAR fix: Gaussian particle filter update (default) or adaptive tempering of the bootstrap SIR
@@ -125,13 +125,14 @@ class SarFixSetup:
     def n_apertures(self) -> int:
         return int(np.floor(self.duration + 1e-9))
 
+    @property
+    def sensor_names(self) -> list[str]:
+        """The filters' names: ``sensor1`` .. ``sensor<n_adis>`` (the ADIS units), then ``novatel``."""
+        return [f"sensor{s + 1}" for s in range(self.n_adis)] + ["novatel"]
+
     def trajectory(self) -> StraightLevel:
         # one second longer than the record: the last aperture's pulses and the IMU samples after it
         return StraightLevel([0.0, 0.0, -self.altitude], self.speed, 0.0, self.duration + 1.0)
-
-
-def sensor_names(setup: SarFixSetup) -> list[str]:
-    return [f"sensor{s + 1}" for s in range(setup.n_adis)] + ["novatel"]
 
 
 def reference_targets(setup: SarFixSetup) -> np.ndarray:
@@ -189,7 +190,7 @@ def _sensors(setup: SarFixSetup, traj, seq) -> list[_Sensor]:
     frame = NavFrame()
     out = []
     t_end = traj.duration
-    for s, name in enumerate(sensor_names(setup)):
+    for s, name in enumerate(setup.sensor_names):
         adis = name != "novatel"
         lever = ADIS_LEVER_ARMS[s] if adis else np.zeros(3)
         preset, rate = ("adis16465", 100.0) if adis else ("novatel-isa-100c", 200.0)
@@ -339,7 +340,7 @@ def run_sar_fix(setup: SarFixSetup, seeds, settle: float = 5.0) -> tuple[SourceR
     ``registration_error`` (U, 2) [m] image-derived minus geometric range and along-track position (NaN unless
     ``fix_source == "sar"``), ``fix_time`` (U,) [s] the epochs of the SAR fixes (NaN for GPS))."""
     runs = [_one_run(setup, s) for s in seeds]
-    names = sensor_names(setup)
+    names = setup.sensor_names
     errors = {k: np.concatenate([r[0][k] for r in runs]) for k in runs[0][0]}
     covs = {k: np.concatenate([r[1][k] for r in runs]) for k in names}
     extras = {k: np.stack([r[3][k] for r in runs]) for k in runs[0][3]}
@@ -376,8 +377,8 @@ def _one_run(setup: SarFixSetup, seed):
     sigma = np.r_[setup.sar_sigma, setup.alt_sigma]
     idx = np.zeros((1, setup.n_draws, 3), dtype=np.int64)
     idx[:] = (np.arange(setup.n_draws) % len(sensors))[None, :, None]  # equal draws before the first fix
-    rec = {k: [] for k in sensor_names(setup) + ["mean", "sir"]}
-    covs = {k: [] for k in sensor_names(setup)}
+    rec = {k: [] for k in setup.sensor_names + ["mean", "sir"]}
+    covs = {k: [] for k in setup.sensor_names}
     reg, eta = np.full((U, 2), np.nan), np.full(U, np.nan)
     for u in range(U):
         if setup.fix_source == "gps":

@@ -51,7 +51,8 @@ from sarnav.simulation.imu_rig import cart_track
 from sarnav.simulation.nav_sources import NAV_SOURCES, navigation_sources
 
 __all__ = ["FOCUS_METRICS", "FOCUS_FILTERS", "FOCUS_ATTRS", "FocusGeometry", "FocusParams", "FocusRun",
-           "reflector_positions", "focus_metrics", "form_chips", "run_focus", "run_focus_records", "los_error_rms"]
+           "reflector_positions", "focus_metrics", "form_chips", "run_focus", "run_focus_records", "los_error_rms",
+           "scene_images", "run_scene_images"]
 
 #: the per-reflector metrics, in the order of ``focus (source, reflector, metric)`` and focus.csv
 FOCUS_METRICS = ("irw_along_m", "pslr_along_db", "peak_offset_m", "entropy", "kurtosis")
@@ -252,3 +253,12 @@ def scene_images(run: FocusRun, geo: FocusGeometry, run_index: int = 0, margin: 
         pos = np.broadcast_to(run.positions[name], (run.focus.shape[0], run.pulse_times.size, 3))[run_index]
         out[name] = np.abs(backproject(rc, grid, positions=pos).data)
     return out, (east[0], east[-1], north[0], north[-1])
+
+
+def run_scene_images(prm: FocusParams, seed) -> tuple[FocusRun, dict, tuple]:
+    """The run of ``seed`` again (the same numbers as the campaign's run of that seed) and its whole scene imaged per
+    source (:func:`scene_images`): (the run, source -> magnitude, extent), for the side-by-side figure."""
+    res = run_focus([seed], prm.geometry, prm.sources, prm.n_particles, prm.adis_particles, prm.fix_sigma,
+                    prm.fix_correlated, prm.fix_tau)
+    images, extent = scene_images(res, prm.geometry)
+    return res, images, extent

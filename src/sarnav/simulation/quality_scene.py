@@ -32,6 +32,13 @@ class QualitySceneSpec:
     receiver_noise: bool
     snr_db: float
 
+    def scatterers(self, geo: QualityGeometry) -> float:
+        """How many scatterers the scene holds on the square of ``geo``: ``points`` plus the expected clutter count
+        (density x extent^2) of a point-clutter scene, the lit cells of the USU picture."""
+        if self.type == "point-clutter":
+            return self.points + self.clutter_density * geo.scene_extent**2
+        return float(np.count_nonzero(usu_picture((self.usu_cells,) * 2)))
+
 
 def make_scene(scene: QualitySceneSpec, geo: QualityGeometry, seed_offset: int = 0):
     """(Scene, receiver-noise Generator or None, snr_db or None) of ``scene`` on the square of ``geo``; the

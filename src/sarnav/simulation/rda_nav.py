@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import time as _time
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -49,9 +50,9 @@ from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.trajectory.base import Trajectory
 from sarnav.trajectory.sampled import along_rate, closest_approach
 
-__all__ = ["RdaNavParams", "run", "simulate_runs", "capture_images", "reference_targets",
+__all__ = ["RdaNavParams", "run", "simulate_runs", "run_capture_images", "reference_targets",
            "measurement_sigma", "meas_names", "extra_attrs", "STATE_LAYOUT", "COV_STEP", "STAGES", "REJECTIONS",
-           "MEASUREMENT_MODES"]
+           "MEASUREMENT_MODES", "MAX_TARGETS_PER_IMAGE", "MEAS_NAMES", "EXTRA_ATTRS"]
 
 #: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
 COV_STEP = 0.1
@@ -92,6 +93,14 @@ def extra_attrs() -> dict:
     }
 
 
+#: the most reference targets per image (``scene.targets_per_image``)
+MAX_TARGETS_PER_IMAGE = 8
+#: the measurement names of an update with the most targets: an update of T targets has the first 1 + 2 T
+MEAS_NAMES = tuple(meas_names(MAX_TARGETS_PER_IMAGE))
+#: units and descriptions of the extra results.nc variables (:func:`extra_attrs`)
+EXTRA_ATTRS = extra_attrs()
+
+
 @dataclass(frozen=True)
 class RdaNavParams:
     """Validated, SI-converted content of an rda-nav scenario."""
@@ -125,6 +134,17 @@ class RdaNavParams:
     @property
     def n_updates(self) -> int:
         return int(math.floor(self.trajectory.duration + 1e-9))
+
+    @staticmethod
+    def receive_window(trajectory: Trajectory, scene: dict, look_side: str, pulse_length: float, sample_rate: float,
+                       margin: float) -> dict:
+        """``near_range`` and ``n_range_samples`` of the receive window that follows the geometry, before the radar
+        exists (for the parser): the slant ranges of every scatterer the sub-apertures may image on the flight over
+        ``scene`` (``rda_nav_world.slant_range_span``, widened by ``margin`` [m]) plus the pulse's half-extent cT/4."""
+        flight = SimpleNamespace(trajectory=trajectory, scene=scene, radar=SimpleNamespace(look_side=look_side),
+                                 n_updates=int(math.floor(trajectory.duration + 1e-9)))
+        return world.receive_window({"pulse_length": pulse_length, "sample_rate": sample_rate},
+                                    world.slant_range_span(flight, margin))
 
     @property
     def samples_per_update(self) -> int:
@@ -262,7 +282,7 @@ def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
     return run(prm, seeds, run_ids)
 
 
-def capture_images(prm: RdaNavParams, seed, aperture: int) -> dict:
+def run_capture_images(prm: RdaNavParams, seed, aperture: int) -> dict:
     """The images of sub-aperture ``aperture`` of the run with ``seed`` (reference, in flight before and after
     mapdrift, correlation surface; ``measurements.sar_image.SubApertureImager``), for figures. The run's numbers
     are the same as without the capture."""

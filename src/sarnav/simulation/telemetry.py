@@ -23,18 +23,23 @@ import numpy as np
 
 from sarnav.filters import ErrorStateLayout
 from sarnav.filters.gaussian_sum import GaussianSum, nonlinearity
+from sarnav.errors import ConfigError
 from sarnav.filters.prediction import stack_predictions
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.record import RunRecord
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
+from sarnav.trajectory.sampled import min_distance
 
 __all__ = ["TelemetryParams", "run", "simulate_runs", "STATE_LAYOUT", "MEAS_NAMES", "MEAS_UNITS", "EXTRA_ATTRS",
-           "COV_STEP_MAX"]
+           "COV_STEP_MAX", "MIN_TARGET_RANGE", "check_target_range"]
 
 #: longest covariance-propagation step [s]; the step is the largest whole number of IMU samples
 #: dividing the update interval that does not exceed it (F is held constant over a step).
 COV_STEP_MAX = 0.1
 STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_rate"), scalar_units=("m", "m", "m/s"))
+#: validation limit: the closest approach of the track to the target [m] at an update (range rate and its Jacobian
+#: divide by the range)
+MIN_TARGET_RANGE = 1.0
 MEAS_NAMES = ["alt", "range", "rate"]
 MEAS_UNITS = ["m", "m", "m/s"]
 EXTRA_ATTRS = {
@@ -81,6 +86,17 @@ class TelemetryParams:
     @property
     def updates(self) -> int:
         return int(math.floor(self.trajectory.duration * self.meas_rate + 1e-9))
+
+
+def check_target_range(trajectory, meas_rate: float, target) -> None:
+    """Raise ConfigError("target.position_ned") when the track comes within ``MIN_TARGET_RANGE`` of the target at an
+    update epoch (range, range rate and H, thesis eq. 3.17, divide by |r - p|)."""
+    n_upd = int(math.floor(trajectory.duration * meas_rate + 1e-9))
+    track = trajectory.state(np.arange(1, n_upd + 1) / meas_rate).position
+    closest = min_distance(track, target)
+    if closest < MIN_TARGET_RANGE:
+        raise ConfigError("target.position_ned", f"must be >= {MIN_TARGET_RANGE} m from the aircraft at every update "
+                          f"(range rate is undefined at the target), comes within {closest:.3g} m")
 
 
 def run(prm: TelemetryParams, seeds, run_ids=None) -> list[RunRecord]:

@@ -1,7 +1,7 @@
 """LEO truth orbit: Keplerian elements, an RK4 propagator with point mass + J2, LVLH attitude and the SAR antenna frame.
 
 Source: Pogorelsky, Zanetti, Chen, Jenkins 2022 (extraction seed-002). Table 2 gives only altitude at the equator
-691.5 km, inclination 98.16 deg and eccentricity 0.00118; the rest is gap G1 (see :func:`table2_elements`).
+691.5 km, inclination 98.16 deg and eccentricity 0.00118; the rest is gap G1 (see :meth:`KeplerElements.table2`).
 
 Frames: ``frames.earth`` (ECI = ECEF frozen at t = 0; ECEF rotates at omega_ie about z). The truth is integrated in
 ECI (no fictitious forces; J2 is zonal, so the same gravitation formula holds) and returned in ECEF.
@@ -67,20 +67,24 @@ class KeplerElements:
         """Keplerian period 2 pi sqrt(a^3 / mu) [s]."""
         return 2.0 * math.pi * math.sqrt(self.a**3 / GM_EARTH)
 
+    @classmethod
+    def table2(cls, altitude: float = 691.5e3, inclination: float = math.radians(98.16), eccentricity: float = 0.00118,
+               latitude: float = math.radians(30.15), longitude: float = math.radians(-100.0),
+               argp: float = math.radians(90.0)) -> "KeplerElements":
+        """Paper Table 2 (ALOS) elements with the gap-G1 choices filled in.
 
-def table2_elements(altitude: float = 691.5e3, inclination: float = math.radians(98.16), eccentricity: float = 0.00118,
-                    latitude: float = math.radians(30.15), longitude: float = math.radians(-100.0),
-                    argp: float = math.radians(90.0)) -> KeplerElements:
-    """Paper Table 2 (ALOS) elements with the gap-G1 choices filled in.
+        From Table 2: a = R_e + altitude (691.5 km above the WGS-84 equatorial radius), i = 98.16 deg, e = 0.00118.
+        Filled (G1, extraction §6): an ascending pass whose position at t = 0 has geocentric latitude 30.15 deg N and
+        longitude 100 deg W (right-looking at 34.3 deg the boresight then lands near Houston, 31 N 95 W, and after
+        10 min over northern Canada); argument of perigee 90 deg (frozen-orbit value); RAAN and true anomaly follow.
+        """
+        u = math.asin(math.sin(latitude) / math.sin(inclination))  # argument of latitude, ascending branch
+        raan = longitude - math.atan2(math.cos(inclination) * math.sin(u), math.cos(u))
+        return cls(WGS84_A + altitude, eccentricity, inclination, raan, argp, u - argp)
 
-    From Table 2: a = R_e + altitude (691.5 km above the WGS-84 equatorial radius), i = 98.16 deg, e = 0.00118.
-    Filled (G1, extraction §6): an ascending pass whose position at t = 0 has geocentric latitude 30.15 deg N and
-    longitude 100 deg W (right-looking at 34.3 deg the boresight then lands near Houston, 31 N 95 W, and after
-    10 min over northern Canada); argument of perigee 90 deg (frozen-orbit value); RAAN and true anomaly follow.
-    """
-    u = math.asin(math.sin(latitude) / math.sin(inclination))  # argument of latitude, ascending branch
-    raan = longitude - math.atan2(math.cos(inclination) * math.sin(u), math.cos(u))
-    return KeplerElements(WGS84_A + altitude, eccentricity, inclination, raan, argp, u - argp)
+
+#: :meth:`KeplerElements.table2` under the name the spacecraft experiment and the tests use
+table2_elements = KeplerElements.table2
 
 
 def elements_to_eci(el: KeplerElements, mu: float = GM_EARTH):
