@@ -38,7 +38,8 @@ sample k-1), and an interval more than ``1/SHORT_RATIO`` times longer than the o
 h/g and would amplify sample noise), use the trapezoid rule.
 A plain trapezoid leaves an O(dt^2) attitude drift in maneuvers (1.8 mm after 60 s at 100 Hz on
 the test trajectory); this rule keeps an ideal IMU at 100 Hz within 1 mm (tests/ins/test_strapdown.py), on a
-jittered clock too (tests/ins/test_strapdown_jitter.py).
+jittered clock too (tests/ins/test_strapdown_jitter.py) unless a sample is missing next to a transition edge of the
+maneuver, where its rate's second derivative jumps (docs/navigation.md).
 On a uniform clock every sample's weights sum to dt, so integrated white noise is the random walk the filter assumes;
 on any clock every interval's weights sum to its length.
 """
@@ -139,13 +140,13 @@ def check_sample_times(times, dt=None, field: str = "imu.time", max_gap=None) ->
         raise InputDataError(field, f"must be a 1-D array of at least 2 sample times [s], got shape {times.shape}")
     bad = np.flatnonzero(~np.isfinite(times))
     if bad.size:
-        raise InputDataError(field, f"sample {bad[0]} is {times[bad[0]]}; sample times must be finite")
+        raise InputDataError(field, f"sample {bad[0]} is {float(times[bad[0]])}; sample times must be finite")
     gaps = np.diff(times)
     bad = np.flatnonzero(gaps <= 0)
     if bad.size:
         k = bad[0]
-        raise InputDataError(field, f"sample {k + 1} at t={times[k + 1]!r} s does not follow t={times[k]!r} s "
-                                    "(unsorted or repeated time); times must increase strictly")
+        raise InputDataError(field, f"sample {k + 1} at t={float(times[k + 1])!r} s does not follow "
+                                    f"t={float(times[k])!r} s (unsorted or repeated time); times must increase strictly")
     nominal = float(np.median(gaps)) if dt is None else float(dt)
     if not (np.isfinite(nominal) and nominal > 0):
         raise InputDataError("dt", f"the nominal sample interval must be finite and > 0 s, got {dt!r}")
@@ -155,8 +156,8 @@ def check_sample_times(times, dt=None, field: str = "imu.time", max_gap=None) ->
     bad = np.flatnonzero(gaps > limit)
     if bad.size:
         k = bad[0]
-        raise InputDataError(field, f"gap of {gaps[k]:.6g} s after sample {k} (t={times[k]!r} s) exceeds max_gap "
-                                    f"{limit:.6g} s (nominal interval {nominal:.6g} s): missing samples")
+        raise InputDataError(field, f"gap of {gaps[k]:.6g} s after sample {k} (t={float(times[k])!r} s) exceeds "
+                                    f"max_gap {limit:.6g} s (nominal interval {nominal:.6g} s): missing samples")
     return times
 
 
