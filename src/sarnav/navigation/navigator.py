@@ -34,6 +34,7 @@ from sarnav.filters.update import Fused, fuse
 from sarnav.filters.gaussian_sum import GaussianSum, gaussian_sum_update
 from sarnav.filters.prediction import Prediction
 from sarnav.ins import NavState, mechanize
+from sarnav.ins.strapdown import MAX_GAP_INTERVALS, UNIFORM_RTOL, check_sample_times
 from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.sensors.imu import ImuSpec
 
@@ -87,11 +88,16 @@ class Navigator:
         return self.nav.runs
 
     def propagate(self, times, nu, omega, samples_per_step: int, transition: bool = False,
-                  step_seconds: float | None = None) -> Interval:
+                  step_seconds: float | None = None, max_gap: float | None = None) -> Interval:
         """Advance through IMU samples ``times`` (N + 1,) [s], ``nu``, ``omega`` (R, N + 1, 3) (sample 0 is the one at
         the current estimate's time), in covariance steps of ``samples_per_step`` samples (N a multiple of it).
-        ``step_seconds``: the nominal duration of a step for the covariance (a uniform clock's samples x interval);
-        None takes each step's span of ``times``."""
+        The clock may jitter or miss isolated samples (``ins.check_sample_times``; ``max_gap`` [s], None:
+        ``MAX_GAP_INTERVALS`` median intervals of the block): each step's covariance is over its actual span of
+        ``times``. ``step_seconds``: a uniform clock's nominal step (samples x interval), used instead of a span
+        equal to it within ``UNIFORM_RTOL`` (bit-identical to the clock's own arithmetic); None: always the span."""
+        times = check_sample_times(times, max_gap=max_gap)
+        if max_gap is None:
+            max_gap = MAX_GAP_INTERVALS * float(np.median(np.diff(times)))
         c = int(samples_per_step)
         n_samples = len(times) - 1
         if c < 1 or n_samples < 1 or n_samples % c:
@@ -109,16 +115,18 @@ class Navigator:
             q_start = self.nav.q
             self.nav, f_mean, self._history = mechanize(
                 self.nav, times[a:b + 1], nu[:, a:b + 1], omega[:, a:b + 1], self.tau_accel, self.tau_gyro,
-                self.bias_tau, self._history, earth_rate=self.earth_rate)
+                self.bias_tau, self._history, earth_rate=self.earth_rate, max_gap=max_gap)
             q_cov = q_start if self.attitude == "start" else quat_normalize(q_start + self.nav.q)
-            span = times[b] - times[a] if step_seconds is None else step_seconds
+            span = times[b] - times[a]
+            if step_seconds is not None and abs(span - step_seconds) <= UNIFORM_RTOL * step_seconds:
+                span = step_seconds
             Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, span)
             self.P = propagate_covariance(self.P, Phi, Qd)
             if transition:
                 Phi_i, Qd_i = Phi @ Phi_i, propagate_covariance(Qd_i, Phi, Qd)
             p_hist[:, s + 1], v_hist[:, s + 1], q_hist[:, s + 1] = self.nav.p, self.nav.v, self.nav.q
             estimates.append((self.nav, self.P))
-        t_steps = np.asarray(times)[::c]
+        t_steps = times[::c]
         return Interval(t_steps, p_hist, v_hist, q_hist, f_mean, tuple(estimates),
                         Phi_i if transition else None, Qd_i if transition else None)
 
