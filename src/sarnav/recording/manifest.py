@@ -20,6 +20,7 @@ from sarnav.errors import ConfigError
 from sarnav.radar import presets
 from sarnav.radar.params import RadarParams
 from sarnav.recording.fields import MANIFEST, Table
+from sarnav.recording.noise import compressed_noise_gain
 from sarnav.rotations import euler_to_quat, quat_normalize
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade, ImuSpec
 from sarnav.tomlio import parse_toml
@@ -254,7 +255,7 @@ def _radar(data, needed: bool) -> tuple[RadarParams | None, float | None]:
         if needed:
             raise ConfigError(f"{MANIFEST}:radar", "missing: a recording with apertures states its radar")
         return None, None
-    t = Table(data, "radar", ("preset", "noise_power") + tuple(RADAR_KEYS))
+    t = Table(data, "radar", ("preset", "noise_power", "compressed_noise_power") + tuple(RADAR_KEYS))
     for key in ("near_range_m", "n_range_samples"):
         t.get(key)
     preset = t.string("preset", tuple(_PRESETS), default=None) if t.has("preset") else None
@@ -275,8 +276,12 @@ def _radar(data, needed: bool) -> tuple[RadarParams | None, float | None]:
         raise ConfigError(t.field(_KEY_OF.get(base, base) + err.field[len(base):]), err.message) from None
     except TypeError as err:  # a field missing without a preset
         raise ConfigError(f"{MANIFEST}:radar", f"incomplete radar (give a preset or every field): {err}") from None
-    noise = t.positive("noise_power", hi=1e30) if (needed or t.has("noise_power")) else None
-    return radar, noise
+    if t.has("noise_power") and t.has("compressed_noise_power"):
+        raise ConfigError(t.field("compressed_noise_power"), "give noise_power (per raw sample) or "
+                          "compressed_noise_power (per range-compressed sample), not both")
+    if t.has("compressed_noise_power"):
+        return radar, t.positive("compressed_noise_power", hi=1e30) / compressed_noise_gain(radar)
+    return radar, (t.positive("noise_power", hi=1e30) if (needed or t.has("noise_power")) else None)
 
 
 _INITIAL_KEYS = ("time_s", "position_ned_m", "velocity_ned_mps", "attitude_quaternion", "roll_pitch_yaw_deg",
