@@ -31,7 +31,7 @@ def run(args) -> int:
     from sarnav.montecarlo.seeding import run_seeds
     from sarnav.scenarios.config import load_scenario
     from sarnav.scenarios.registry import get_kind
-    from sarnav.simulation.export import EXPORT_KINDS, export_rda_nav, prepare_folder
+    from sarnav.simulation.export import EXPORT_KINDS, check_exportable, export_rda_nav, prepare_folder
     from sarnav.tomlio import dump_toml
 
     notices: list[str] = []
@@ -46,6 +46,7 @@ def run(args) -> int:
         raise ConfigError("--run", f"must be a run of the campaign, 0 to {runs - 1} (campaign.runs = {runs}), "
                           f"got {args.run_id}")
     prm = get_kind(kind).parse(cfg)
+    check_exportable(prm)
     out = prepare_folder(args.out, args.overwrite)
     done = export_rda_nav(prm, out, run_seeds(seed, runs)[args.run_id], run=args.run_id, runs=runs,
                           campaign_seed=seed, scenario_name=name, scenario_text=dump_toml(cfg))

@@ -34,7 +34,7 @@ from sarnav.signal.windows import Window
 from sarnav.simulation import rda_nav
 from sarnav.tomlio import dump_toml
 
-__all__ = ["export_rda_nav", "prepare_folder", "Export", "EXPORT_KINDS", "RECORDING_FILES", "DEFAULT_EPOCH",
+__all__ = ["export_rda_nav", "check_exportable", "prepare_folder", "Export", "EXPORT_KINDS", "RECORDING_FILES", "DEFAULT_EPOCH",
            "DEFAULT_ORIGIN"]
 
 #: the scenario kinds a recording can be written of
@@ -63,9 +63,7 @@ def export_rda_nav(prm: rda_nav.RdaNavParams, out, seed: np.random.SeedSequence,
                    epoch: datetime.datetime = DEFAULT_EPOCH) -> Export:
     """Fly run ``run`` (its seed ``seed``: ``montecarlo.seeding.run_seeds(campaign_seed, runs)[run]``) and write it
     to the folder ``out`` as a recording (module docstring). ``scenario_text``: the scenario as TOML."""
-    if prm.sar_enabled and prm.measurement != "image":
-        raise ConfigError("sar.measurement", "a recording holds the radar's pulses: export needs 'image' (the oracle "
-                          f"makes its measurements from the truth), got {prm.measurement!r}")
+    check_exportable(prm)
     folder = Path(out)
     for sub in ("", "apertures", "reference"):
         (folder / sub).mkdir(parents=True, exist_ok=True)
@@ -76,6 +74,14 @@ def export_rda_nav(prm: rda_nav.RdaNavParams, out, seed: np.random.SeedSequence,
            "runs": int(runs), "noise_model_seed": int(prm.scene["seed"])}
     files = rec.finish(sim) + ["scenario.toml"]
     return Export(folder, sorted(files), record)
+
+
+def check_exportable(prm: rda_nav.RdaNavParams) -> None:
+    """Refuse what a recording cannot hold (ConfigError naming the key): SAR measurements synthesised from the truth
+    (``sar.measurement = "oracle"``)."""
+    if prm.sar_enabled and prm.measurement != "image":
+        raise ConfigError("sar.measurement", "a recording holds the radar's pulses: export needs 'image' (the oracle "
+                          f"makes its measurements from the truth), got {prm.measurement!r}")
 
 
 def prepare_folder(out, overwrite: bool = False) -> Path:
