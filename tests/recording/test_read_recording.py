@@ -409,3 +409,19 @@ def test_missing_manifest_is_named(tmp_path):
     tmp_path.joinpath("EMPTY").mkdir()
     with pytest.raises(SarnavError, match=r"^flight.toml: missing"):
         read_recording(tmp_path / "EMPTY")
+
+
+def test_initial_state_from_gnss(tmp_path, flight):
+    """With ``gnss_until_s`` the initial position and velocity may be left to the GNSS fixes; without a GNSS log the
+    key is refused."""
+    text = (MANIFEST.replace("position_ned_m = [1.0, -2.0, -1000.0]\nvelocity_ned_mps = [10.0, 0.1, 0.0]\n",
+                             "gnss_until_s = 1.5\n"))
+    folder = flight.write(tmp_path / "G", text)
+    ini = read_recording(folder).manifest.initial
+    assert ini.gnss_until == 1.5 and ini.p is None and ini.v is None
+    (folder / "flight.toml").write_text(text.replace('[gnss]\nfile = "gnss.csv"\n', ""))
+    with pytest.raises(SarnavError, match=r"^flight.toml:initial.gnss_until_s: needs a \[gnss\] log"):
+        read_recording(folder)
+    (folder / "flight.toml").write_text(text.replace("gnss_until_s = 1.5\n", ""))
+    with pytest.raises(SarnavError, match=r"^flight.toml:initial.position_ned_m: missing"):
+        read_recording(folder)
