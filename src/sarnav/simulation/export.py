@@ -65,8 +65,7 @@ def export_rda_nav(prm: rda_nav.RdaNavParams, out, seed: np.random.SeedSequence,
     to the folder ``out`` as a recording (module docstring). ``scenario_text``: the scenario as TOML."""
     check_exportable(prm)
     folder = Path(out)
-    for sub in ("", "apertures", "reference"):
-        (folder / sub).mkdir(parents=True, exist_ok=True)
+    folder.mkdir(parents=True, exist_ok=True)
     rec = _Recorder(prm, folder, epoch)
     record = rda_nav.run(prm, [seed], [run], observer=rec)[0]
     (folder / "scenario.toml").write_text(scenario_text, encoding="utf-8")
@@ -143,6 +142,7 @@ class _Recorder:
         targets = sar.targets[u]
         names = (f"apertures/{u:04d}.cphd", f"reference/{u:04d}.cphd")
         for rel, pulses in zip(names, (rc, ref.pulses)):
+            (self.folder / rel).parent.mkdir(exist_ok=True)
             start = self.epoch + datetime.timedelta(seconds=float(pulses.pulse_times[0]))
             write_collect(self.folder / rel, pulses, self.origin, signal_format="CF16",
                           scene_point=targets.mean(axis=0), collection_start=start)
