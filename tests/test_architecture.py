@@ -25,6 +25,7 @@ LAYERS = [
     ("io",),
     ("measurements",),
     ("navigation",),
+    ("recording",),
     ("simulation",),
     ("analysis",),
     ("montecarlo",),

@@ -45,6 +45,8 @@ def _shorten(argv: list[str], scheduler: str) -> list[str]:
         if "--executor" not in out:
             out += ["--executor", "serial"]
         out += ["--quiet"]
+    if out[0] == "export":
+        out += ["--set", "trajectory.duration=2.0", "--quiet"]
     return out
 
 

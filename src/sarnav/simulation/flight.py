@@ -85,8 +85,10 @@ class ErrorStateFlight:
 
     Attributes a kind reads: ``navigator`` (the filter: ``nav``, ``P``, ``model``), ``truth`` (NavState at the last
     epoch flown), ``bm_truth`` (R, T, 3) the truth measurement biases at every output epoch, ``t_out``,
-    ``truth_out``, ``rngs``, ``extra`` (what ``extra_draws`` returned), ``err``, ``sig``, ``nees``; ``nav``, ``P``
-    and ``model`` read the navigator's.
+    ``truth_out``, ``rngs``, ``extra`` (what ``extra_draws`` returned), ``err``, ``sig``, ``nees``, ``imu_block``
+    (after :meth:`fly_interval`: the samples the navigator was handed, ``(times (m + 1,), nu, omega, ba, bg)``, each
+    (R, m + 1, 3) but the times; ba, bg the truth biases at the samples: what a recording of the flight stores);
+    ``nav``, ``P`` and ``model`` read the navigator's.
     """
 
     def __init__(self, spec: FlightSpec, layout: ErrorStateLayout, seeds,
@@ -173,6 +175,7 @@ class ErrorStateFlight:
         m, steps = self.m, self.steps
         k0 = u * m
         nu_blk, om_blk, ba_blk, bg_blk = self._imu.next(m)
+        self.imu_block = (self.t_imu[k0:k0 + m + 1], nu_blk, om_blk, ba_blk, bg_blk)
         iv = self.navigator.propagate(self.t_imu[k0:k0 + m + 1], nu_blk, om_blk, self.c,
                                       transition=self.interval_transition, step_seconds=self.c * self.dt)
         for s in range(steps - 1):

@@ -217,6 +217,7 @@ class _Sar:
         aid.take(am)
         n_add = (prm.sar_sigma[None, None, :] * noise.reshape(R, self.T, 2)) * aid.add_white
         z = np.stack([am.range + bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # cross: 0 at zero Doppler
+        self.added = np.stack([bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # what z adds to the image
         self._record(u, am, true_toc, record)
         centre = 0.5 * (iv.t[0] + iv.t[-1])
         return z.reshape(R, 2 * self.T), np.where(aid.status == 0, am.toc, centre)
@@ -271,10 +272,15 @@ def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
         reference_truth=world.reference_track(prm), settings=prm.imaging, capture_aperture=capture_aperture)
 
 
-def run(prm: RdaNavParams, seeds, run_ids=None) -> list[RunRecord]:
+def run(prm: RdaNavParams, seeds, run_ids=None, observer=None) -> list[RunRecord]:
     """The records of the runs with ``seeds`` (numbered ``run_ids``, default 0, 1, ...), flown as one batch (module
-    docstring)."""
-    return _simulate(prm, range(len(seeds)) if run_ids is None else run_ids, seeds)[0]
+    docstring). ``observer`` (``simulation.export``) sees what the navigator is handed, without changing a number:
+    ``observer.start(flight, sar)`` once the world is drawn (``flight.navigator`` at its initial estimate; ``sar``
+    None, or the world's SAR side: ``targets`` (U, T, 3), ``map`` (R, U, T, 3), ``imager`` and its ``source``), and
+    ``observer.interval(u, flight, z_alt, sar)`` after the measurements of interval u, before the update
+    (``flight.imu_block``: the interval's IMU samples; ``sar.added`` (R, T, 2): what the world added to the
+    image-derived range and to cross-range, its truth biases and any white noise)."""
+    return _simulate(prm, range(len(seeds)) if run_ids is None else run_ids, seeds, observer=observer)[0]
 
 
 def simulate_runs(prm: RdaNavParams, run_ids, seeds) -> list[RunRecord]:
@@ -298,7 +304,7 @@ def _new_record(R: int, n_upd: int, M: int) -> dict:
             "autofocus_dk": nan(R, n_upd), "stage_seconds": np.zeros((R, n_upd, len(STAGES)))}
 
 
-def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
+def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None, observer=None):
     L = STATE_LAYOUT
     spec = FlightSpec(prm.trajectory, prm.imu, prm.imu_rate, prm.bias_sigma, prm.bias_tau, prm.p0_sigma,
                       prm.n_updates, prm.samples_per_update, prm.samples_per_step, imu_filter=prm.imu_filter,
@@ -310,6 +316,8 @@ def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
     alt = AltimeterMeasurement(prm.alt_sigma, L)
     sar = _Sar(prm, fl, _imager(prm, fl, capture_aperture)) if prm.sar_enabled else None
     rec = _new_record(R, n_upd, 1 + 2 * T)
+    if observer is not None:
+        observer.start(fl, sar)
     for u in range(n_upd):
         iv = fl.fly_interval(u)
         z_alt = alt.simulate(fl.truth, fl.rngs)
@@ -329,6 +337,8 @@ def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None):
             first = np.where(status != 0, status, 0)
             rec["update_rejected"][:, u] = np.array([next((c for c in row if c), 0) for row in first])
             rec["pairs_fused"][:, u] = np.sum(status == 0, axis=1)
+        if observer is not None:
+            observer.interval(u, fl, z_alt, sar)
         _fuse(fl, pred, z, status, rec, u)
     return _records(prm, fl, run_ids, rec, image=sar is not None and sar.imager is not None), rec
 
