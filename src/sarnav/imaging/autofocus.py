@@ -100,6 +100,18 @@ def _mid_fm_rate(rc: PulseData, speed: float, lam: float) -> float:
     return 2.0 * speed**2 / (lam * 0.5 * (r[0] + r[-1]))
 
 
+def _speed_and_padding(rc: PulseData, speed, origin, padding) -> tuple[float, float, float]:
+    """(focusing speed: ``speed`` or the pulses' own along-track speed; azimuth padding: ``padding`` or
+    :func:`_auto_padding`; the widest band-limit factor the padding allows without wrap: a filter chirp of 2 b T in a
+    pad T FFT)."""
+    if speed is None:
+        speed = abs(along_track_axis(rc.positions, rc.pulse_times, origin)[3])
+    speed = float(speed)
+    if padding is None:
+        padding = _auto_padding(rc, speed)
+    return speed, padding, max(1.0, 0.5 * (padding - 1.0))
+
+
 def _auto_padding(rc: PulseData, speed: float, bins: float = 32.0) -> float:
     """Azimuth zero-padding: >= 3 (the band-limited filter is a chirp of 2T: linear correlation of a
     T-long block needs 3T) and >= ``bins`` Doppler bins across K_a T (T = block duration)."""
@@ -185,14 +197,8 @@ def mapdrift(rc: PulseData, speed: float | None = None, *, looks: str = "subaper
         raise ConfigError("max_iterations", f"must be an integer >= 1, got {max_iterations!r}")
     if not (math.isfinite(tolerance_px) and tolerance_px > 0):
         raise ConfigError("tolerance_px", f"must be finite and > 0 samples, got {tolerance_px!r}")
-    if speed is None:
-        speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
-    speed = float(speed)
-    if azimuth_padding is None:
-        azimuth_padding = _auto_padding(rc, speed)
+    speed, azimuth_padding, blim = _speed_and_padding(rc, speed, along_track_origin, azimuth_padding)
     n = rc.n_pulses
-    # widest band limit the padding allows without wrap: filter chirp of 2 b T in a pad*T FFT
-    blim = max(1.0, 0.5 * (azimuth_padding - 1.0))
     kw = dict(rcmc_kernel=rcmc_kernel, azimuth_model=azimuth_model, apply_filter=False, azimuth_padding=azimuth_padding,
               band_limit=blim)
     # RCMC once (it depends on V_hat only, and is linear); the matched filter is re-applied per iteration
@@ -272,12 +278,7 @@ def contrast_autofocus(rc: PulseData, speed: float | None = None, *, metric: str
         raise ConfigError("grid", f"must be an integer >= 3, got {grid!r}")
     if not (math.isfinite(xtol) and xtol > 0):
         raise ConfigError("xtol", f"must be finite and > 0, got {xtol!r}")
-    if speed is None:
-        speed = abs(along_track_axis(rc.positions, rc.pulse_times, along_track_origin)[3])
-    v0 = float(speed)
-    if azimuth_padding is None:
-        azimuth_padding = _auto_padding(rc, v0)
-    blim = max(1.0, 0.5 * (azimuth_padding - 1.0))
+    v0, azimuth_padding, blim = _speed_and_padding(rc, speed, along_track_origin, azimuth_padding)
     score = CONTRAST_METRICS[metric]
     seen_v, seen_s = [], []
 

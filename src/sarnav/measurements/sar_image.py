@@ -289,7 +289,10 @@ class SubApertureImager:
                 out.status[r, k] = 1 if getattr(err, "field", "") in ("rc", "sar", "speed") else 2
                 out.toc[r, k] = out.range[r, k] = np.nan
 
-    def _judge(self, r, k, quality, ambiguity, out) -> None:
+    def _judge(self, r, k, quality, coarse, ch, out) -> None:
+        """The match's normalised correlation and ambiguity (the best other match of the coarse surface) and, when
+        either is out of bounds, the failure status."""
+        ambiguity = distinctness(coarse.surface, (ch["chip"].shape[0] // 2, ch["chip"].shape[1] // 2))
         out.quality[r, k], out.ambiguity[r, k] = quality, ambiguity
         if not quality >= self.settings.min_correlation:
             out.status[r, k] = FAILURES.index("weak match (correlation)")
@@ -333,10 +336,8 @@ class SubApertureImager:
             slope, offset, spread = self._focus_sensitivity(  # RDA rows are pulse times (circular): a row is a TOC
                 refocus, ch, speed_hat, speed_sigma, i1, j1,
                 lambda rc_, dv: ((rc_[0] - row + n_p / 2) % n_p - n_p / 2) / prf * speed_hat)
-            out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
-            out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
-        self._judge(r, k, info["quality"], distinctness(coarse.surface, (ch["chip"].shape[0] // 2,
-                                                                         ch["chip"].shape[1] // 2)), out)
+            self._take_focus(r, k, slope, offset, spread, out)
+        self._judge(r, k, info["quality"], coarse, ch, out)
         t3 = time.perf_counter()
         if r == 0 and k == 0 and u == self.capture_aperture and out.capture is None:
             out.capture = dict(reference=ch["reference"], before=range_doppler(sub, speed_hat),
@@ -405,10 +406,8 @@ class SubApertureImager:
             refocus = lambda dv: backproject(rc, local.points(), positions=stretched(dv)).data  # noqa: E731
             slope, offset, spread = self._focus_sensitivity(refocus, ch, speed_hat, speed_sigma, (m - 1) // 2,
                                                             (n - 1) // 2, along, circular=False)
-            out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
-            out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
-        self._judge(r, k, info["quality"], distinctness(coarse.surface, (ch["chip"].shape[0] // 2,
-                                                                         ch["chip"].shape[1] // 2)), out)
+            self._take_focus(r, k, slope, offset, spread, out)
+        self._judge(r, k, info["quality"], coarse, ch, out)
         t2 = time.perf_counter()
         if r == 0 and k == 0 and u == self.capture_aperture and out.capture is None:
             img = SarImage(data, (np.arange(shape[0]) - (shape[0] - 1) / 2) * grid.da,
@@ -461,6 +460,12 @@ class SubApertureImager:
         sigma = (magnitude_shift_precision(chip_c, image[window], shift, (ch["noise"], ch["rows"]),
                                            (ch["noise"], noise_rows)) if precision else (np.nan, np.nan))
         return i1 + shift[0] + anchor[0], j1 + shift[1] + anchor[1], {"sigma_px": sigma, "quality": fine.peak}
+
+    @staticmethod
+    def _take_focus(r, k, slope, offset, spread, out) -> None:
+        """The focusing-shift model of the match (``_focus_sensitivity``), its spread added to the along-track sigma."""
+        out.sensitivity[r, k], out.focus_offset[r, k] = slope, offset
+        out.sigma[r, k, 1] = math.hypot(out.sigma[r, k, 1], spread)
 
     def _focus_sensitivity(self, refocus, ch, speed_hat, speed_sigma, i1, j1, along_m,
                            circular: bool = True) -> tuple[float, float, float]:

@@ -33,36 +33,34 @@ NAV_PAPER_SIM_RANGES = (2000.0, 2210.0)
 FLEXSAR_RANGES = (1948.0, 2112.0)
 
 
+def _preset(overrides: dict, imaged, pulse_length: float, sample_rate: float, fields: dict) -> RadarParams:
+    """A preset's RadarParams: its ``fields``, right looking, no windows, the receive window over the ``imaged``
+    slant ranges widened by cT/4 (``window_over``) for the pulse length and sample rate in force, then ``overrides``
+    (which may set the window themselves)."""
+    pulse_length = overrides.pop("pulse_length", pulse_length)
+    sample_rate = overrides.pop("sample_rate", sample_rate)
+    window = window_over(imaged, pulse_length, sample_rate)  # the imaged interval +- cT/4
+    kw = dict(fields, pulse_length=pulse_length, sample_rate=sample_rate, **window, look_side="right",
+              range_window="none", azimuth_window="none")
+    kw.update(overrides)
+    return RadarParams(**kw)
+
+
 def nav_paper_sim(**overrides) -> RadarParams:
     """Simulation radar of paper Table 3 / thesis Table 5.1 (keyword arguments override fields).
 
     The receive window is recomputed from the imaged interval 2000-2210 m unless ``near_range`` /
     ``n_range_samples`` are overridden.
     """
-    pulse_length = overrides.pop("pulse_length", us_to_s(1.0))
-    sample_rate = overrides.pop("sample_rate", 2.0 * mhz_to_hz(500.0))
-    window = window_over(NAV_PAPER_SIM_RANGES, pulse_length, sample_rate)  # the imaged interval +- cT/4
-    kw = dict(
-        carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), pulse_length=pulse_length,
-        sample_rate=sample_rate, prf=100.0, **window,
-        antenna_length=0.2, look_side="right", range_window="none", azimuth_window="none",
-    )
-    kw.update(overrides)
-    return RadarParams(**kw)
+    return _preset(overrides, NAV_PAPER_SIM_RANGES, us_to_s(1.0), 2.0 * mhz_to_hz(500.0),
+                   dict(carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), prf=100.0, antenna_length=0.2))
 
 
 def flexsar(**overrides) -> RadarParams:
     """FlexSAR radar of paper Table 6 / thesis Table 5.3 after PRF decimation (overrides as above)."""
-    pulse_length = overrides.pop("pulse_length", us_to_s(1.0))
-    sample_rate = overrides.pop("sample_rate", mhz_to_hz(500.0))
-    window = window_over(FLEXSAR_RANGES, pulse_length, sample_rate)  # the imaged interval +- cT/4
-    kw = dict(
-        carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), pulse_length=pulse_length,
-        sample_rate=sample_rate, prf=5000.0 / 3.0, **window,
-        antenna_length=0.0756, look_side="right", range_window="none", azimuth_window="none",
-    )
-    kw.update(overrides)
-    return RadarParams(**kw)
+    return _preset(overrides, FLEXSAR_RANGES, us_to_s(1.0), mhz_to_hz(500.0),
+                   dict(carrier_frequency=ghz_to_hz(9.75), bandwidth=mhz_to_hz(500.0), prf=5000.0 / 3.0,
+                        antenna_length=0.0756))
 
 
 #: slant ranges imaged by the ground-cart test of Sun (2022) §6.2 (reflectors 20 m from the radar, L1322) [m]
@@ -74,16 +72,8 @@ def sun_ku_cart(imaged: tuple[float, float] = SUN_KU_CART_RANGES, **overrides) -
     0.4997 m, eq. 4.4), PRF 3 kHz, no window (L1332). Not given (gap G25), chosen here: complex sampling
     fs = 2B = 600 MHz, pulse length T = 0.2 us (TB = 60), horn antennas of 0.5 rad one-way beamwidth, right
     looking; the receive window covers the ``imaged`` slant ranges widened by cT/4 (as the other presets)."""
-    pulse_length = overrides.pop("pulse_length", us_to_s(0.2))
-    sample_rate = overrides.pop("sample_rate", 2.0 * mhz_to_hz(300.0))
-    window = window_over(tuple(imaged), pulse_length, sample_rate)  # the imaged interval +- cT/4
-    kw = dict(
-        carrier_frequency=ghz_to_hz(16.6), bandwidth=mhz_to_hz(300.0), pulse_length=pulse_length,
-        sample_rate=sample_rate, prf=3000.0, **window,
-        azimuth_beamwidth=0.5, look_side="right", range_window="none", azimuth_window="none",
-    )
-    kw.update(overrides)
-    return RadarParams(**kw)
+    return _preset(overrides, tuple(imaged), us_to_s(0.2), 2.0 * mhz_to_hz(300.0),
+                   dict(carrier_frequency=ghz_to_hz(16.6), bandwidth=mhz_to_hz(300.0), prf=3000.0, azimuth_beamwidth=0.5))
 
 
 #: the presets by name (the vocabulary of a scenario's ``radar.preset``)

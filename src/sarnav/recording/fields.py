@@ -5,12 +5,11 @@ the key, ``flight.toml:imu.rate_hz: must be finite and > 0 Hz, got -100.0``. The
 from __future__ import annotations
 
 import datetime
-import math
 from pathlib import PurePosixPath
 
 import numpy as np
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, require_finite
 
 __all__ = ["Table", "MANIFEST"]
 
@@ -109,10 +108,4 @@ class Table:
 def _number(field: str, value, lo, hi, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(field, f"must be a number{(' [' + unit + ']') if unit else ''}, got {value!r}")
-    v = float(value)
-    rng = f"[{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]{(' ' + unit) if unit else ''}"
-    if not math.isfinite(v):
-        raise ConfigError(field, f"must be finite in {rng}, got {v!r}")
-    if (lo is not None and v < lo) or (hi is not None and v > hi):
-        raise ConfigError(field, f"must be in {rng}, got {v!r}")
-    return v
+    return require_finite(field, value, lo, hi, unit)  # a TOML number: the range check of every reader
