@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sarnav.filters import ErrorStateLayout
 from sarnav.filters.ekf import directional_sigma
 from sarnav.filters.prediction import stack_predictions
 from sarnav.filters.update import Fused
@@ -37,7 +38,15 @@ from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.navigation.navigator import Interval, Navigator
 from sarnav.navigation.sar_aiding import SarAiding, SarUpdateSettings
 
-__all__ = ["SarNavigator", "AidedUpdate"]
+__all__ = ["SarNavigator", "AidedUpdate", "STATE_LAYOUT", "COV_STEP", "UPDATE_SECONDS"]
+
+#: the error state: p, v, attitude, accelerometer and gyro biases, and the altimeter, SAR range and SAR cross-range
+#: biases (first-order Gauss-Markov)
+STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
+#: covariance-propagation step [s] (F held constant over a step); also the INS history spacing of an aperture
+COV_STEP = 0.1
+#: the update interval [s]: one aperture (one second of the radar's pulses) and one altimeter value per update
+UPDATE_SECONDS = 1.0
 
 
 @dataclass

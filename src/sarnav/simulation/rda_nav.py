@@ -32,7 +32,6 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from sarnav.filters import ErrorStateLayout
 from sarnav.ins import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.measurements.sar_image import ImagingSettings
@@ -41,7 +40,7 @@ from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.navigation import Interval
 from sarnav.navigation.sar_aiding import REJECTIONS, SarUpdateSettings
 from sarnav.navigation.sar_aiding import measurement_sigma as _aiding_sigma
-from sarnav.navigation.sar_navigator import AidedUpdate, SarNavigator
+from sarnav.navigation.sar_navigator import COV_STEP, STATE_LAYOUT, AidedUpdate, SarNavigator  # noqa: F401 (re-exported)
 from sarnav.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.simulation import rda_nav_world as world
@@ -54,9 +53,6 @@ __all__ = ["RdaNavParams", "run", "simulate_runs", "run_capture_images", "refere
            "measurement_sigma", "meas_names", "extra_attrs", "STATE_LAYOUT", "COV_STEP", "STAGES", "REJECTIONS",
            "MEASUREMENT_MODES", "MAX_TARGETS_PER_IMAGE", "MEAS_NAMES", "EXTRA_ATTRS"]
 
-#: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
-COV_STEP = 0.1
-STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
 MEASUREMENT_MODES = ("oracle", "image")
 STAGES = IMAGE_STAGES + ("update",)
 
