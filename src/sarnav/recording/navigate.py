@@ -41,7 +41,7 @@ from sarnav.recording.recording import Recording
 from sarnav.sensors.imu import ImuSpec
 
 __all__ = ["NavigateSettings", "Navigation", "FlightPlan", "navigate", "plan_flight", "STATE_LAYOUT", "COV_STEP",
-           "UPDATE_SECONDS", "SKIPPED", "pair_status"]
+           "UPDATE_SECONDS", "SKIPPED", "REJECTIONS", "pair_status"]
 
 #: status code of a pair whose aperture was skipped (no image formed); codes >= 0 are ``sar_aiding.REJECTIONS``
 SKIPPED = -1
