@@ -24,6 +24,7 @@ handed as it goes, so an interrupted run leaves what was done.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,7 +33,7 @@ from sarnav import units
 from sarnav.errors import ConfigError, InputDataError, SarnavError
 from sarnav.frames import earth_rate_tangent
 from sarnav.ins import NavState
-from sarnav.measurements.sar_aperture import ImagingSettings
+from sarnav.measurements.sar_aperture import STAGES, ImagingSettings
 from sarnav.navigation import Navigator, error_model
 from sarnav.navigation.sar_aiding import REJECTIONS, SarUpdateSettings
 from sarnav.navigation.sar_navigator import COV_STEP, STATE_LAYOUT, UPDATE_SECONDS, SarNavigator
@@ -143,7 +144,9 @@ def plan_flight(rec: Recording, sar: bool = True) -> FlightPlan:
 class Navigation:
     """What :func:`navigate` made (so far): per output epoch (every ``COV_STEP``) ``time`` and the estimate
     ``p, v, q, ba, bg, bm`` with its covariance ``P``; per update ``updates`` (dicts: time, aperture, z, residual,
-    residual_sigma, nis, nis_dof, rejected, pairs_fused); per aperture and point ``pairs`` (dicts: the update's time,
+    residual_sigma, nis, nis_dof, rejected, pairs_fused, seconds: wall time per stage: "propagate" the interval's
+    INS and covariance, "images" the extractor's whole work, of which its ``STAGES`` "rda", "autofocus",
+    "registration" on the in-flight image, "update"); per aperture and point ``pairs`` (dicts: the update's time,
     aperture, point, the image's toc, range, cross-range, sigma, correlation, ambiguity, status code, reason,
     residual and its sigma); ``plan``; ``notices``; ``complete`` once every update is done."""
 
@@ -220,12 +223,12 @@ def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=
     t, nu, om = rec.imu.rates()
     out.record(t[plan.k0], nv.nav, nv.P)
     for u in range(plan.n_updates):
-        a = plan.k0 + u * plan.m
+        a, t0 = plan.k0 + u * plan.m, time.perf_counter()
         iv = nv.propagate(t[a:a + plan.m + 1], nu[None, a:a + plan.m + 1], om[None, a:a + plan.m + 1], plan.c,
                           step_seconds=plan.c / rec.manifest.imu.rate_hz)
         for s, (nav_s, P_s) in enumerate(iv.estimates[:-1]):
             out.record(iv.t[s + 1], nav_s, P_s)
-        _update(out, rec, sn, imager, plan, u, iv)
+        _update(out, rec, sn, imager, plan, u, iv, time.perf_counter() - t0)
         out.record(iv.t[-1], nv.nav, nv.P)
         if progress is not None:
             progress(u, plan.n_updates, out)
@@ -233,11 +236,14 @@ def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=
     return out
 
 
-def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: FlightPlan, u: int, iv) -> None:
-    """Update u: the altimeter value at its epoch and the pairs of its aperture, fused and recorded."""
+def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: FlightPlan, u: int, iv,
+            seconds: float) -> None:
+    """Update u: the altimeter value at its epoch and the pairs of its aperture, fused and recorded (``seconds``:
+    the interval's INS and covariance)."""
     k_alt, ap = int(plan.altimeter[u]), int(plan.aperture[u])
     z_alt = None if k_alt < 0 else np.array([[rec.altimeter.altitude[k_alt]]])
     z_sar = eta = am = map_t = map_s = None
+    t0 = time.perf_counter()
     if ap >= 0:
         map_t, map_s = rec.points.map[ap][None], rec.points.map_sigma[ap]
         try:
@@ -248,13 +254,18 @@ def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: Fli
         else:
             offsets = np.zeros((1, out.targets, 2)) if rec.sar_offsets is None else rec.sar_offsets[ap][None]
             z_sar, eta = sn.image_pairs(am, iv, offsets)
+    t1 = time.perf_counter()
     up = sn.update(iv, z_alt, z_sar, eta, map_t, map_s)
     if up is None:
         return
+    stages = {"propagate": seconds, "images": t1 - t0, **dict.fromkeys(STAGES[1:], 0.0),
+              "update": time.perf_counter() - t1}
+    if am is not None:
+        stages.update(zip(STAGES[1:], am.seconds[0, 1:].tolist()))
     out.updates.append({"time": float(iv.t[-1]), "aperture": ap, "altimeter": k_alt >= 0, "z": up.z[0],
                         "residual": up.fused.residual[0], "residual_sigma": up.fused.residual_sigma[0],
                         "nis": float(up.fused.nis[0]), "nis_dof": int(up.fused.dof[0]),
-                        "rejected": int(up.rejected[0]), "pairs_fused": int(up.pairs_fused[0])})
+                        "rejected": int(up.rejected[0]), "pairs_fused": int(up.pairs_fused[0]), "seconds": stages})
     if am is not None:
         first = 0 if z_alt is None else 1
         for k in range(out.targets):
