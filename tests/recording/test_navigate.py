@@ -252,6 +252,44 @@ def test_reference_that_does_not_cover_an_aperture_skips_it(paper, tmp_path):
         assert ds["nis_dof"].values.tolist() == [3, 1, 3]  # the altimeter alone at t = 2 s
 
 
+def test_a_recording_without_altimeter(paper, tmp_path):
+    """SAR pairs alone: every update has the two components of its pair; the altimeter bias state, never
+    uncertain, is left out of the NEES."""
+    folder = _copy(paper, tmp_path)
+    doc = tomllib.loads((folder / "flight.toml").read_text())
+    del doc["altimeter"]
+    (folder / "flight.toml").write_text(dump_toml(doc))
+    rec = read_recording(folder)
+    out = run_navigate(rec, tmp_path / "out", read_navigate_settings(rec))
+    assert out["complete"] is True and out["pairs_fused"] == 3 and out["consistency"]["nees"]["dof"] == 17
+    with xr.open_dataset(tmp_path / "out" / "trajectory.nc", engine="netcdf4") as ds:
+        assert ds["nis_dof"].values.tolist() == [2, 2, 2] and np.all(np.isnan(ds["residual"].values[:, 0]))
+        assert np.all(np.isfinite(ds["residual"].values[:, 1:]))
+
+
+def test_the_files_in_flight_positions_are_never_used(paper, monkeypatch):
+    """The in-flight pulses' antenna positions moved by 50 m: the images are formed along the navigator's own
+    track, so the estimate is the same to the last bit."""
+    from dataclasses import replace
+
+    from sarnav.recording.apertures import RecordedApertures
+
+    root, _ = paper
+    rec = read_recording(root / "rec")
+    settings = read_navigate_settings(rec)
+    plain = navigate(rec, settings).estimate()
+    flight = RecordedApertures.flight
+
+    def moved(self, u, run):
+        rc, seconds = flight(self, u, run)
+        return replace(rc, positions=rc.positions + [50.0, -30.0, 20.0]), seconds
+
+    monkeypatch.setattr(RecordedApertures, "flight", moved)
+    got = navigate(read_recording(root / "rec"), settings).estimate()
+    for key in ("p", "v", "q", "P"):
+        np.testing.assert_array_equal(got[key], plain[key])
+
+
 def test_plan_refuses_a_rate_that_is_not_whole_covariance_steps(paper, tmp_path):
     folder = _copy(paper, tmp_path)
     text = (folder / "flight.toml").read_text().replace("rate_hz = 100.0", "rate_hz = 105.0")

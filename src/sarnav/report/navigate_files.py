@@ -107,14 +107,15 @@ def _truth_state(truth, t) -> tuple[NavState, np.ndarray]:
 
 def truth_errors(rec, est: dict, layout) -> dict | None:
     """Truth minus estimate at every epoch with truth: ``error`` (K, n) (NaN for states the truth log lacks),
-    ``nees`` (K,) over the states it has (``nees_dof`` of them); None without a truth log."""
+    ``nees`` (K,) over the states it has whose 1-sigma is not zero (``nees_dof`` of them); None without a truth
+    log."""
     if rec.truth is None:
         return None
     truth, has = _truth_state(rec.truth, est["time"])
     nav = NavState(p=est["p"], v=est["v"], q=est["q"], ba=est["ba"], bg=est["bg"], bm=est["bm"])
     e = error_state(truth, nav, layout)
     e[:, ~has] = np.nan
-    idx = np.flatnonzero(has)
+    idx = np.flatnonzero(has & np.all(est["sigma"] > 0, axis=0))  # a state never uncertain (no altimeter) is left out
     P = est["P"][:, idx[:, None], idx[None, :]]
     ee = e[:, idx]
     nees = np.full(ee.shape[0], np.nan)
