@@ -21,8 +21,8 @@ import threading
 from typing import Sequence
 
 #: subcommand modules (``sarnav.cli.<name>``), in the order ``sarnav --help`` lists them
-COMMAND_MODULES = ("scenarios_cmd", "show_cmd", "run_cmd", "export_cmd", "image_cmd", "report_cmd", "compare_cmd",
-                   "figures_cmd")
+COMMAND_MODULES = ("scenarios_cmd", "show_cmd", "run_cmd", "export_cmd", "navigate_cmd", "image_cmd", "report_cmd",
+                   "compare_cmd", "figures_cmd")
 #: set when the last :func:`main` ended by a signal (the console script then exits without waiting for threads)
 _INTERRUPTED = False
 

@@ -84,13 +84,14 @@ def _compressed(pulses: PulseData, params, window) -> PulseData:
     return range_compress(pulses, window=window)
 
 
-def _pvps(ph: PhaseHistory, ecef: np.ndarray, srp: np.ndarray, times: np.ndarray, chirp_rate) -> np.ndarray:
+def _pvps(ph: PhaseHistory, ecef: np.ndarray, srp: np.ndarray, times: np.ndarray, chirp_rate, vel=None) -> np.ndarray:
     n = ph.data.shape[1]
     dtype = np.dtype([(name, ">i8" if name == "SIGNAL" else (">f8", (3,)) if words == 3 else ">f8")
                       for name, words in _PVP_FIELDS])
     pvp = np.zeros(ph.n_pulses, dtype=dtype)
     t = times - times[0]
-    vel = np.gradient(ecef, t, axis=0) if ecef.shape[0] > 1 else np.zeros_like(ecef)
+    if vel is None:
+        vel = np.gradient(ecef, t, axis=0) if ecef.shape[0] > 1 else np.zeros_like(ecef)
     pvp["TxTime"] = t
     pvp["RcvTime"] = t + 2.0 * ph.ref_range / _C
     pvp["TxPos"] = pvp["RcvPos"] = ecef
@@ -172,7 +173,7 @@ def _xml(ph, pvp, ecef_srp, llh, half, spacing, n_samples, fmt, start) -> et._El
 def write_collect(path, pulses: PulseData, reference_point, *, params=None, frame: str = "ned",
                   window=None, image_half_extent=None, image_spacing: float | None = None,
                   signal_format: str = "CF8", collection_start: datetime.datetime | None = None,
-                  scene_point=None) -> PhaseHistory:
+                  scene_point=None, velocities=None) -> PhaseHistory:
     """Write a collect as a CPHD 1.0.1 file (module doc); returns the phase history written.
 
     Parameters
@@ -190,6 +191,8 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
         (north); default a square of half the slant swath. image_spacing : image-grid spacing [m];
         default the range sample spacing.
     signal_format : "CF8" (complex64) or "CF16" (complex128).
+    velocities : (P, 3) the antenna's velocities [m/s] in the positions' frame (the PVPs TxVel, RcvVel); default
+        the positions' gradient.
     """
     if signal_format not in _FORMATS:
         raise ConfigError("signal_format", f"must be one of {tuple(_FORMATS)}, got {signal_format!r}")
@@ -201,7 +204,13 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
         raise InputDataError("pulses.pulse_times", "must be strictly increasing")
     ph = pulses_to_phase_history(replace(rc, positions=ecef), np.linalg.norm(ecef - srp, axis=1))
     chirp_rate = rc.chirp_rate
-    pvp = _pvps(ph, ecef, srp, times, chirp_rate)
+    vel = None
+    if velocities is not None:
+        vel = np.asarray(velocities, dtype=np.float64)
+        if vel.shape != ecef.shape or not np.all(np.isfinite(vel)):
+            raise InputDataError("velocities", f"must be a finite {ecef.shape} array like the positions")
+        vel = vel @ ned_basis(reference_point)[1].T if frame == "ned" else vel
+    pvp = _pvps(ph, ecef, srp, times, chirp_rate, vel)
     swath = float(rc.slant_range[-1] - rc.slant_range[0])
     half = (0.25 * swath, 0.25 * swath) if image_half_extent is None else tuple(float(h) for h in image_half_extent)
     spacing = float(rc.slant_range[1] - rc.slant_range[0]) if image_spacing is None else float(image_spacing)

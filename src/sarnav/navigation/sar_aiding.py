@@ -99,18 +99,21 @@ class SarAiding:
         return (SarRangeMeasurement(targets, self.sigma[:, k, 0], self.layout),
                 SarCrossRangeMeasurement(targets, self.sigma[:, k, 1], self.layout, model=s.cross_model, **kw))
 
-    def predict(self, navigator: Navigator, iv: Interval, eta, map_targets) -> Prediction:
-        """The stacked prediction of every target's pair (``map_targets`` (R, T, 3) what the map says), each referred to
-        its own TOC ``eta[:, k]`` and mapped to the update epoch (the process noise shared between two targets' TOC
+    def predict(self, navigator: Navigator, iv: Interval, eta, map_targets, map_sigma=None) -> Prediction:
+        """The stacked prediction of every target's pair (``map_targets`` (R, T, 3) what the map says, with its 1-sigma
+        ``map_sigma`` (T, 3) N E D [m], default the settings' ``geolocation_sigma`` for every target), each referred
+        to its own TOC ``eta[:, k]`` and mapped to the update epoch (the process noise shared between two targets' TOC
         intervals is not correlated across pairs: docs §3)."""
-        return stack_predictions([self._predict_one(navigator, iv, eta[:, k], map_targets[:, k], k)
+        D = ([self.D] * self.T if map_sigma is None
+             else [np.diag(np.asarray(s, dtype=np.float64) ** 2) for s in np.asarray(map_sigma).reshape(self.T, 3)])
+        return stack_predictions([self._predict_one(navigator, iv, eta[:, k], map_targets[:, k], k, D[k])
                                   for k in range(self.T)])
 
-    def _predict_one(self, nv: Navigator, iv: Interval, eta, targets, k) -> Prediction:
+    def _predict_one(self, nv: Navigator, iv: Interval, eta, targets, k, D) -> Prediction:
         s = self.settings
         pred = stack_predictions([m.predict(toc_state(nv.nav, iv, eta)) for m in self.models(targets, iv, k)])
-        if np.any(self.D > 0):
-            pred = target_position_noise(pred, self.layout, self.D, (0, 1))
+        if np.any(D > 0):
+            pred = target_position_noise(pred, self.layout, D, (0, 1))
         if s.delayed_state:
             Phi_inv, Qd = delayed.back_transition(nv.model, quat_to_dcm(nv.nav.q), iv.f_mean, iv.t[-1] - eta)
             if s.second_order:

@@ -141,11 +141,11 @@ class _Recorder:
         ref, (rc, _) = sar.imager.source.last[u]
         targets = sar.targets[u]
         names = (f"apertures/{u:04d}.cphd", f"reference/{u:04d}.cphd")
-        for rel, pulses in zip(names, (rc, ref.pulses)):
+        for rel, pulses, vel in zip(names, (rc, ref.pulses), (None, ref.velocities)):  # the trusted velocities
             (self.folder / rel).parent.mkdir(exist_ok=True)
             start = self.epoch + datetime.timedelta(seconds=float(pulses.pulse_times[0]))
             write_collect(self.folder / rel, pulses, self.origin, signal_format="CF16",
-                          scene_point=targets.mean(axis=0), collection_start=start)
+                          scene_point=targets.mean(axis=0), collection_start=start, velocities=vel)
         times = rc.pulse_times
         self.apertures.append({"file": names[0], "start_s": float(times[0]), "end_s": float(times[-1]),
                                "reference": names[1], "reference_start_s": float(ref.pulses.pulse_times[0])})

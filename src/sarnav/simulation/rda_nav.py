@@ -6,8 +6,10 @@ docs/scenarios/rda-nav.md. ``run(prm, seeds)`` flies a batch of runs and returns
 
 * the world (truth, truth IMU, initial error, measurement biases, error record): ``simulation.flight``; the scene of
   each sub-aperture and the reference pass: ``simulation.rda_nav_world``;
-* the navigator (INS + covariance, one update path): ``navigation.Navigator``; its SAR events (models at the TOC,
-  delayed state, second order, map noise, gate): ``navigation.sar_aiding.SarAiding``;
+* the navigator (INS + covariance, one update path): ``navigation.Navigator``; its update of each interval
+  (altimeter + SAR pairs: the images along its own track, the pairs' models at the TOC, delayed state, second order,
+  map noise, gate, the fusion): ``navigation.sar_navigator.SarNavigator``, the loop ``sarnav navigate`` runs on a
+  recorded flight;
 * the measurements: the altimeter (``measurements.telemetry``) and the SAR pairs, made from images by
   ``measurements.sar_image.SubApertureImager`` (echoes simulated along the true track, imaged along the navigator's
   track; ``sar.measurement = "image"``) or synthesised from truth (``"oracle"``, the only mode in which truth enters a
@@ -25,23 +27,20 @@ seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
 from __future__ import annotations
 
 import math
-import time as _time
 from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
 
-from sarnav.filters import ErrorStateLayout
-from sarnav.filters.ekf import directional_sigma
-from sarnav.filters.prediction import Prediction, stack_predictions
 from sarnav.ins import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.measurements.sar_image import ImagingSettings
 from sarnav.measurements.sar_image import STAGES as IMAGE_STAGES
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.navigation import Interval
-from sarnav.navigation.sar_aiding import REJECTIONS, SarAiding, SarUpdateSettings
+from sarnav.navigation.sar_aiding import REJECTIONS, SarUpdateSettings
 from sarnav.navigation.sar_aiding import measurement_sigma as _aiding_sigma
+from sarnav.navigation.sar_navigator import COV_STEP, STATE_LAYOUT, AidedUpdate, SarNavigator  # noqa: F401 (re-exported)
 from sarnav.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.simulation import rda_nav_world as world
@@ -54,9 +53,6 @@ __all__ = ["RdaNavParams", "run", "simulate_runs", "run_capture_images", "refere
            "measurement_sigma", "meas_names", "extra_attrs", "STATE_LAYOUT", "COV_STEP", "STAGES", "REJECTIONS",
            "MEASUREMENT_MODES", "MAX_TARGETS_PER_IMAGE", "MEAS_NAMES", "EXTRA_ATTRS"]
 
-#: covariance-propagation step [s] (F held constant over a step); also the INS history spacing
-COV_STEP = 0.1
-STATE_LAYOUT = ErrorStateLayout(("b_alt", "b_range", "b_cross"), scalar_units=("m", "m", "m"))
 MEASUREMENT_MODES = ("oracle", "image")
 STAGES = IMAGE_STAGES + ("update",)
 
@@ -189,18 +185,16 @@ def reference_targets(prm: RdaNavParams) -> np.ndarray:
 
 class _Sar:
     """The world's side of the SAR pairs of one sub-aperture (one per reference target): the true targets and what
-    the map says of them, the measurements (from the images, or the oracle's truth), the navigator's
-    :class:`~sarnav.navigation.sar_aiding.SarAiding`, and the comparison of each image with the geometric truth."""
+    the map says of them, the measurements (the images the navigator forms along its own track, plus what the world
+    adds to them; or the oracle's truth), and the comparison of each image with the geometric truth. The navigator's
+    side is ``nav`` (:class:`~sarnav.navigation.sar_navigator.SarNavigator`)."""
 
-    def __init__(self, prm: RdaNavParams, fl: ErrorStateFlight, imager):
-        self.prm, self.fl, self.imager = prm, fl, imager
+    def __init__(self, prm: RdaNavParams, fl: ErrorStateFlight, imager, nav: SarNavigator):
+        self.prm, self.fl, self.imager, self.nav = prm, fl, imager, nav
         self.T = prm.targets_per_image
         self.targets = world.reference_targets(prm)  # (U, T, 3) truth
         self.map = self.targets[None] + world.map_errors(prm, fl.extra)  # (R, U, T, 3) what the map says
-        self.aid = SarAiding(prm.sar_update, fl.layout, fl.R, self.T, image=imager is not None)
-
-    def predict(self, u: int, iv: Interval, eta) -> Prediction:
-        return self.aid.predict(self.fl.navigator, iv, eta, self.map[:, u])
+        self.aid = nav.aid
 
     def measure(self, u: int, iv: Interval, noise, record: dict):
         """(z (R, 2T), TOC each pair's prediction refers to (R, T)): from the images, or the oracle's truth."""
@@ -211,16 +205,12 @@ class _Sar:
         true_toc = [closest_approach(self.targets[u, k], iv.t, truth_track) for k in range(self.T)]
         if self.imager is None:
             return self._oracle(u, iv, noise, bm, true_toc)
-        speed_sigma = directional_sigma(fl.P, fl.layout.slice("v"), fl.nav.v)
-        am = self.imager.measure(u, iv.t, iv.p, iv.v, speed_sigma, map_targets=self.map[:, u],
-                                 along_sigma=aid.along_sigma(fl.navigator, iv, self.map[:, u, 0]), ap_q=iv.q)
-        aid.take(am)
+        am = self.nav.measure_images(self.imager, u, iv, self.map[:, u])
         n_add = (prm.sar_sigma[None, None, :] * noise.reshape(R, self.T, 2)) * aid.add_white
-        z = np.stack([am.range + bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # cross: 0 at zero Doppler
-        self.added = np.stack([bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)  # what z adds to the image
+        # what the world adds to the image-derived range and to cross-range (0 at zero Doppler): truth biases + noise
+        self.added = np.stack([bm[:, 1:2] + n_add[..., 0], bm[:, 2:3] + n_add[..., 1]], axis=2)
         self._record(u, am, true_toc, record)
-        centre = 0.5 * (iv.t[0] + iv.t[-1])
-        return z.reshape(R, 2 * self.T), np.where(aid.status == 0, am.toc, centre)
+        return self.nav.image_pairs(am, iv, self.added)
 
     def _oracle(self, u: int, iv: Interval, noise, bm, true_toc):
         """The oracle: the models at the truth state of the true TOC, plus the truth bias and Table 2's noise."""
@@ -314,46 +304,39 @@ def _simulate(prm: RdaNavParams, run_ids, seeds, capture_aperture=None, observer
                           covariance_attitude="start")
     R, n_upd, T = fl.R, prm.n_updates, prm.targets_per_image
     alt = AltimeterMeasurement(prm.alt_sigma, L)
-    sar = _Sar(prm, fl, _imager(prm, fl, capture_aperture)) if prm.sar_enabled else None
+    imager = _imager(prm, fl, capture_aperture)
+    nav = SarNavigator(fl.navigator, prm.alt_sigma, prm.sar_update if prm.sar_enabled else None, T,
+                       image=imager is not None)
+    sar = _Sar(prm, fl, imager, nav) if prm.sar_enabled else None
     rec = _new_record(R, n_upd, 1 + 2 * T)
     if observer is not None:
         observer.start(fl, sar)
     for u in range(n_upd):
         iv = fl.fly_interval(u)
         z_alt = alt.simulate(fl.truth, fl.rngs)
-        pred = alt.predict(fl.nav).replace(hessians=None, C=np.zeros((R, L.n, 1)))
-        z, status = z_alt, None
+        z_sar = eta = None
         if sar is not None:
             noise = np.stack([g.standard_normal(2 * T) for g in fl.rngs])  # (R, 2T), drawn in every mode
             z_sar, eta = sar.measure(u, iv, noise, rec)
             rec["toc"][:, u] = eta[:, 0]
-            t0 = _time.perf_counter()
-            pred = stack_predictions([pred.replace(C=None), sar.predict(u, iv, eta)])
-            if pred.C is None:
-                pred = pred.replace(C=np.zeros((R, L.n, pred.dim)))
-            z = np.concatenate([z_alt, z_sar], axis=1)
-            rec["stage_seconds"][:, u, -1] += (_time.perf_counter() - t0) / R
-            status = sar.aid.screen(fl.navigator, pred, z)
-            first = np.where(status != 0, status, 0)
-            rec["update_rejected"][:, u] = np.array([next((c for c in row if c), 0) for row in first])
-            rec["pairs_fused"][:, u] = np.sum(status == 0, axis=1)
         if observer is not None:
             observer.interval(u, fl, z_alt, sar)
-        _fuse(fl, pred, z, status, rec, u)
+        up = nav.update(iv, z_alt, z_sar, eta, None if sar is None else sar.map[:, u])
+        fl.record_update()
+        _record_update(rec, u, up, sar is not None)
     return _records(prm, fl, run_ids, rec, image=sar is not None and sar.imager is not None), rec
 
 
-def _fuse(fl: ErrorStateFlight, pred: Prediction, z, status, rec: dict, u: int) -> None:
-    """The navigator's update with the rejected SAR pairs left out (``keep``), and the record."""
-    keep = np.ones(pred.z_hat.shape, dtype=bool)
-    if status is not None:
-        keep[:, 1:] = np.repeat(status == 0, 2, axis=1)
-    fused = fl.navigator.update(pred, z, keep)
-    fl.record_update()
-    cols = slice(0, pred.dim)
-    rec["residual"][:, u, cols] = fused.residual
-    rec["residual_sigma"][:, u, cols] = fused.residual_sigma
-    rec["nis"][:, u], rec["nis_dof"][:, u] = fused.nis, fused.dof
+def _record_update(rec: dict, u: int, up: AidedUpdate, sar: bool) -> None:
+    """The record of update u: residuals, NIS and, with SAR, which pairs were fused and the prediction's time."""
+    cols = slice(0, up.z.shape[1])
+    rec["residual"][:, u, cols] = up.fused.residual
+    rec["residual_sigma"][:, u, cols] = up.fused.residual_sigma
+    rec["nis"][:, u], rec["nis_dof"][:, u] = up.fused.nis, up.fused.dof
+    if sar:
+        rec["stage_seconds"][:, u, -1] += up.seconds
+        rec["update_rejected"][:, u] = up.rejected
+        rec["pairs_fused"][:, u] = up.pairs_fused
 
 
 def _records(prm, fl, run_ids, rec, image: bool) -> list[RunRecord]:
