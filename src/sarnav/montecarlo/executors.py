@@ -253,9 +253,11 @@ class ChunkRunner:
                 if self.scheduler:
                     self._client = Client(self.scheduler, timeout="20s")
                 else:
-                    # worker processes log errors only (their warnings, e.g. of cancelled tasks, are not the user's)
+                    # worker processes log errors only (their warnings, e.g. of cancelled tasks, are not the user's);
+                    # the dashboard on any free port (None means 8787: a second cluster on the machine, e.g. a
+                    # parallel test, printed "Port 8787 is already in use" on stderr)
                     self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                                 dashboard_address=None, silence_logs=logging.ERROR)
+                                                 dashboard_address=":0", silence_logs=logging.ERROR)
                     self._client = Client(self._cluster)
             except OSError as err:
                 raise ConfigError("--scheduler", f"cannot connect to dask scheduler {self.scheduler!r}: {err}") from None
