@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from types import SimpleNamespace
 
 import numpy as np
 import scipy.fft as sfft
@@ -47,7 +46,7 @@ def make_pulses(p: int, n: int, seed: int = 0) -> PulseData:
     pos = np.zeros((p, 3))
     pos[:, 0] = SPEED * t
     r = R_NEAR + np.arange(n) * C / (2 * FS)
-    return PulseData(data, r, t, pos, SimpleNamespace(carrier_frequency=FC, bandwidth=500e6), compressed=True)
+    return PulseData(data, r, t, pos, compressed=True, wavelength=C / FC, bandwidth=500e6)
 
 
 def best_time(fn, repeat: int) -> float:
