@@ -218,6 +218,26 @@ def test_export_command(tmp_path, capsys):
     assert read_recording(out).manifest.simulation.run == 0
 
 
+def test_an_interrupted_export_never_reads_as_a_recording(tmp_path, monkeypatch):
+    """The manifest is written last (through a rename): an export stopped before it leaves no flight.toml."""
+    from sarnav.simulation import export
+
+    real = export.write_columns
+
+    def fail_on_truth(path, columns):
+        if path.name == "truth.csv":
+            raise KeyboardInterrupt
+        return real(path, columns)
+
+    monkeypatch.setattr(export, "write_columns", fail_on_truth)
+    out = tmp_path / "rec"
+    code = main(["export", "rda-nav", "--set", "trajectory.duration=1.0", "--run", "0", "--out", str(out)])
+    assert code != 0  # the CLI turns the interrupt into its one line and exit status
+    assert (out / "imu.csv").exists() and not (out / "flight.toml").exists()
+    with pytest.raises(Exception, match="flight.toml"):
+        read_recording(out)
+
+
 @pytest.mark.parametrize("args, message", [
     (["--run", "2", "--runs", "2"], "--run: must be a run of the campaign, 0 to 1"),
     (["--run", "0", "--set", "sar.measurement=oracle"], "sar.measurement: a recording holds the radar's pulses"),

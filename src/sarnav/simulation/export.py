@@ -40,7 +40,7 @@ __all__ = ["export_rda_nav", "check_exportable", "prepare_folder", "Export", "EX
 #: the scenario kinds a recording can be written of
 EXPORT_KINDS = ("rda-nav",)
 #: what an export writes (globs in the recording's folder): all that ``prepare_folder`` removes with ``overwrite``
-RECORDING_FILES = ("flight.toml", "imu.csv", "altimeter.csv", "truth.csv", "gnss.csv", "sar_offsets.csv",
+RECORDING_FILES = ("flight.toml", "flight.toml.partial", "imu.csv", "altimeter.csv", "truth.csv", "gnss.csv", "sar_offsets.csv",
                    "scenario.toml", "apertures/*.cphd", "reference/*.cphd", "reference/points.csv")
 
 #: the recording's time 0 (the simulated flight's t = 0) and the NED origin of a non-rotating world (lat, lon, h)
@@ -173,7 +173,11 @@ class _Recorder:
                 write_columns(self.folder / rel, dict(zip(names, [*index.T, *values.T])))
             simulation["sar_offsets"] = "sar_offsets.csv"
             self.files += ["reference/points.csv", "sar_offsets.csv"]
-        (self.folder / "flight.toml").write_text(dump_toml(self._manifest(simulation)), encoding="utf-8")
+        # the manifest last, whole or not at all: an interrupted export has no flight.toml and never reads as a
+        # recording (read_recording: "flight.toml: missing")
+        part = self.folder / "flight.toml.partial"
+        part.write_text(dump_toml(self._manifest(simulation)), encoding="utf-8")
+        part.replace(self.folder / "flight.toml")
         return self.files
 
     def _truth(self) -> None:
