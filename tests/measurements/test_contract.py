@@ -14,6 +14,7 @@ from sarnav.filters import ErrorStateLayout, Prediction, apply_feedback
 from sarnav.ins import NavState
 from sarnav.measurements.base import Measurement
 from sarnav.measurements.focus import FocusVelocityMeasurement
+from sarnav.measurements.gnss import GnssFix
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
 from sarnav.measurements.telemetry import AltimeterMeasurement, RangeMeasurement, RangeRateMeasurement
 from sarnav.rotations import quat_normalize
@@ -67,6 +68,9 @@ MODELS = {
     "focus-velocity-accel": (lambda runs: FocusVelocityMeasurement(
         SAR, [1.0, 0.0, 0.0], 0.05, los=[0.0, 0.87, 0.49], lever=17.0, f_body=[0.05, -0.02, -9.81],
         f_ref=[0.03, 0.01, -9.80]), SAR, _sar_nav, 1e-3),
+    # a GNSS fix (recorded flights, docs/navigate.md): position only, and position + velocity
+    "gnss-position": (lambda runs: GnssFix(SAR, [1.5, 2.0, 3.0]), SAR, _sar_nav, 1e-2),
+    "gnss-position-velocity": (lambda runs: GnssFix(SAR, [1.5, 2.0, 3.0], [0.05, 0.05, 0.1]), SAR, _sar_nav, 1e-2),
 }
 
 

@@ -18,13 +18,15 @@ def _xyz(tag, v, names=("X", "Y", "Z")):
     return f"<{tag}>" + "".join(f"<{n}>{float(x)!r}</{n}>" for n, x in zip(names, v)) + f"</{tag}>"
 
 
-def write_cphd(path, samples, pvp: dict, fxc: float, fxbw: float, iarp, uiax, uiay, sgn: int = -1) -> None:
-    """``samples`` (P, N) complex128 (CF16), ``pvp``: name -> (P,) or (P, 3) float64 arrays of PVPS."""
+def write_cphd(path, samples, pvp: dict, fxc: float, fxbw: float, iarp, uiax, uiay, sgn: int = -1,
+               fmt: str = "CF16") -> None:
+    """``samples`` (P, N) complex, stored as ``fmt`` (CF16 or CF8), ``pvp``: name -> (P,) or (P, 3) float64 arrays
+    of PVPS."""
     P, N = samples.shape
     offset, fields = 0, []
     for name, words in PVPS:
-        fmt = "X=F8;Y=F8;Z=F8;" if words == 3 else "F8"
-        fields.append(f"<{name}><Offset>{offset}</Offset><Size>{words}</Size><Format>{fmt}</Format></{name}>")
+        pfmt = "X=F8;Y=F8;Z=F8;" if words == 3 else "F8"
+        fields.append(f"<{name}><Offset>{offset}</Offset><Size>{words}</Size><Format>{pfmt}</Format></{name}>")
         offset += words
     xml = f"""<CPHD xmlns="{NS}">
 <CollectionID><CollectorName>test</CollectorName><CoreName>test</CoreName><CollectType>MONOSTATIC</CollectType>
@@ -39,7 +41,7 @@ def write_cphd(path, samples, pvp: dict, fxc: float, fxbw: float, iarp, uiax, ui
 <ReferenceSurface><Planar>{_xyz("uIAX", uiax)}{_xyz("uIAY", uiay)}</Planar></ReferenceSurface>
 <ImageArea>{_xyz("X1Y1", (-50.0, -50.0), ("X", "Y"))}{_xyz("X2Y2", (50.0, 50.0), ("X", "Y"))}</ImageArea>
 </SceneCoordinates>
-<Data><SignalArrayFormat>CF16</SignalArrayFormat><NumBytesPVP>{offset * 8}</NumBytesPVP>
+<Data><SignalArrayFormat>{fmt}</SignalArrayFormat><NumBytesPVP>{offset * 8}</NumBytesPVP>
 <NumCPHDChannels>1</NumCPHDChannels><Channel><Identifier>1</Identifier><NumVectors>{P}</NumVectors>
 <NumSamples>{N}</NumSamples><SignalArrayByteOffset>0</SignalArrayByteOffset><PVPArrayByteOffset>0</PVPArrayByteOffset>
 </Channel><NumSupportArrays>0</NumSupportArrays></Data>
@@ -61,5 +63,5 @@ def write_cphd(path, samples, pvp: dict, fxc: float, fxbw: float, iarp, uiax, ui
     for name, _ in PVPS:
         arr[name] = pvp[name]
     with open(path, "wb") as f, skcphd.Writer(f, skcphd.Metadata(xmltree=tree)) as w:
-        w.write_signal("1", samples.astype(np.complex128))
+        w.write_signal("1", samples.astype(np.complex128 if fmt == "CF16" else np.complex64))
         w.write_pvp("1", arr)

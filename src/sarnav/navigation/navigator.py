@@ -87,22 +87,33 @@ class Navigator:
     def runs(self) -> int:
         return self.nav.runs
 
-    def propagate(self, times, nu, omega, samples_per_step: int, transition: bool = False,
-                  step_seconds: float | None = None, max_gap: float | None = None) -> Interval:
+    def propagate(self, times, nu, omega, samples_per_step: int | None, transition: bool = False,
+                  step_seconds: float | None = None, max_gap: float | None = None, bounds=None,
+                  bridge: dict | None = None) -> Interval:
         """Advance through IMU samples ``times`` (N + 1,) [s], ``nu``, ``omega`` (R, N + 1, 3) (sample 0 is the one at
         the current estimate's time), in covariance steps of ``samples_per_step`` samples (N a multiple of it).
         The clock may jitter or miss isolated samples (``ins.check_sample_times``; ``max_gap`` [s], None:
         ``MAX_GAP_INTERVALS`` median intervals of the block): each step's covariance is over its actual span of
         ``times``. ``step_seconds``: a uniform clock's nominal step (samples x interval), used instead of a span
-        equal to it within ``UNIFORM_RTOL`` (bit-identical to the clock's own arithmetic); None: always the span."""
+        equal to it within ``UNIFORM_RTOL`` (bit-identical to the clock's own arithmetic); None: always the span.
+        ``bounds``: the steps' first and last samples instead (increasing indices from 0 to N; ``samples_per_step``
+        None): steps of any number of samples, e.g. a recorded clock's samples nearest to the step epochs.
+        ``bridge``: {step: (n, n)} covariance added after that step's propagation (a bridged gap in the log)."""
         times = check_sample_times(times, max_gap=max_gap)
         if max_gap is None:
             max_gap = MAX_GAP_INTERVALS * float(np.median(np.diff(times)))
-        c = int(samples_per_step)
         n_samples = len(times) - 1
-        if c < 1 or n_samples < 1 or n_samples % c:
-            raise InputDataError("samples_per_step", f"must divide the block's {n_samples} samples, got {c}")
-        steps, R = n_samples // c, self.runs
+        if bounds is None:
+            c = int(samples_per_step)
+            if c < 1 or n_samples < 1 or n_samples % c:
+                raise InputDataError("samples_per_step", f"must divide the block's {n_samples} samples, got {c}")
+            bounds = np.arange(0, n_samples + 1, c)
+        bounds = np.asarray(bounds, dtype=np.int64)
+        if bounds.ndim != 1 or bounds.size < 2 or bounds[0] != 0 or bounds[-1] != n_samples or np.any(
+                np.diff(bounds) < 1):
+            raise InputDataError("bounds", f"must increase from 0 to the block's {n_samples} samples, got "
+                                 f"{bounds.tolist()}")
+        steps, R = bounds.size - 1, self.runs
         p_hist, v_hist = np.empty((R, steps + 1, 3)), np.empty((R, steps + 1, 3))
         q_hist = np.empty((R, steps + 1, 4))
         p_hist[:, 0], v_hist[:, 0], q_hist[:, 0] = self.nav.p, self.nav.v, self.nav.q
@@ -111,7 +122,7 @@ class Navigator:
             n = self.layout.n
             Phi_i, Qd_i = np.broadcast_to(np.eye(n), (R, n, n)).copy(), np.zeros((R, n, n))
         for s in range(steps):
-            a, b = s * c, (s + 1) * c
+            a, b = int(bounds[s]), int(bounds[s + 1])
             q_start = self.nav.q
             self.nav, f_mean, self._history = mechanize(
                 self.nav, times[a:b + 1], nu[:, a:b + 1], omega[:, a:b + 1], self.tau_accel, self.tau_gyro,
@@ -121,12 +132,14 @@ class Navigator:
             if step_seconds is not None and abs(span - step_seconds) <= UNIFORM_RTOL * step_seconds:
                 span = step_seconds
             Phi, Qd = self.model.discretize(quat_to_dcm(q_cov), f_mean, span)
+            if bridge and s in bridge:
+                Qd = Qd + bridge[s]
             self.P = propagate_covariance(self.P, Phi, Qd)
             if transition:
                 Phi_i, Qd_i = Phi @ Phi_i, propagate_covariance(Qd_i, Phi, Qd)
             p_hist[:, s + 1], v_hist[:, s + 1], q_hist[:, s + 1] = self.nav.p, self.nav.v, self.nav.q
             estimates.append((self.nav, self.P))
-        t_steps = times[::c]
+        t_steps = times[bounds]
         return Interval(t_steps, p_hist, v_hist, q_hist, f_mean, tuple(estimates),
                         Phi_i if transition else None, Qd_i if transition else None)
 

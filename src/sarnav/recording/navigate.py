@@ -9,12 +9,13 @@ aperture's recorded pulses along the navigator's *own* estimated track of the in
 are never used for them; the recorded pulse times and the reference pass's trusted positions are), with R from each
 image, the screening and the gate of rda-nav.
 
-The timeline (:func:`plan_flight`): interval u spans IMU samples k0 + u m .. k0 + (u + 1) m (m = round(rate_hz)
-samples, k0 the sample at ``initial.time_s``); its update is at the time of its last sample. An altimeter value is
-fused at the update epoch it was recorded at (within half an IMU interval); an aperture in the interval that holds
-all its pulses. What does not fit (an aperture across two intervals, a second aperture in one interval, altimeter
-values between update epochs) is not fused and is recorded; an aperture whose images cannot be formed (its reference
-does not cover it, a file that does not read) is skipped and recorded, never an abort.
+The timeline (``recording.timeline.plan_flight``): covariance steps at the IMU samples of the epochs t0 + 0.1 j s,
+1-s intervals of ten steps, the update at each interval's last sample (a jittered clock, dropped samples and bridged
+gaps put every event at its time). An altimeter value (and, up to ``initial.gnss_until_s``, a GNSS fix) is fused at
+the update epoch it was recorded at (within half an IMU interval); an aperture in the interval that holds all its
+pulses. What does not fit (an aperture across two intervals, a second aperture in one interval, values between
+update epochs) is not fused and is recorded; an aperture whose images cannot be formed (its reference does not cover
+it, a file that does not read) is skipped and recorded, never an abort.
 
 Results (:class:`Navigation`): the estimate and its covariance at every step epoch (every ``COV_STEP``), every
 update's residuals and NIS, every pair's measurement and status. ``navigate`` fills a :class:`Navigation` it is
@@ -38,7 +39,9 @@ from sarnav.navigation import Navigator, error_model
 from sarnav.navigation.sar_aiding import REJECTIONS, SarUpdateSettings
 from sarnav.navigation.sar_navigator import COV_STEP, STATE_LAYOUT, UPDATE_SECONDS, SarNavigator
 from sarnav.recording.fields import MANIFEST
+from sarnav.measurements.gnss import GnssFix
 from sarnav.recording.recording import Recording
+from sarnav.recording.timeline import FlightPlan, plan_flight
 from sarnav.sensors.imu import ImuSpec
 
 __all__ = ["NavigateSettings", "Navigation", "FlightPlan", "navigate", "plan_flight", "STATE_LAYOUT", "COV_STEP",
@@ -65,6 +68,7 @@ class NavigateSettings:
     imu_filter : the filter's model of the IMU (None: the manifest's ``[imu]``).
     earth_modelled : the filter models the Earth's rotation when the recording's IMU senses it
         (``frame.earth_rotation``), at the origin's latitude.
+    max_gap : the longest gap in the IMU log bridged [s] (``recording.timeline``; ``ins.max_gap_s``).
     """
 
     sar: SarUpdateSettings | None = field(default_factory=lambda: SarUpdateSettings(sar_sigma=np.full(2, 0.25)))
@@ -73,71 +77,7 @@ class NavigateSettings:
     sar_bias_tau: np.ndarray = field(default_factory=lambda: np.full(2, 3600.0))
     imu_filter: ImuSpec | None = None
     earth_modelled: bool = True
-
-
-@dataclass(frozen=True)
-class FlightPlan:
-    """What each update of a recording fuses (:func:`plan_flight`).
-
-    k0 : the IMU sample at the initial time; m, c : IMU samples per update interval and per covariance step;
-    n_updates : full intervals in the log; altimeter : (U,) index into the altimeter log of the value fused at each
-    update (-1: none); aperture : (U,) the aperture fused at each update (-1: none); skipped : [(aperture, reason)]
-    of the apertures no interval holds; altimeter_unused : altimeter values not at an update epoch.
-    """
-
-    k0: int
-    m: int
-    c: int
-    n_updates: int
-    altimeter: np.ndarray
-    aperture: np.ndarray
-    skipped: list
-    altimeter_unused: int
-
-
-def plan_flight(rec: Recording, sar: bool = True) -> FlightPlan:
-    """The timeline of ``rec`` (module docstring): its intervals and what each update fuses. ``sar`` False: no
-    aperture is fused (all listed as skipped)."""
-    m_info = rec.manifest.imu
-    rate = m_info.rate_hz
-    m, c = int(round(rate * UPDATE_SECONDS)), int(round(rate * COV_STEP))
-    if c < 1 or abs(rate * COV_STEP - c) > 1e-9 * rate or m % c:
-        raise ConfigError(f"{MANIFEST}:imu.rate_hz", f"navigate integrates in {COV_STEP:g}-s covariance steps: needs "
-                          f"a multiple of {1 / COV_STEP:g} Hz, got {rate!r}")
-    t, _, _ = rec.imu.rates()
-    t0, tol = rec.manifest.initial.time, 0.5 / rate
-    k0 = int(np.argmin(np.abs(t - t0)))
-    if not abs(t[k0] - t0) <= tol:
-        raise InputDataError(f"{m_info.file}:time_s", f"no IMU sample at the initial time {t0!r} s "
-                             f"({MANIFEST}:initial.time_s; the nearest is at {t[k0]!r} s)")
-    n_upd = (t.size - 1 - k0) // m
-    if n_upd < 1:
-        raise InputDataError(f"{m_info.file}:time_s", f"holds {t.size - 1 - k0} samples after the initial time, fewer "
-                             f"than one {UPDATE_SECONDS:g}-s interval ({m} samples at imu.rate_hz)")
-    edges = t[k0 + m * np.arange(n_upd + 1)]
-    alt, unused = np.full(n_upd, -1, dtype=np.int64), 0
-    if rec.altimeter is not None:
-        for i, ta in enumerate(rec.altimeter.time):
-            u = int(np.argmin(np.abs(edges[1:] - ta)))
-            if abs(edges[u + 1] - ta) <= tol and alt[u] < 0:
-                alt[u] = i
-            else:
-                unused += 1
-    aperture, skipped = np.full(n_upd, -1, dtype=np.int64), []
-    offset = rec.manifest.time.radar_clock_offset
-    for i, ap in enumerate(rec.manifest.apertures):
-        a, b = ap.start + offset, ap.end + offset
-        u = int(np.searchsorted(edges, a + tol, side="right")) - 1
-        if not sar:
-            skipped.append((i, "SAR is off (sar.enabled = false)"))
-        elif not (0 <= u < n_upd and b <= edges[u + 1] + tol):
-            skipped.append((i, f"its pulses [{a:.6g}, {b:.6g}] s are not inside one navigation interval (1-s "
-                               f"intervals of IMU samples from {edges[0]:.6g} s to {edges[-1]:.6g} s)"))
-        elif aperture[u] >= 0:
-            skipped.append((i, f"interval {u} holds aperture {aperture[u]} already"))
-        else:
-            aperture[u] = i
-    return FlightPlan(k0, m, c, n_upd, alt, aperture, skipped, unused)
+    max_gap: float = 1.0
 
 
 @dataclass
@@ -158,6 +98,7 @@ class Navigation:
     P: list = field(default_factory=list)
     updates: list = field(default_factory=list)
     pairs: list = field(default_factory=list)
+    gnss: list = field(default_factory=list)
     notices: list = field(default_factory=list)
     complete: bool = False
 
@@ -175,13 +116,33 @@ class Navigation:
                 "bg": x[:, 13:16], "bm": x[:, 16:19], "P": P, "sigma": np.sqrt(np.einsum("kii->ki", P))}
 
 
+def _initial_pv(rec: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Initial position and velocity with their 1-sigma: the manifest's, or, where it leaves them out (allowed with
+    ``gnss_until_s``), the GNSS fix at the initial time and its stated 1-sigma."""
+    ini = rec.manifest.initial
+    p, v, sp, sv = ini.p, ini.v, ini.sigma["p"], ini.sigma["v"]
+    if p is not None and v is not None:
+        return p, v, sp, sv
+    g, tol = rec.gnss, 0.5 / rec.manifest.imu.rate_hz
+    k = int(np.argmin(np.abs(g.time - ini.time)))
+    if not abs(g.time[k] - ini.time) <= tol:
+        raise InputDataError(f"{rec.manifest.gnss_file}:time_s", f"no GNSS fix at the initial time {ini.time!r} s "
+                             f"(within {tol:g} s) to start from ({MANIFEST}:initial leaves position_ned_m or "
+                             f"velocity_ned_mps out); the nearest is at {g.time[k]!r} s")
+    if p is None:
+        p, sp = g.position[k], g.position_sigma[k]
+    if v is None:
+        if g.velocity is None:
+            raise ConfigError(f"{MANIFEST}:initial.velocity_ned_mps", "missing: the GNSS log has no velocity "
+                              f"({rec.manifest.gnss_file}: v_north_mps ...) to start from")
+        v, sv = g.velocity[k], g.velocity_sigma[k]
+    return p, v, sp, sv
+
+
 def _initial(rec: Recording, settings: NavigateSettings) -> Navigator:
     """The navigator at the manifest's initial estimate (``[initial]``) with its covariance and error model."""
     m = rec.manifest
     ini = m.initial
-    if ini.gnss_until is not None:
-        raise ConfigError(f"{MANIFEST}:initial.gnss_until_s", "navigate does not support GNSS aiding yet: give "
-                          "initial.position_ned_m and velocity_ned_mps and leave gnss_until_s out")
     if np.any(m.lever_arm != 0):
         raise ConfigError(f"{MANIFEST}:platform.lever_arm_m", "navigate does not model an antenna lever arm yet: the "
                           f"antenna must be at the IMU ([0, 0, 0]), got {m.lever_arm.tolist()}")
@@ -190,16 +151,31 @@ def _initial(rec: Recording, settings: NavigateSettings) -> Navigator:
     bias_sigma = np.array([alt_sigma, *settings.sar_bias_sigma], dtype=np.float64)
     bias_tau = np.array([alt_tau, *settings.sar_bias_tau], dtype=np.float64)
     s = ini.sigma
-    p0 = np.concatenate([s["p"], s["v"], s["th"], s["ba"], s["bg"], bias_sigma])
+    p, v, sp, sv = _initial_pv(rec)
+    p0 = np.concatenate([sp, sv, s["th"], s["ba"], s["bg"], bias_sigma])
     P0 = np.diag(p0**2)[None]
     imu = m.imu.spec if settings.imu_filter is None else settings.imu_filter
     earth = (earth_rate_tangent(units.deg_to_rad(float(m.frame.origin[0])))
              if m.frame.earth_rotation and settings.earth_modelled else None)
-    nav0 = NavState(p=ini.p[None].copy(), v=ini.v[None].copy(), q=ini.q[None].copy(), ba=ini.ba[None].copy(),
-                    bg=ini.bg[None].copy(), bm=ini.bm[None].copy())
+    nav0 = NavState(p=np.array(p, dtype=np.float64)[None], v=np.array(v, dtype=np.float64)[None],
+                    q=ini.q[None].copy(), ba=ini.ba[None].copy(), bg=ini.bg[None].copy(), bm=ini.bm[None].copy())
     model = error_model(STATE_LAYOUT, imu, bias_sigma, bias_tau, earth_rate=earth)
     return Navigator(nav0, P0, model, STATE_LAYOUT, tau_accel=imu.tau_accel, tau_gyro=imu.tau_gyro,
                      bias_tau=bias_tau, earth_rate=earth, covariance_attitude="start")
+
+
+def _notices(out: Navigation, rec: Recording, plan: FlightPlan) -> None:
+    for i, reason in plan.skipped:
+        _skip(out, rec, i, np.nan, reason)
+    if plan.altimeter_unused:
+        out.notices.append(f"{plan.altimeter_unused} altimeter values are not at an update epoch (the end of a 1-s "
+                           "interval) and were not used")
+    if plan.gnss_unused:
+        out.notices.append(f"{plan.gnss_unused} GNSS fixes are not at an update epoch up to initial.gnss_until_s "
+                           "and were not used")
+    for gap in plan.gaps:
+        out.notices.append(f"IMU gap of {gap.seconds:.6g} s after t = {gap.time:.6g} s bridged (covariance grown "
+                           f"for a motion spread of {gap.accel_sigma:.3g} m/s^2, {gap.gyro_sigma:.3g} rad/s)")
 
 
 def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=None,
@@ -209,31 +185,46 @@ def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=
     settings = NavigateSettings() if settings is None else settings
     out = Navigation() if into is None else into
     sar_on = settings.sar is not None and bool(rec.manifest.apertures)
-    plan = plan_flight(rec, sar=sar_on)
+    plan = plan_flight(rec, sar=sar_on, max_gap=settings.max_gap, gnss_until=rec.manifest.initial.gnss_until)
     out.plan, out.targets = plan, (rec.points.anchors.shape[1] if rec.points is not None else 0)
     nv = _initial(rec, settings)
     alt_sigma = None if rec.altimeter is None else rec.manifest.altimeter.sigma
     sn = SarNavigator(nv, alt_sigma, settings.sar if sar_on else None, max(out.targets, 1), image=True)
     imager = rec.imager(settings.imaging) if sar_on else None
-    for i, reason in plan.skipped:
-        _skip(out, rec, i, np.nan, reason)
-    if plan.altimeter_unused:
-        out.notices.append(f"{plan.altimeter_unused} altimeter values are not at an update epoch (the end of a 1-s "
-                           "interval) and were not used")
+    _notices(out, rec, plan)
     t, nu, om = rec.imu.rates()
     out.record(t[plan.k0], nv.nav, nv.P)
+    step = COV_STEP if plan.uniform else None
     for u in range(plan.n_updates):
-        a, t0 = plan.k0 + u * plan.m, time.perf_counter()
-        iv = nv.propagate(t[a:a + plan.m + 1], nu[None, a:a + plan.m + 1], om[None, a:a + plan.m + 1], plan.c,
-                          step_seconds=plan.c / rec.manifest.imu.rate_hz)
+        b, t0 = plan.bounds[u], time.perf_counter()
+        if b.size < 2:  # inside a bridged gap: the next interval integrates across it
+            out.notices.append(f"update {u} skipped: its interval holds no IMU sample (a gap)")
+            continue
+        sl = slice(int(b[0]), int(b[-1]) + 1)
+        iv = nv.propagate(t[sl], nu[None, sl], om[None, sl], None, step_seconds=step, bounds=b - b[0],
+                          max_gap=settings.max_gap, bridge=plan.bridge(u))
         for s, (nav_s, P_s) in enumerate(iv.estimates[:-1]):
             out.record(iv.t[s + 1], nav_s, P_s)
         _update(out, rec, sn, imager, plan, u, iv, time.perf_counter() - t0)
+        if plan.gnss[u] >= 0:
+            _gnss_update(out, rec, nv, int(plan.gnss[u]), float(iv.t[-1]))
         out.record(iv.t[-1], nv.nav, nv.P)
         if progress is not None:
             progress(u, plan.n_updates, out)
     out.complete = True
     return out
+
+
+def _gnss_update(out: Navigation, rec: Recording, nv: Navigator, k: int, t: float) -> None:
+    """Fuse GNSS fix k (position, and velocity when logged) at the update epoch t, after the interval's altimeter
+    and SAR update (independent noises: sequential equals joint; after, because the SAR update's delayed state refers
+    its pairs to the interval's propagation, which a GNSS update before it would leave out); in ``out.gnss``."""
+    g = rec.gnss
+    model = GnssFix(STATE_LAYOUT, g.position_sigma[k], None if g.velocity is None else g.velocity_sigma[k])
+    z = g.position[k] if g.velocity is None else np.concatenate([g.position[k], g.velocity[k]])
+    fused = nv.update(model.predict(nv.nav), z[None])
+    out.gnss.append({"time": t, "fix": k, "z": z, "residual": fused.residual[0], "residual_sigma":
+                     fused.residual_sigma[0], "nis": float(fused.nis[0]), "nis_dof": int(fused.dof[0])})
 
 
 def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: FlightPlan, u: int, iv,

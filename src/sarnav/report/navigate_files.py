@@ -209,6 +209,7 @@ def _dataset(rec, nav: Navigation, traj: dict, est: dict, errors: dict | None, c
     data["covariance"] = (("time", "state", "state2"), est["P"],
                           {"units": "state_units x state_units", "long_name": "error-state covariance P"})
     data.update(_update_vars(nav, REJECTIONS))
+    data.update(_gnss_vars(nav))
     if errors is not None:
         data["error"] = (("time", "state"), errors["error"], {"units": "see state_units",
                                                               "long_name": "truth minus estimate (error state)"})
@@ -256,6 +257,28 @@ def _update_vars(nav: Navigation, rejections) -> dict:
     }
 
 
+def _gnss_vars(nav: Navigation) -> dict:
+    """The GNSS updates (up to ``initial.gnss_until_s``): time, fix, residuals (position, then velocity; NaN where
+    the log has none), their predicted 1-sigma, NIS."""
+    G = len(nav.gnss)
+    res, rsig = np.full((G, 6), np.nan), np.full((G, 6), np.nan)
+    for i, g in enumerate(nav.gnss):
+        res[i, :g["residual"].size], rsig[i, :g["residual"].size] = g["residual"], g["residual_sigma"]
+    col = lambda key, dtype: np.array([g[key] for g in nav.gnss], dtype=dtype)  # noqa: E731
+    return {
+        "gnss_time": ("gnss_update", col("time", float), {"units": "s", "long_name": "time of each GNSS update"}),
+        "gnss_fix": ("gnss_update", col("fix", np.int64), {"units": "1", "long_name": "row of gnss.csv fused (0: the "
+                                                                                       "first fix)"}),
+        "gnss_residual": (("gnss_update", "gnss_meas"), res, {"units": "1", "long_name": "GNSS residual z - z_hat: "
+                                                              "north, east, down (m), then v_north, v_east, v_down "
+                                                              "(m s-1)"}),
+        "gnss_residual_sigma": (("gnss_update", "gnss_meas"), rsig, {"units": "1", "long_name": "predicted 1-sigma "
+                                                                     "of the GNSS residual (units of gnss_residual)"}),
+        "gnss_nis": ("gnss_update", col("nis", float), {"units": "1", "long_name": "NIS of the GNSS update"}),
+        "gnss_nis_dof": ("gnss_update", col("nis_dof", np.int64), {"units": "1", "long_name": "components in gnss_nis"}),
+    }
+
+
 def _errors_columns(est: dict, errors: dict) -> dict:
     cols = {"time": est["time"]}
     cols.update({f"error_{n}": errors["error"][:, i] for i, n in enumerate(_ERROR_NAMES)})
@@ -275,6 +298,10 @@ def consistency(nav: Navigation, est: dict, errors: dict | None) -> dict:
         st = nis_statistics(nis, dof)
         out["nis"] = {"per_dof": st["per_dof"], "per_dof_band_95": list(st["per_dof_band"]),
                       "fraction_in_band": st["fraction_in_band"], "updates": int(nis.size)}
+    if nav.gnss:
+        st = nis_statistics(np.array([[g["nis"] for g in nav.gnss]]), np.array([[g["nis_dof"] for g in nav.gnss]]))
+        out["gnss_nis"] = {"per_dof": st["per_dof"], "per_dof_band_95": list(st["per_dof_band"]),
+                           "fraction_in_band": st["fraction_in_band"], "updates": len(nav.gnss)}
     if errors is not None and np.any(np.isfinite(errors["nees"])):
         ok = np.isfinite(errors["nees"])
         st = nees_statistics(errors["nees"][ok][None], errors["nees_dof"])
