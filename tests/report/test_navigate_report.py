@@ -242,3 +242,24 @@ def test_gnss_section(navigated, tmp_path):
     _parse(text)
     gnss = text[text.index('<section id="gnss"'):text.index('<section id="consistency"')]
     assert gnss.count("data:image/png;base64,") == 1 and "within 3σ (north)" in gnss
+
+
+def test_report_from_trajectory_csv_alone_and_from_nothing(navigated, tmp_path):
+    """Without trajectory.nc the track comes from trajectory.csv (no NIS panel); a folder a killed run left (only
+    navigate.json at complete: false) still gives a well-formed page flagged INCOMPLETE."""
+    out = tmp_path / "out"
+    shutil.copytree(navigated / "out", out)
+    (out / "trajectory.nc").unlink()
+    o = read_outputs(out)
+    tr = _columns(out / "trajectory.csv")
+    np.testing.assert_array_equal(o.track["east"], tr["east"])
+    assert "nis" not in o.updates and o.updates["time"].size == 2
+    write_navigate_report(out, reference_images=0)
+    assert _parse((out / REPORT_FILE).read_text(encoding="utf-8")).ids == list(SECTIONS)
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    (bare / STATUS_FILE).write_text(json.dumps({"complete": False, "recording": str(navigated / "rec")}))
+    write_navigate_report(bare)
+    text = (bare / REPORT_FILE).read_text(encoding="utf-8")
+    _parse(text)
+    assert 'id="incomplete"' in text and "No trajectory file" in text
