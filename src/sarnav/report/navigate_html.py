@@ -167,6 +167,9 @@ def _run_section(o: NavigateOutputs) -> str:
     if o.recording is not None and getattr(o.recording, "scenario_text", None):
         body += H.details("the recording's scenario.toml (the navigator's default settings)",
                           H.pre(o.recording.scenario_text))
+    manifest = Path(o.recording.folder) / "flight.toml" if o.recording is not None else None
+    if manifest is not None and manifest.is_file():
+        body += H.details("the recording's flight.toml (manifest)", H.pre(manifest.read_text(encoding="utf-8")))
     if o.recording_error:
         body += f'<p class="note">{H.esc(o.recording_error)}</p>\n'
     return _section("run", "Run", body)
@@ -181,8 +184,8 @@ def _tiles(rec, pairs: list, at_most: int) -> tuple[list, str]:
     for u in NF.pick_apertures(n, imaged if imaged else range(n), at_most):
         try:
             tiles += NF.reference_tiles(rec, [u])
-        except SarnavError as err:
-            failed.append(f"aperture {u}: {err}")
+        except Exception as err:  # noqa: BLE001 - a picture: the page says why it is missing and goes on
+            failed.append(f"aperture {u}: {type(err).__name__}: {err}")
     note = f'<p class="note">Reference images not formed: {H.esc("; ".join(failed))}</p>\n' if failed else ""
     return tiles, note
 
