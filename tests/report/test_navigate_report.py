@@ -83,7 +83,8 @@ def test_report_is_written_with_its_sections(navigated):
     pngs = assert_self_contained(text)
     assert len(pngs) == 1 + 3 + 1  # track; position, velocity, attitude errors; NEES and NIS
     assert "INCOMPLETE" not in text and 'id="incomplete"' not in text
-    assert "no GNSS (gnss.csv)" in text and "flight.toml (manifest)" in text and "real_time_factor" in text
+    assert "no GNSS (gnss.csv)" in text and "flight.toml (manifest)" in text
+    assert "real_time_factor" in text
     with open(out / "updates.csv", newline="") as fh:
         n_pairs = sum(1 for _ in csv.DictReader(fh))
     assert text.count("<tr>") >= n_pairs + 1 and "fused" in text
