@@ -221,8 +221,8 @@ def test_gnss_section(navigated, tmp_path):
         w = csv.writer(fh)
         w.writerow(["time_s", "north_m", "east_m", "down_m", "sigma_north_m", "sigma_east_m", "sigma_down_m"])
         for i in k:
-            w.writerow([repr(float(truth["time"][i])), *(repr(float(truth[c][i] + o)) for c, o in zip(("north", "east", "down"),
-                                                                                          offset)), *sig])
+            pos = [repr(float(truth[c][i] + o)) for c, o in zip(("north", "east", "down"), offset)]
+            w.writerow([repr(float(truth["time"][i])), *pos, *sig])
     with open(rec_dir / "flight.toml", "a") as fh:
         fh.write('\n[gnss]\nfile = "gnss.csv"\n')
     rec = read_recording(rec_dir)
