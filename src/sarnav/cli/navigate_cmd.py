@@ -10,7 +10,7 @@ NAME = "navigate"
 DESCRIPTION = ("Run the SAR-aided navigator on a flight recording (docs/recording.md): the initial state of the "
                "manifest, then INS + altimeter + image-derived range and cross-range updates, each image formed along "
                "the navigator's own estimated track. Writes trajectory.nc, trajectory.csv, trajectory.geojson, "
-               "trajectory.kml, updates.csv, with truth errors.csv, and navigate.json (docs/navigate.md).")
+               "trajectory.kml, updates.csv, with truth errors.csv, report.html and navigate.json (docs/navigate.md).")
 
 
 def add_parser(subparsers) -> None:
@@ -23,6 +23,7 @@ def add_parser(subparsers) -> None:
                    help="override a setting (e.g. sar.gate_probability=1e-3), repeatable")
     p.add_argument("--overwrite", action="store_true", help="replace navigate's outputs found in --out")
     p.add_argument("--quiet", action="store_true", help="no summary line")
+    p.add_argument("--no-report", action="store_true", help="do not draw report.html (its figures take seconds)")
     p.set_defaults(handler=run)
 
 
@@ -43,7 +44,7 @@ def run(args) -> int:
     tty = sys.stderr.isatty()
     try:
         doc = run_navigate(rec, args.out, settings, progress=_progress if tty else None, overwrite=args.overwrite,
-                           describe={"config": args.config, "set": list(args.overrides)})
+                           describe={"config": args.config, "set": list(args.overrides)}, report=not args.no_report)
     finally:
         if tty:
             print(file=sys.stderr)

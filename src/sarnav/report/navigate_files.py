@@ -11,7 +11,8 @@ v_down, roll, pitch, yaw``, each with its ``sigma_`` column, and ``latitude, lon
 and ``trajectory.kml`` (the track as a LineString in longitude, latitude, height, and the update points),
 ``updates.csv`` (one row per aperture and reference point) and, where the recording has truth, ``errors.csv``
 (truth minus estimate per error state, 1-sigma, NEES) and its consistency summary (NEES and NIS against their 95 %
-chi-square bands, ``analysis.consistency``) in ``navigate.json``.
+chi-square bands, ``analysis.consistency``) in ``navigate.json``; ``report.html`` (``report.navigate_html``, drawn
+from the other outputs) unless ``report=False``.
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ __all__ = ["run_navigate", "write_navigation", "prepare_output", "consistency", 
 
 STATUS_FILE = "navigate.json"
 #: every file navigate writes (``--overwrite`` removes them, and their ``.partial`` forms, before a run)
-OUTPUT_FILES = ("trajectory.nc", "trajectory.csv", "trajectory.geojson", "trajectory.kml", "updates.csv", "errors.csv")
+OUTPUT_FILES = ("trajectory.nc", "trajectory.csv", "trajectory.geojson", "trajectory.kml", "updates.csv", "errors.csv",
+                "report.html")
 _NAV = ("north", "east", "down", "v_north", "v_east", "v_down", "roll", "pitch", "yaw")
 #: trajectory.csv's columns, in order
 TRAJECTORY_COLUMNS = (("time",) + _NAV + tuple(f"sigma_{c}" for c in _NAV) + ("latitude", "longitude", "height"))
@@ -362,9 +364,10 @@ def prepare_output(out, overwrite: bool = False) -> Path:
 
 
 def run_navigate(rec, out, settings: NavigateSettings | None = None, progress=None, overwrite: bool = False,
-                 describe: dict | None = None) -> dict:
+                 describe: dict | None = None, report: bool = True) -> dict:
     """Navigate ``rec`` into the folder ``out`` (module docstring); returns navigate.json's content.
-    ``describe``: extra entries for navigate.json (the command line's settings)."""
+    ``describe``: extra entries for navigate.json (the command line's settings); ``report``: write report.html
+    (``report.navigate_html``, from the other outputs)."""
     out = prepare_output(out, overwrite)
     doc = {"complete": False, "recording": str(rec.folder), "sarnav_version": sarnav.__version__,
            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **(describe or {})}
@@ -378,17 +381,32 @@ def run_navigate(rec, out, settings: NavigateSettings | None = None, progress=No
         try:
             if nav.time:
                 doc["files"] = write_navigation(out, rec, nav, complete=False, suffix=".partial")
+                doc["files"] += _report(out, doc, rec) if report else []
         finally:
             _status(out, doc)
         raise
-    for name in files:
-        os.replace(out / name, out / name.removesuffix(".partial"))
     est = nav.estimate()
     summary = consistency(nav, est, truth_errors(rec, est, nav.layout))
     doc.update(complete=True, files=[f.removesuffix(".partial") for f in files], consistency=summary,
                notices=nav.notices, **_counts(nav, time.perf_counter() - t0))
+    files += _report(out, doc, rec) if report else []
+    for name in files:
+        os.replace(out / name, out / name.removesuffix(".partial"))
+    doc["files"] = [f.removesuffix(".partial") for f in files]
     _status(out, doc)
     return doc
+
+
+def _report(out: Path, doc: dict, rec) -> list[str]:
+    """report.html.partial from the .partial outputs and ``doc`` (``report.navigate_html``); a failure to draw it
+    is a notice in ``doc``, not a failed run."""
+    from sarnav.report.navigate_html import write_navigate_report
+
+    try:
+        return [write_navigate_report(out, doc, rec, suffix=".partial")]
+    except Exception as err:  # noqa: BLE001 - the navigation's own outputs stand without the page
+        doc.setdefault("notices", []).append(f"report.html not written: {type(err).__name__}: {err}")
+        return []
 
 
 def _counts(nav: Navigation, seconds: float) -> dict:
