@@ -159,10 +159,10 @@ def test_unknown_pixel_type_is_named(written, tmp_path):
         read_sicd(bad)
 
 
-def test_inconsistent_geometry_is_refused(written, tmp_path):
+def test_inconsistent_antenna_track_is_refused(written, tmp_path):
     path = written[0]
     with open(path, "rb") as f, sksicd.NitfReader(f) as r:
-        scp = float(r.metadata.xmltree.findtext("{*}GeoData/{*}SCP/{*}ECF/{*}X"))
-    bad = _edited(path, tmp_path / "moved.nitf", "GeoData.SCP.ECF.X", repr(scp + 2000.0))
-    with pytest.raises(InputDataError, match="^sicd.GeoData"):
+        x0 = float(r.metadata.xmltree.findtext("{*}Position/{*}ARPPoly/{*}X/{*}Coef"))
+    bad = _edited(path, tmp_path / "moved.nitf", "Position.ARPPoly.X.Coef", repr(x0 + 2000.0))
+    with pytest.raises(InputDataError, match="^sicd.Position.ARPPoly: .* SCPCOA.ARPPos"):
         read_sicd(bad)

@@ -263,6 +263,13 @@ def _params(xml, path, m):
     except Exception as err:
         text = (str(err).strip().splitlines() or [type(err).__name__])[0][:200]
         _err(path, "", f"the geometry cannot be projected (SICD Vol. 3): {text}")
+    if params.is_monostatic():
+        t = float(params.t_SCP_COA)
+        arp = np.polynomial.polynomial.polyval(t, np.asarray(params.ARP_Poly, dtype=np.float64))
+        gap = float(np.linalg.norm(arp - np.asarray(params.ARP_SCP_COA)))
+        if not gap <= 10.0:
+            _err(path, "Position.ARPPoly", f"at SCPCOA.SCPTime must be within 10 m of SCPCOA.ARPPos, {gap:.6g} m "
+                 "from it: the antenna track is inconsistent")
     if not miss <= max(1.0, 10 * max(m["row_ss"], m["col_ss"])):
         _err(path, "GeoData.SCP", f"the SCP pixel projects {miss:.6g} m from the SCP (at most max(1 m, 10 pixels)): "
              "the geometry (ARPPoly, TimeCOAPoly, Grid) is inconsistent")
