@@ -16,35 +16,18 @@ import sarkit.sicd as sksicd  # noqa: E402
 import sarkit.wgs84 as wgs84  # noqa: E402
 
 from sarnav.errors import InputDataError  # noqa: E402
-from sarnav.imaging.backprojection import backproject  # noqa: E402
-from sarnav.imaging.grid import GroundGrid  # noqa: E402
-from sarnav.io.cphd import read_collect, write_collect  # noqa: E402
-from sarnav.io.frames import ground_grid_to_ecef, ned_to_ecef  # noqa: E402
 from sarnav.io.sicd import SicdGeometry, SicdProduct, read_sicd, write_image  # noqa: E402
-from sarnav.radar.echoes import simulate_echoes  # noqa: E402
-from sarnav.radar.params import RadarParams  # noqa: E402
-from sarnav.radar.scene import point_targets  # noqa: E402
 from sarnav.signal.metrics import peak_location  # noqa: E402
 
-REF = (-33.9, 151.2, 40.0)                     # southern, eastern hemisphere (the other test is at 58.4 N, 15.6 E)
-TARGETS = np.array([[0.0, 0.0, 0.0], [9.3, -11.1, 0.0], [-12.6, 8.2, 0.0], [4.4, 13.7, 0.0]])   # NED at REF [m]
+REF = (-33.9, 151.2, 40.0)          # == tests/io/conftest.py (the ground_scene fixture)
 
 
 @pytest.fixture(scope="module")
-def written(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sicd_reader")
-    p, prf, speed = 256, 400.0, 50.0
-    t = (np.arange(p) - 0.5 * (p - 1)) / prf
-    pos = np.column_stack([np.full(p, 1700.0), speed * t, np.full(p, -1100.0)])        # flying east, looking south
-    params = RadarParams(carrier_frequency=9.75e9, bandwidth=150e6, pulse_length=0.5e-6, sample_rate=187.5e6,
-                         prf=prf, near_range=1960.0, n_range_samples=320, antenna_length=1.0)
-    raw = simulate_echoes(params, pos, t, point_targets(TARGETS), pattern=False)
-    write_collect(out / "collect.cphd", raw, REF, window="none", image_half_extent=(30.0, 30.0))
-    rc, _ = read_collect(out / "collect.cphd")
-    grid = ground_grid_to_ecef(GroundGrid.centered(0.0, 0.0, 0.6, (70, 66)), REF)
-    img = backproject(rc, grid)
-    xml = write_image(out / "image.nitf", img, SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength, 150e6))
-    return out / "image.nitf", xml
+def written(ground_scene):
+    g = ground_scene
+    assert tuple(g.ref) == REF
+    geo = SicdGeometry(g.grid, g.rc.positions, g.rc.pulse_times, g.rc.wavelength, 150e6)
+    return g.out / "image.nitf", write_image(g.out / "image.nitf", g.image, geo)
 
 
 def test_read_back_pixels_and_metadata(written):
@@ -58,12 +41,12 @@ def test_read_back_pixels_and_metadata(written):
     assert read_sicd(path, pixels=False).pixels is None
 
 
-def test_scatterers_project_within_a_tenth_of_a_pixel_both_ways(written):
+def test_scatterers_project_within_a_tenth_of_a_pixel_both_ways(written, ground_scene):
     prod = read_sicd(written[0])
-    truth = ned_to_ecef(TARGETS, REF)
+    truth, targets = ground_scene.truth, ground_scene.targets
     rows, cols = prod.ground_to_image(truth)
     hae = wgs84.cartesian_to_geodetic(truth)[:, 2]
-    for k in range(len(TARGETS)):
+    for k in range(len(targets)):
         peak = np.array(peak_location(prod.pixels, near=(int(round(rows[k])), int(round(cols[k]))), search_radius=3))
         assert np.all(np.abs(peak - (rows[k], cols[k])) < 0.1), (k, peak, rows[k], cols[k])
         back = prod.image_to_ground(peak[0], peak[1], hae[k])

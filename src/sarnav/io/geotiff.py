@@ -25,13 +25,15 @@ import numpy as np
 
 from sarnav.errors import InputDataError
 
-__all__ = ["GEO_EXTRA", "MAX_PIXELS", "DEM_HEIGHT_RANGE", "Orthoimage", "Dem", "read_orthoimage", "read_dem",
+__all__ = ["GEO_EXTRA", "MAX_PIXELS", "DEM_HEIGHT_RANGE", "MAX_TILT_DEG", "Orthoimage", "Dem", "read_orthoimage", "read_dem",
            "write_geotiff", "write_plane_geotiff", "utm_crs", "bilinear"]
 
 #: the install hint of the optional extra
 GEO_EXTRA = "pip install 'sarnav[geo]'"
 #: the largest raster read or written [pixels] (float64 values: 1 GiB)
 MAX_PIXELS = 2**27
+#: the largest tilt of an image plane from the horizontal that :func:`write_plane_geotiff` geocodes [deg]
+MAX_TILT_DEG = 1.0
 #: heights of a DEM outside this range [m] are voids (NaN): below the deepest trench, above the highest peak
 DEM_HEIGHT_RANGE = (-11_500.0, 9_000.0)
 
@@ -273,6 +275,11 @@ def write_plane_geotiff(path, data, grid, *, spacing: float | None = None, crs=N
         raise InputDataError("spacing", f"must be finite and > 0 m, got {spacing!r}")
     pts = grid.points()
     centre = wgs84.cartesian_to_geodetic(pts[rows.size // 2, cols.size // 2])
+    normal = np.cross(grid.row_direction, grid.col_direction)
+    tilt = math.degrees(math.acos(min(1.0, abs(float(normal @ wgs84.up(centre))))))
+    if tilt > MAX_TILT_DEG:
+        raise InputDataError("grid", f"a GeoTIFF is written of an image on a ground plane: this one is tilted "
+                             f"{tilt:.3g} deg from the horizontal at its centre (at most {MAX_TILT_DEG:g} deg)")
     crs = crs or utm_crs(centre[0], centre[1])
     corners = wgs84.cartesian_to_geodetic(pts[[0, 0, -1, -1], [0, -1, 0, -1]])
     cx, cy = warp.transform("EPSG:4326", crs, corners[:, 1], corners[:, 0])
@@ -284,7 +291,6 @@ def write_plane_geotiff(path, data, grid, *, spacing: float | None = None, crs=N
     lon, lat = warp.transform(crs, "EPSG:4326", xs.ravel(), ys.ravel())
     llh = np.column_stack([lat, lon, np.full(len(lat), centre[2])])
     p0, up = wgs84.geodetic_to_cartesian(llh), wgs84.up(llh)
-    normal = np.cross(grid.row_direction, grid.col_direction)
     t = ((grid.origin - p0) @ normal) / (up @ normal)
     on_plane = p0 + t[:, None] * up - grid.origin
     fr = (on_plane @ grid.row_direction - rows[0]) / dr
