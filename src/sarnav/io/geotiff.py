@@ -67,6 +67,12 @@ def bilinear(values: np.ndarray, rows, cols) -> np.ndarray:
     return np.where(inside, out, np.nan)
 
 
+def _apply(t, x, y) -> tuple[np.ndarray, np.ndarray]:
+    """The affine map ``t`` (x' = a x + b y + c, y' = d x + e y + f) on arrays."""
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    return t.a * x + t.b * y + t.c, t.d * x + t.e * y + t.f
+
+
 @dataclass(frozen=True)
 class Orthoimage:
     """A georeferenced raster band: ``values`` (H, W) float64 (complex128 for a complex band) with NaN at nodata,
@@ -93,15 +99,15 @@ class Orthoimage:
     def pixel_of(self, lat, lon) -> tuple[np.ndarray, np.ndarray]:
         """Fractional (rows, cols) of geodetic ``lat``, ``lon`` [deg]: integers at pixel centres."""
         x, y = self.map_xy(lat, lon)
-        col, row = ~self.transform * (x, y)
-        return np.asarray(row) - 0.5, np.asarray(col) - 0.5
+        col, row = _apply(~self.transform, x, y)
+        return row - 0.5, col - 0.5
 
     def latlon_of(self, rows, cols) -> tuple[np.ndarray, np.ndarray]:
         """Geodetic (lat, lon) [deg] of fractional pixel (rows, cols) (integers at pixel centres)."""
         warp = rasterio_module().warp
         r, c = np.broadcast_arrays(np.asarray(rows, dtype=np.float64), np.asarray(cols, dtype=np.float64))
-        x, y = self.transform * (c.ravel() + 0.5, r.ravel() + 0.5)
-        lon, lat = warp.transform(self.crs, "EPSG:4326", np.asarray(x), np.asarray(y))
+        x, y = _apply(self.transform, c.ravel() + 0.5, r.ravel() + 0.5)
+        lon, lat = warp.transform(self.crs, "EPSG:4326", x, y)
         return np.reshape(lat, r.shape), np.reshape(lon, r.shape)
 
     def sample(self, lat, lon) -> np.ndarray:
@@ -166,10 +172,8 @@ def _read(path, band: int, cls):
     if not path.is_file():
         _fail(path, "", "not a readable file")
     try:
-        with warnings.catch_warnings(), rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR"), \
-                rasterio.open(path, driver="GTiff") as src:
-            warnings.simplefilter("ignore")           # NotGeoreferencedWarning & co.: the checks below say it
-
+        with warnings.catch_warnings(action="ignore"), rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR"), \
+                rasterio.open(path, driver="GTiff") as src:   # NotGeoreferencedWarning & co.: the checks say it
             _check_header(src, path, band)
             data = src.read(band, masked=True)
             crs, transform, nodata = src.crs, src.transform, src.nodata
