@@ -15,6 +15,8 @@ subtracted): ``xrow = (FirstRow + row - SCPPixel.Row) Row.SS``, ``ycol = (FirstC
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import os
 from dataclasses import dataclass, field
@@ -36,6 +38,11 @@ _PIXEL_TYPES = ("RE32F_IM32F", "RE16I_IM16I", "AMP8I_PHS8I")
 
 def _err(path, fld: str, message: str):
     raise InputDataError(f"sicd.{fld}" if fld else "sicd", f"{message} ({str(path)!r})")
+
+
+def _line(err: Exception) -> str:
+    """The first line of an exception's message (at most 200 characters), or its type's name."""
+    return ((str(err).strip().splitlines() or [""])[0] or type(err).__name__)[:200]
 
 
 def _text(xml, path, fld: str) -> str:
@@ -236,6 +243,19 @@ class SicdProduct:
         return rows, cols
 
 
+@contextlib.contextmanager
+def _quiet_jbpy():
+    """jbpy logs a damaged NITF header field with its traceback (to stderr when logging is not configured): the
+    one-line error says it instead."""
+    log = logging.getLogger("jbpy")
+    was = log.level
+    log.setLevel(logging.CRITICAL + 1)         # its modules' loggers (jbpy.core) inherit the level
+    try:
+        yield
+    finally:
+        log.setLevel(was)
+
+
 def _open(path):
     import sarkit.sicd as sksicd
 
@@ -245,8 +265,7 @@ def _open(path):
         xml = reader.metadata.xmltree
     except Exception as err:       # jbpy / lxml / sarkit report a damaged file through many exception types
         f.close()
-        text = (str(err).strip().splitlines() or [type(err).__name__])[0][:200]
-        _err(path, "", f"not a readable SICD NITF: {text}")
+        _err(path, "", f"not a readable SICD NITF: {_line(err)}")
     return f, reader, xml
 
 
@@ -261,8 +280,7 @@ def _params(xml, path, m):
     except InputDataError:
         raise
     except Exception as err:
-        text = (str(err).strip().splitlines() or [type(err).__name__])[0][:200]
-        _err(path, "", f"the geometry cannot be projected (SICD Vol. 3): {text}")
+        _err(path, "", f"the geometry cannot be projected (SICD Vol. 3): {_line(err)}")
     if params.is_monostatic():
         t = float(params.t_SCP_COA)
         arp = np.polynomial.polynomial.polyval(t, np.asarray(params.ARP_Poly, dtype=np.float64))
@@ -281,6 +299,11 @@ def read_sicd(path, *, pixels: bool = True) -> SicdProduct:
     path = Path(path)
     if not path.is_file():
         _err(path, "", "not a readable file")
+    with _quiet_jbpy():
+        return _read(path, pixels)
+
+
+def _read(path: Path, pixels: bool) -> SicdProduct:
     f, reader, xml = _open(path)
     with f:
         m = _check_metadata(xml, path)
@@ -289,9 +312,14 @@ def read_sicd(path, *, pixels: bool = True) -> SicdProduct:
         if pixels:
             if m["rows"] * m["cols"] > MAX_PIXELS:
                 _err(path, "ImageData", f"{m['rows']} x {m['cols']} pixels exceed the {MAX_PIXELS:.3g} read at once")
-            _check_segments(reader, path, m)
+            try:
+                _check_segments(reader, path, m)
+            except InputDataError:
+                raise
+            except Exception as err:    # a damaged image subheader field
+                _err(path, "ImageSegments", f"unreadable image subheader: {_line(err)}")
             try:
                 data = _to_complex(reader.read_image(), m["pixel_type"], xml)
             except Exception as err:
-                _err(path, "", f"pixels unreadable: {(str(err).splitlines() or [type(err).__name__])[0][:200]}")
+                _err(path, "", f"pixels unreadable: {_line(err)}")
     return SicdProduct(data, xml, str(path), m, params)
