@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 import resource
+from pathlib import Path
 import struct
 import time
 
@@ -228,3 +229,33 @@ def test_a_header_claiming_a_billion_rows_is_refused_before_reading(originals, t
     (tmp_path / "huge.tif").write_bytes(bytes(buf))
     with pytest.raises(InputDataError, match=r"^geotiff"):
         read_orthoimage(tmp_path / "huge.tif")
+
+
+def test_damaged_files_print_nothing_in_a_plain_process(originals, tmp_path):
+    """Outside pytest (no log capture): reading damaged files writes nothing to stderr (no traceback, no GDAL or jbpy
+    log lines); each read gives a product or one error line."""
+    import subprocess
+    import sys
+
+    rng = np.random.default_rng(3)
+    files = []
+    for fmt in ("sicd", "geotiff"):
+        path, parts = originals[fmt]
+        data = path.read_bytes()
+        parts = parts or _tiff_parts(data)
+        for k in range(40):
+            region = sorted(parts)[k % len(parts)]
+            lo, hi = parts[region]
+            flips = tuple((int(rng.integers(lo, hi)), int(rng.integers(1, 256))) for _ in range(6))
+            f = tmp_path / f"{fmt}{k}.{'nitf' if fmt == 'sicd' else 'tif'}"
+            f.write_bytes(_apply(("flip", region, flips), data, parts))
+            files.append(str(f))
+    code = ("import sys\nfrom sarnav.errors import InputDataError\nfrom sarnav.io.sicd import read_sicd\n"
+            "from sarnav.io.geotiff import read_orthoimage\n"
+            "for f in sys.argv[1:]:\n    try:\n        (read_sicd if f.endswith('.nitf') else read_orthoimage)(f)\n"
+            "        print('read')\n    except InputDataError as e:\n        print(str(e).splitlines()[0])\n")
+    res = subprocess.run([sys.executable, "-c", code, *files], capture_output=True, text=True, timeout=300,
+                         env={**__import__("os").environ, "PYTHONPATH": str(Path(__file__).parents[2] / "src")})
+    assert res.returncode == 0 and res.stderr == "", res.stderr[-2000:]
+    lines = res.stdout.splitlines()
+    assert len(lines) == len(files) and all(x == "read" or x.startswith(("sicd", "geotiff")) for x in lines)

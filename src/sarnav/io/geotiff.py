@@ -16,7 +16,10 @@ valid range; nothing is read beyond :data:`MAX_PIXELS`.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
+import sys
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -166,24 +169,52 @@ def read_orthoimage(path, band: int = 1) -> Orthoimage:
     return _read(path, band, Orthoimage)
 
 
+@contextlib.contextmanager
+def _quiet_gdal():
+    """GDAL's messages about a damaged file go to rasterio's error handler, which raises on bytes that are not UTF-8
+    inside a callback: Python prints that (``sys.excepthook`` and ``sys.unraisablehook``: "Exception ignored in ...",
+    a traceback). Such UnicodeDecodeErrors are dropped while a file is read (the one-line error says what is wrong);
+    anything else is passed on."""
+    previous, previous_except = sys.unraisablehook, sys.excepthook
+
+    def hook(unraisable):
+        if not isinstance(unraisable.exc_value, UnicodeDecodeError):
+            previous(unraisable)
+
+    def excepthook(kind, value, tb):
+        if not isinstance(value, UnicodeDecodeError):
+            previous_except(kind, value, tb)
+
+    log = logging.getLogger("rasterio")              # GDAL's warnings about the damage, logged by rasterio
+    level = log.level
+    sys.unraisablehook, sys.excepthook = hook, excepthook
+    log.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        sys.unraisablehook, sys.excepthook = previous, previous_except
+        log.setLevel(level)
+
+
 def _read(path, band: int, cls):
     rasterio = rasterio_module()
     path = Path(path)
     if not path.is_file():
         _fail(path, "", "not a readable file")
     try:
-        with warnings.catch_warnings(action="ignore"), rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR"), \
+        with _quiet_gdal(), warnings.catch_warnings(action="ignore"), np.errstate(all="ignore"), \
+                rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR"), \
                 rasterio.open(path, driver="GTiff") as src:   # NotGeoreferencedWarning & co.: the checks say it
             _check_header(src, path, band)
             data = src.read(band, masked=True)
             crs, transform, nodata = src.crs, src.transform, src.nodata
+            kind = np.complex128 if np.iscomplexobj(data) else np.float64
+            values = np.ma.filled(data.astype(kind), np.nan)
+            values[~np.isfinite(values)] = np.nan
     except InputDataError:
         raise
     except Exception as err:   # GDAL reports a damaged file through several exception types
         _fail(path, "", f"not a readable GeoTIFF: {_first_line(err)}")
-    kind = np.complex128 if np.iscomplexobj(data) else np.float64
-    values = np.ma.filled(data.astype(kind), np.nan)
-    values[~np.isfinite(values)] = np.nan
     return cls(values, crs, transform, None if nodata is None else float(nodata), str(path))
 
 
