@@ -71,6 +71,8 @@ def test_sicd_read_back_projects_the_target_onto_its_peak(outs):
     assert np.all(np.abs(peak - (rows, cols)) < 0.1), (peak, rows, cols)
     back = prod.image_to_ground(peak[0], peak[1], wgs84.cartesian_to_geodetic(outs[2])[2])
     assert np.linalg.norm(back - outs[2]) < 0.1 * min(prod.spacing)
+    print(f"SICD {prod.shape}, spacing {prod.spacing}: peak - projection {peak - (rows, cols)} px, "
+          f"image-to-ground {np.linalg.norm(back - outs[2]):.4f} m")
 
 
 def test_geotiff_opens_with_its_crs_and_puts_the_target_within_one_pixel(outs):
@@ -83,6 +85,7 @@ def test_geotiff_opens_with_its_crs_and_puts_the_target_within_one_pixel(outs):
     win = np.nan_to_num(ortho.values[int(r) - 3:int(r) + 4, int(c) - 3:int(c) + 4], nan=-1.0)
     i, j = np.unravel_index(np.argmax(win), win.shape)
     assert abs(int(r) - 3 + i - r) <= 1.0 and abs(int(c) - 3 + j - c) <= 1.0, (i, j, r, c)
+    print(f"GeoTIFF {ortho.shape} {ortho.crs}: peak - map position {int(r) - 3 + i - r:+.3f}, {int(c) - 3 + j - c:+.3f} px")
 
 
 def test_geotiff_refused_in_one_line_where_it_does_not_apply(outs, tmp_path, capsys, monkeypatch):

@@ -48,6 +48,8 @@ def test_image_geocoded_puts_each_scatterer_within_one_pixel(ground_scene, tmp_p
         lat, lon = ortho.latlon_of(*peak)
         d = wgs84.geodetic_to_cartesian([float(lat), float(lon), llh[k, 2]]) - g.truth[k]
         assert np.linalg.norm(d) < 0.6 * math.sqrt(2), d
+        print(f"scatterer {k}: peak - map position {peak[0] - rows[k]:+.3f}, {peak[1] - cols[k]:+.3f} px; "
+              f"peak centre {np.linalg.norm(d):.3f} m from the scatterer")
     # the amplitude at the scatterers is the image's (bilinear samples of |image| near its peaks)
     assert np.all(ortho.sample(llh[:, 0], llh[:, 1]) > 0.5 * np.abs(g.image.data).max())
 
