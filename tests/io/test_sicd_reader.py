@@ -151,3 +151,29 @@ def test_inconsistent_antenna_track_is_refused(written, tmp_path):
     bad = _edited(path, tmp_path / "moved.nitf", "Position.ARPPoly.X.Coef", repr(x0 + 2000.0))
     with pytest.raises(InputDataError, match="^sicd.Position.ARPPoly: .* SCPCOA.ARPPos"):
         read_sicd(bad)
+
+
+def test_projection_onto_a_dem_geotiff(written, tmp_path):
+    """The reference (b) chain: a SICD and a DEM GeoTIFF (EPSG:4326, a 3 % slope to the east with a void) -> each pixel
+    projected onto the terrain lies on the DEM's bilinear surface and projects back onto the same pixel."""
+    pytest.importorskip("rasterio")
+    from sarnav.io.geotiff import read_dem, write_geotiff
+
+    prod = read_sicd(written[0])
+    lat_top, lon_left, d = REF[0] + 0.002, REF[1] - 0.002, 2e-5
+    lat_c = lat_top - (np.arange(200) + 0.5) * d
+    lon_c = lon_left + (np.arange(200) + 0.5) * d
+    z = 40.0 + 0.03 * (lon_c[None, :] - REF[1]) * 92_500.0 + 0.0 * lat_c[:, None]
+    z[150:160, 150:160] = -9999.0
+    write_geotiff(tmp_path / "dem.tif", z.astype(np.float32), "EPSG:4326", (d, 0, lon_left, 0, -d, lat_top),
+                  nodata=-9999.0)
+    dem = read_dem(tmp_path / "dem.tif")
+    rows, cols = np.meshgrid([5.0, 35.0, 64.5], [3.0, 33.0, 60.0], indexing="ij")
+    pts = prod.image_to_ground(rows, cols, dem.height)
+    llh = wgs84.cartesian_to_geodetic(pts)
+    assert np.all(np.isfinite(pts)) and np.allclose(llh[..., 2], dem.height(llh[..., 0], llh[..., 1]), atol=2e-3)
+    assert np.ptp(llh[..., 2]) > 1.0                     # the terrain is not flat over the pixels
+    r2, c2 = prod.ground_to_image(pts)
+    assert np.allclose(r2, rows, atol=1e-3) and np.allclose(c2, cols, atol=1e-3)
+    outside = prod.image_to_ground(5.0, 3.0, lambda lat, lon: np.full(np.shape(lat), np.nan))
+    assert np.all(np.isnan(outside))

@@ -208,13 +208,17 @@ class SicdProduct:
         sets = skproj.compute_projection_sets(self.params, locs)
 
         def onto(h):
-            pts, _, _ = skproj.r_rdot_to_constant_hae_surface(self.params.LOOK, self.params.SCP, sets,
-                                                                np.broadcast_to(h, locs.shape[:-1]),
+            pts, _, _ = skproj.r_rdot_to_constant_hae_surface(self.params.LOOK, self.params.SCP, sets, h,
                                                                 delta_hae_max=tolerance, nlim=max_iterations)
             return np.asarray(pts, dtype=np.float64)
 
         if not callable(hae):
-            return onto(self.fields["scp_hae"] if hae is None else np.asarray(hae, dtype=np.float64))
+            h = np.asarray(self.fields["scp_hae"] if hae is None else hae, dtype=np.float64)
+            try:
+                h = np.broadcast_to(h, locs.shape[:-1])
+            except ValueError:
+                raise InputDataError("hae", f"must broadcast to the pixels' shape {locs.shape[:-1]}, got {h.shape}") from None
+            return onto(h)
         h = np.full(locs.shape[:-1], self.fields["scp_hae"])
         for _ in range(max_iterations):
             pts = onto(np.nan_to_num(h, nan=self.fields["scp_hae"]))
