@@ -95,4 +95,5 @@ def test_geotiff_refused_in_one_line_where_it_does_not_apply(outs, tmp_path, cap
     monkeypatch.setitem(sys.modules, "rasterio", None)                 # the extra not installed
     code = main(["image", str(outs[0] / "collect.cphd"), "--geotiff", "--out", str(tmp_path / "y")])
     err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and "pip install 'sarnav[geo]'" in err[0], err
+    assert code == 2 and len(err) == 1 and err[0].startswith("sarnav: error: --geotiff: ") and \
+        "pip install 'sarnav[geo]'" in err[0] and not (tmp_path / "y" / "image.npz").exists(), err

@@ -28,7 +28,7 @@ import numpy as np
 
 from sarnav.errors import InputDataError
 
-__all__ = ["GEO_EXTRA", "MAX_PIXELS", "DEM_HEIGHT_RANGE", "MAX_TILT_DEG", "Orthoimage", "Dem", "read_orthoimage", "read_dem",
+__all__ = ["check_geo_extra", "GEO_EXTRA", "MAX_PIXELS", "DEM_HEIGHT_RANGE", "MAX_TILT_DEG", "Orthoimage", "Dem", "read_orthoimage", "read_dem",
            "write_geotiff", "write_plane_geotiff", "utm_crs", "bilinear"]
 
 #: the install hint of the optional extra
@@ -41,14 +41,19 @@ MAX_TILT_DEG = 1.0
 DEM_HEIGHT_RANGE = (-11_500.0, 9_000.0)
 
 
-def rasterio_module():
-    """rasterio, or a one-line error naming the extra that installs it."""
+def rasterio_module(field: str = "geotiff"):
+    """rasterio, or a one-line error (naming ``field``) with the extra that installs it."""
     try:
         import rasterio
         import rasterio.warp  # noqa: F401
     except ImportError:
-        raise InputDataError("geotiff", f"reading and writing GeoTIFF needs rasterio: {GEO_EXTRA}") from None
+        raise InputDataError(field, f"reading and writing GeoTIFF needs rasterio: {GEO_EXTRA}") from None
     return rasterio
+
+
+def check_geo_extra(field: str = "geotiff") -> None:
+    """Raise the one-line error of :func:`rasterio_module` now when rasterio is missing (before an image is formed)."""
+    rasterio_module(field)
 
 
 def bilinear(values: np.ndarray, rows, cols) -> np.ndarray:

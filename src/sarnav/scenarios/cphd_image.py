@@ -101,6 +101,10 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
         raise ConfigError("FILE", f"{str(path)!r} is not a readable file")
     if algorithm not in ALGORITHMS:
         raise ConfigError("--algorithm", f"a CPHD is back-projected: must be one of {ALGORITHMS}, got {algorithm!r}")
+    if geotiff:
+        from sarnav.io.geotiff import check_geo_extra
+
+        check_geo_extra("--geotiff")
     rc, default = _read(path, filter_path)
     grid = _grid(default, spacing, extent)
     if sicd and spacing is None:      # the SICD's pixels spaced from its impulse-response bandwidth (sicdcheck: OSR)
