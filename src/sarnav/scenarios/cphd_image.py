@@ -113,7 +113,7 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
             raise ConfigError("--sicd", f"the resolution's spacing gives {grid.shape} pixels (at most {MAX_PIXELS:.3g}): "
                               "give --spacing or a smaller --extent")
     options = {"algorithm": algorithm, "spacing": spacing, "extent": extent, "window": window,
-               "filter": str(filter_path), "sicd": sicd, "geotiff": geotiff}
+               "filter": str(filter_path), "sicd": sicd, **({"geotiff": True} if geotiff else {})}
     with OutputFolder(out, _identity(path, options), overwrite=overwrite):
         img, figures, metrics = run_collect_image(rc, grid, algorithm, window, window_field="--window")
         report = {"source": str(path), **metrics}
