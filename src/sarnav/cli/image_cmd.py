@@ -1,7 +1,8 @@
 """``sarnav image SCENARIO|FILE.toml|FILE.cphd``: simulate one block of echoes and focus it (RDA or BPA, optional
 autofocus), or form an image from a CPHD file (BPA or FFBP); write ``image.npz``, ``image.png`` and ``metrics.json``
 to ``--out`` (default ``./sarnav-out/image-<name>/``), with ``--cphd`` the simulated collect as ``collect.cphd``, with
-``--sicd`` the back-projected image as ``image.nitf``. Parses and prints only: the work is
+``--sicd`` the back-projected image as ``image.nitf``, with ``--geotiff`` (FILE.cphd) the image geocoded as
+``image.tif``. Parses and prints only: the work is
 ``sarnav.scenarios.imaging.run_image`` and ``sarnav.scenarios.cphd_image.run_cphd_image``."""
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--out", help=f"output directory (default: ./{DEFAULT_OUT_ROOT}/image-<name>)")
     p.add_argument("--cphd", action="store_true", help="also write the simulated collect as OUT/collect.cphd")
     p.add_argument("--sicd", action="store_true", help="also write the back-projected image as OUT/image.nitf (SICD)")
+    p.add_argument("--geotiff", action="store_true", help="FILE.cphd: also write the image geocoded as OUT/image.tif "
+                   "(GeoTIFF: |image| on a UTM map, nodata NaN; needs sarnav[geo])")
     p.add_argument("--spacing", metavar="M", help="FILE.cphd: pixel spacing [m] on the file's image plane "
                    "(default: its image grid)")
     p.add_argument("--extent", metavar="X[,Y]", help="FILE.cphd: image size [m] along the file's uIAX, uIAY about "
@@ -50,7 +53,8 @@ def _cphd(args) -> int:
     path = Path(args.scenario)
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{path.stem}"
     report = run_cphd_image(path, out, algorithm=args.algorithm or "bpa", spacing=args.spacing, extent=args.extent,
-                            window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite)
+                            window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite,
+                            geotiff=args.geotiff)
     shape = report["image_shape"]
     print(f"{path.name}: {report['algorithm']} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses -> {out}")
     return 0
@@ -64,7 +68,8 @@ def run(args) -> int:
 
     if is_cphd(args.scenario):
         return _cphd(args)
-    for flag, given in (("--spacing", args.spacing), ("--extent", args.extent), ("--filter", args.filter)):
+    for flag, given in (("--spacing", args.spacing), ("--extent", args.extent), ("--filter", args.filter),
+                        ("--geotiff", args.geotiff or None)):
         if given is not None:
             raise ConfigError(flag, "applies to a CPHD file (sarnav image FILE.cphd), not to a simulated scenario")
     if args.algorithm == "ffbp":

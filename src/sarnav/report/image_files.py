@@ -72,16 +72,20 @@ def write_image_png(img, path, title: str) -> Path:
 
 
 def write_image_files(out, img, figures, metrics: dict, title: str, *, speed: float, scenario_toml: str = "",
-                      sicd=None) -> None:
+                      sicd=None, geotiff=None) -> None:
     """``image.npz`` (radar ``figures``: carrier_frequency, bandwidth, prf, wavelength), with ``sicd`` (an
     ``io.sicd.SicdGeometry``) the image as SICD ``image.nitf``, ``metrics.json`` and ``image.png`` (``title``) in
-    ``out``."""
+    ``out``; with ``geotiff`` (the image's ``PlaneGrid`` in ECEF, a ground plane) the image geocoded as ``image.tif``."""
     from sarnav.io.sicd import write_image  # sarkit, imported when a file needs it
 
     out = Path(out)
     write_image_npz(img, figures, out / "image.npz", speed=speed, scenario_toml=scenario_toml)
     if sicd is not None:
         write_image(out / "image.nitf", img, sicd)
+    if geotiff is not None:
+        from sarnav.io.geotiff import write_plane_geotiff  # rasterio (sarnav[geo]), imported when a file needs it
+
+        write_plane_geotiff(out / "image.tif", img.data, geotiff)
     write_json(metrics, out / "metrics.json")
     write_image_png(img, out / "image.png", title)
 

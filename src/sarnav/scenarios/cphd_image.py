@@ -6,7 +6,9 @@ frequency samples, ``io.cphd.read_filter``) and formed by ``imaging.collect_imag
 and the image's metrics) onto a plane grid: the file's image grid by default, or the same plane resampled with
 ``spacing`` / ``extent`` (``imaging.grid.PlaneGrid.resampled``).
 Written into ``out`` by ``report.image_files.write_image_files``: ``image.npz``, ``image.png``, ``metrics.json`` (as
-for a scenario) and, with ``sicd``, the image as SICD ``image.nitf``. Bad input is one line naming the flag or the
+for a scenario), with ``sicd`` the image as SICD ``image.nitf`` (without ``spacing``: on the same extent at the
+spacing of its impulse-response bandwidth, ``io.sicd.SicdGeometry.at_resolution``), with ``geotiff`` the image
+geocoded as ``image.tif`` (``io.geotiff.write_plane_geotiff``). Bad input is one line naming the flag or the
 file's field.
 """
 
@@ -87,7 +89,7 @@ def _identity(path: Path, options: dict) -> dict:
 
 
 def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=None, window: str | None = None,
-                   filter_path=None, sicd: bool = False, overwrite: bool = False) -> dict:
+                   filter_path=None, sicd: bool = False, overwrite: bool = False, geotiff: bool = False) -> dict:
     """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics."""
     from sarnav.imaging.collect_image import run_collect_image
     from sarnav.io.sicd import SicdGeometry
@@ -99,16 +101,25 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
         raise ConfigError("FILE", f"{str(path)!r} is not a readable file")
     if algorithm not in ALGORITHMS:
         raise ConfigError("--algorithm", f"a CPHD is back-projected: must be one of {ALGORITHMS}, got {algorithm!r}")
+    if geotiff:
+        from sarnav.io.geotiff import check_geo_extra
+
+        check_geo_extra("--geotiff")
     rc, default = _read(path, filter_path)
     grid = _grid(default, spacing, extent)
+    if sicd and spacing is None:      # the SICD's pixels spaced from its impulse-response bandwidth (sicdcheck: OSR)
+        grid = SicdGeometry.of_collect(grid, rc).at_resolution().grid
+        if grid.shape[0] * grid.shape[1] > MAX_PIXELS:
+            raise ConfigError("--sicd", f"the resolution's spacing gives {grid.shape} pixels (at most {MAX_PIXELS:.3g}): "
+                              "give --spacing or a smaller --extent")
     options = {"algorithm": algorithm, "spacing": spacing, "extent": extent, "window": window,
-               "filter": str(filter_path), "sicd": sicd}
+               "filter": str(filter_path), "sicd": sicd, **({"geotiff": True} if geotiff else {})}
     with OutputFolder(out, _identity(path, options), overwrite=overwrite):
         img, figures, metrics = run_collect_image(rc, grid, algorithm, window, window_field="--window")
         report = {"source": str(path), **metrics}
-        if sicd:
-            report["files"] = ["image.nitf"]
+        if sicd or geotiff:
+            report["files"] = [name for name, on in (("image.nitf", sicd), ("image.tif", geotiff)) if on]
         geometry = SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength, figures.bandwidth) if sicd else None
         write_image_files(out, img, figures, report, f"{path.name}: {algorithm.upper()}", speed=figures.speed,
-                          sicd=geometry)
+                          sicd=geometry, geotiff=grid if geotiff else None)
         return report
