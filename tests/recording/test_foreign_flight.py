@@ -152,3 +152,19 @@ def test_twenty_foreign_recordings_are_consistent(tmp_path):
         assert lo <= st["per_dof"] <= hi, st
     assert outside <= 1
     assert math.isfinite(ne["fraction_in_band"])
+
+
+def test_a_wrong_radar_clock_offset_skips_the_apertures_and_flies_on(one, tmp_path):
+    """A radar clock offset misstated by half a second puts every aperture across two navigation intervals: each is
+    skipped and recorded with its reason, the flight goes on with the INS, the altimeter and GNSS (never an abort)."""
+    import shutil
+    root, _, _, _ = one
+    folder = tmp_path / "rec"
+    shutil.copytree(root / "rec", folder)
+    text = (folder / "flight.toml").read_text()
+    (folder / "flight.toml").write_text(text.replace("radar_clock_offset_s = 0.25", "radar_clock_offset_s = 0.75"))
+    code = main(["navigate", str(folder), "--out", str(tmp_path / "out"), "--quiet", "--no-report"])
+    assert code == 0
+    rows = (tmp_path / "out" / "updates.csv").read_text().splitlines()[1:]
+    assert len(rows) == 10 and all("skipped: its pulses [" in r and "not inside one navigation interval" in r
+                                   for r in rows)
