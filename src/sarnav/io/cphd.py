@@ -30,10 +30,11 @@ from sarnav.signal.phase_history import (PhaseHistory, default_range_axis, phase
                                          pulses_to_phase_history)
 from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
-from sarnav.io.cphd_read import DEFAULT_BUDGET, MAX_GRID_AXIS, conversion_bytes, need, open_collect
+from sarnav.io.cphd_read import DEFAULT_BUDGET, MAX_GRID_AXIS, CphdCollect, conversion_bytes, need, open_collect
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
-__all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "CPHD_NS"]
+__all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "collect_grid",
+           "open_collect", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.0.1"
 _C = 299792458.0
@@ -275,6 +276,12 @@ def _default_grid(xml, srp) -> PlaneGrid:
         lines = np.arange(x1y1[0], x2y2[0] + 0.5 * sp, sp)
         samples = np.arange(x1y1[1], x2y2[1] + 0.5 * sp, sp)
     return PlaneGrid(iarp, uiax, uiay, lines, samples, "iax", "iay")
+
+
+def collect_grid(c: CphdCollect) -> PlaneGrid:
+    """The default image grid of the opened collect ``c`` (``io.cphd_read.open_collect``): its SceneCoordinates
+    ImageGrid, else its ImageArea at c / (2 FxBW), in ECEF (:func:`read_collect`)."""
+    return _default_grid(c.xml, c.srp)
 
 
 def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None, channel=None, pulses=None,

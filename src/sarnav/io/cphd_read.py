@@ -311,7 +311,7 @@ def _vectors(pulses, n_vec: int) -> tuple[int, int]:
     if pulses is None:
         return 0, n_vec
     try:
-        a, b = (int(pulses[0]), int(pulses[1]))
+        a, b = int(pulses[0]), (n_vec if pulses[1] is None else int(pulses[1]))
     except (TypeError, ValueError, IndexError):
         raise ConfigError("pulses", f"must be (start, stop) vector indices, got {pulses!r}") from None
     if not 0 <= a < b <= n_vec:
@@ -332,7 +332,7 @@ def _read_pvps(path, ch: str, a: int, b: int) -> np.ndarray:
 
 def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> CphdCollect:
     """The checked header and PVPs of channel ``channel`` (identifier; default the first) of the CPHD ``path``,
-    vectors ``pulses = (start, stop)`` (default all); ``tropo`` one of :data:`TROPO` (module doc). Raises
+    vectors ``pulses = (start, stop)`` (default all; stop None: to the end); ``tropo`` one of :data:`TROPO` (module doc). Raises
     InputDataError naming the file's field, ConfigError naming ``channel`` / ``pulses`` / ``tropo``."""
     if tropo not in TROPO:
         raise ConfigError("tropo", f"must be one of {TROPO}, got {tropo!r}")
@@ -344,6 +344,8 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
         raise InputDataError("cphd.Global.DomainType", f"must be 'FX' (frequency-domain vectors; TOA-domain files "
                              f"are not read), got {dom!r}")
     comp = tree.findtext("./{*}Data/{*}SignalCompressionID")
+    if comp is None and tree.find("./{*}Data/{*}Channel/{*}CompressedSignalSize") is not None:
+        comp = "(CompressedSignalSize given)"
     if comp is not None:
         raise InputDataError("cphd.Data.SignalCompressionID", f"compressed signal arrays are not read (the "
                              f"compression is vendor-defined; an uncompressed array is required), got {comp!r}")
@@ -368,7 +370,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
     pvp = _read_pvps(path, ch, a, b)
     _check_pvps(pvp, a)
     _check_band(pvp, n_samp, fxc)
-    _check_monostatic(pvp, fxc, a)
     c = CphdCollect(path, ch, a, b, n_samp, fmt, int(sgn), fxc, fxbw, pvp, xml, tropo)
     _check_span(c)
+    _check_monostatic(pvp, fxc, a)
     return c

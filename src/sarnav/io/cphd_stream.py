@@ -7,7 +7,7 @@ on the one range axis of the whole selection (``signal.phase_history.default_ran
 axis for every block), imaged and added. The block size is the largest whose estimated peak fits the budget
 (:func:`stream_plan`: the fixed part, i.e. PVPs and the image, plus ``block`` times the bytes of one vector's read,
 conversion and imaging); the blocks are then balanced. The interpolation of back-projection is chosen once for all
-blocks, from the band of up to 64 vectors in the middle of the selection, so that the image does not depend on the
+blocks, from the band of 8 vectors in the middle of the selection, so that the image does not depend on the
 budget (only the float64 summation order does).
 """
 
@@ -31,7 +31,8 @@ __all__ = ["image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET"]
 _C = 299792458.0
 _FFBP_UPSAMPLE = 8                 # ffbp's default level-0 range upsampling
 _PIXEL_BYTES = {"bpa": 64, "ffbp": 192}   # accumulator, the former's outputs (and FFBP's polar images) per pixel
-_FIXED_BYTES = 16 * 2**20          # small arrays, the middle block's band estimate, slack
+_FIXED_BYTES = 4 * 2**20           # small arrays, slack
+_BAND_VECTORS = 8                  # vectors in the middle of the selection whose spectrum gives the band
 
 
 class StreamPlan:
@@ -123,8 +124,8 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
     _check_aperture(c)
     axis = default_range_axis(c.header(), oversample) if range_axis is None else np.asarray(range_axis, np.float64)
     p = c.n_pulses
-    k0 = max(0, p // 2 - 32)
-    mid = _pulses(c, k0, min(p, k0 + 64), axis, filter)        # the band, once for all blocks
+    k0 = max(0, p // 2 - _BAND_VECTORS // 2)
+    mid = _pulses(c, k0, min(p, k0 + _BAND_VECTORS), axis, filter)        # the band, once for all blocks
     figures = _figures(c, mid)
     mode, up = ("upsample", _FFBP_UPSAMPLE) if algorithm == "ffbp" else \
         resolve_interpolation(mid, "auto", 4, figures.bandwidth)
