@@ -245,13 +245,13 @@ def _check_band(pvp: np.ndarray, n: int, fxc: float) -> None:
         bad = ~(v > 0)
         if bad.any():
             k = int(np.argmax(bad))
-            raise InputDataError(f"cphd.PVP.{name}", f"must be > 0 Hz (FX domain), got {v[k]!r} in vector {k}")
+            raise InputDataError(f"cphd.PVP.{name}", f"must be > 0 Hz (FX domain), got {float(v[k])!r} in vector {k}")
     top = sc0 + (n - 1) * scss
     bad = ~(top < 2.0 * fxc)
     if bad.any():
         k = int(np.argmax(bad))
         raise InputDataError("cphd.PVP.SCSS", f"the {n} samples of vector {k} reach {top[k]:.4g} Hz: SC0 + (N - 1) "
-                             f"SCSS must stay below 2 FxC = {2 * fxc:.4g} Hz, got SCSS = {scss[k]!r}")
+                             f"SCSS must stay below 2 FxC = {2 * fxc:.4g} Hz, got SCSS = {float(scss[k])!r}")
     bad = ~(pvp["TOA2"] > pvp["TOA1"])
     if bad.any():
         raise InputDataError("cphd.PVP.TOA2", f"must be > TOA1 in every vector (vector {int(np.argmax(bad))})")
@@ -298,11 +298,12 @@ def _check_span(c: CphdCollect) -> None:
     for name in ("TxPos", "RcvPos", "SRPPos", "TOA1", "TOA2", "TDTropoSRP"):
         if name not in p.dtype.names:
             continue
-        v = np.asarray(p[name], np.float64).reshape(len(p), -1) * (0.5 * _C if name[0] == "T" else 1.0)
+        v = np.asarray(p[name], np.float64).reshape(len(p), -1) * (1.0 if name.endswith("Pos") else 0.5 * _C)
         dev = np.linalg.norm(v - np.median(v, axis=0), axis=1)
         jumps[name] = (float(dev.max()), int(np.argmax(dev)))
     name, (dev, k) = max(jumps.items(), key=lambda kv: kv[1][0])
-    raise InputDataError(f"cphd.PVP.{name}", f"vector {c.start + k} lies {dev:.4g} m (of range) from the others: "
+    raise InputDataError(f"cphd.PVP.{name}", f"vector {c.start + k} is {dev:.4g} m from the others' median (times "
+                         f"as c t / 2): "
                          f"the vectors' range windows span {span:.3g} samples, at most {MAX_SPAN} N = {MAX_SPAN * n} "
                          "(a corrupted vector: read a range of vectors without it)")
 
