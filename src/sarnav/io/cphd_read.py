@@ -72,7 +72,7 @@ def conversion_bytes(n: int, m: int, raw_itemsize: int) -> int:
     (``signal.phase_history.phase_history_to_pulses``): the raw and complex samples, the pre-twiddle and its
     cycles, the chirp-z transform's FFTs (length next power of 2 >= N + M) and the post-twiddle (an upper bound)."""
     fft = 1 << int(math.ceil(math.log2(n + m)))
-    return int(n * (raw_itemsize + 16 + 16 + 16 + 24 + 16) + 48 * fft + m * (16 + 24 + 16 + 8 + 3))
+    return int(n * (raw_itemsize + 100) + 48 * fft + m * 88)
 
 
 def _field(path: str) -> str:

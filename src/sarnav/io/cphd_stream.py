@@ -31,7 +31,7 @@ __all__ = ["image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET"]
 _C = 299792458.0
 _FFBP_UPSAMPLE = 8                 # ffbp's default level-0 range upsampling
 _PIXEL_BYTES = {"bpa": 64, "ffbp": 192}   # accumulator, the former's outputs (and FFBP's polar images) per pixel
-_FIXED_BYTES = 4 * 2**20           # small arrays, slack
+_FIXED_BYTES = 2**20               # small arrays, slack
 _BAND_VECTORS = 8                  # vectors in the middle of the selection whose spectrum gives the band
 
 
@@ -72,7 +72,9 @@ def stream_plan(c: CphdCollect, m: int, pixels: int, algorithm: str, upsample: i
     ConfigError naming ``budget_field`` when not even the smallest block fits."""
     budget = _check_budget(budget, budget_field)
     up = _FFBP_UPSAMPLE if algorithm == "ffbp" else (upsample or 0)
-    per = conversion_bytes(c.n_samples, m, c.raw_itemsize) + 16 * m + 24 * m + 48 * up * m
+    # the block's pulses (M complex128) stay while the next stage runs: the read and conversion, then the former's
+    # complex64 copy, its FFT upsampling (spectrum, up x M, in place) and its padded copy (up x M)
+    per = 16 * m + max(conversion_bytes(c.n_samples, m, c.raw_itemsize), 32 * m + 24 * up * m)
     fixed = _FIXED_BYTES + _PIXEL_BYTES[algorithm] * pixels + 8 * c.pvp.nbytes
     least = 2 if algorithm == "ffbp" else 1
     fit = int((budget - fixed) // per)
