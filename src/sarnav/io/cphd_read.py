@@ -50,6 +50,8 @@ TROPO = ("in-data", "compensated")
 MAX_SPAN = 16
 #: the most lines or samples of the file's image grid (its axes only are made: 8 MiB each)
 MAX_GRID_AXIS = 2**20
+#: the largest sample magnitude (AmpSF applied) and AmpSF read: back-projection sums complex64 samples (max 3.4e38)
+MAX_SAMPLE = 1e30
 #: the default memory budget of a read or an image [bytes] (1 GiB)
 DEFAULT_BUDGET = 2**30
 _REQUIRED_PVPS = ("TxTime", "TxPos", "RcvPos", "SRPPos", "SC0", "SCSS", "TOA1", "TOA2")
@@ -60,7 +62,7 @@ def need(xml, path: str, what: str):
     """The value at ``path`` of the XML helper ``xml``, or InputDataError naming it (``cphd.A.B``)."""
     try:
         v = xml.load(path)
-    except (ValueError, TypeError, AttributeError) as err:
+    except Exception as err:  # noqa: BLE001 - a corrupt text raises ValueError, TypeError, IndexError, lxml's...
         raise InputDataError(_field(path), f"unreadable {what} ({type(err).__name__}: {str(err)[:80]})") from None
     if v is None:
         raise InputDataError(_field(path), f"missing required {what}")
@@ -163,6 +165,10 @@ class CphdCollect:
         bad = ~np.isfinite(sig).all(axis=1)
         if bad.any():
             raise InputDataError("cphd.Signal", f"must be finite: NaN/inf in vector {self.start + k0 + int(np.argmax(bad))}")
+        bad = ~(np.abs(sig) < MAX_SAMPLE).all(axis=1)
+        if bad.any():
+            raise InputDataError("cphd.Signal", f"must be below {MAX_SAMPLE:.0e} in magnitude (AmpSF applied; the "
+                                 f"imaging sums in single precision): vector {self.start + k0 + int(np.argmax(bad))}")
         return sig
 
     def phase_history(self, k0: int = 0, k1: int | None = None) -> PhaseHistory:
@@ -231,8 +237,18 @@ def _check_sizes(size: int, kvp: dict, xml, ch: str, n_vec: int, n_samp: int, fm
         sig0 = int(kvp["SIGNAL_BLOCK_BYTE_OFFSET"]) + int(need(xml, base + "SignalArrayByteOffset", "offset"))
         pvp0 = int(kvp["PVP_BLOCK_BYTE_OFFSET"]) + int(need(xml, base + "PVPArrayByteOffset", "offset"))
         per_pvp = int(need(xml, "./{*}Data/{*}NumBytesPVP", "PVP size"))
+    except InputDataError:
+        raise
     except (KeyError, ValueError, TypeError) as err:
         raise InputDataError("cphd", f"file header without the block offsets ({type(err).__name__}: {err})") from None
+    try:
+        layout = skcphd.get_pvp_dtype(xml.element_tree).itemsize
+    except Exception as err:  # noqa: BLE001 - offsets, sizes or formats that make no dtype
+        raise InputDataError("cphd.PVP", f"the per-vector parameters' layout is unreadable ({type(err).__name__}: "
+                             f"{str(err)[:80]})") from None
+    if not 0 < layout <= per_pvp:
+        raise InputDataError("cphd.Data.NumBytesPVP", f"must hold the PVP fields' {layout} bytes per vector (offsets "
+                             f"and sizes of the PVP block), got {per_pvp}")
     for end in (sig0 + n_vec * n_samp * itemsize, pvp0 + n_vec * per_pvp):
         if sig0 < 0 or pvp0 < 0 or end > size:
             raise InputDataError("cphd.Data.Channel.NumVectors", f"{n_vec} vectors x {n_samp} samples ({fmt}) need "
@@ -259,11 +275,22 @@ def _check_band(pvp: np.ndarray, n: int, fxc: float) -> None:
 
 def _check_pvps(pvp: np.ndarray, start: int) -> None:
     for name in _FINITE_PVPS:
+        if name in pvp.dtype.names:
+            dt = pvp.dtype[name]
+            want = (3,) if name.endswith("Pos") else ()
+            if dt.shape != want or dt.base.kind != "f":
+                raise InputDataError(f"cphd.PVP.{name}", f"must be {'X=F8;Y=F8;Z=F8;' if want else 'F8'}, got a "
+                                     f"{dt.base} field of shape {dt.shape}")
+    for name in _FINITE_PVPS:
         if name not in pvp.dtype.names:
             continue
         bad = ~np.isfinite(np.asarray(pvp[name], dtype=np.float64).reshape(len(pvp), -1)).all(axis=1)
         if bad.any():
             raise InputDataError(f"cphd.PVP.{name}", f"must be finite: NaN/inf in vector {start + int(np.argmax(bad))}")
+    if "AmpSF" in pvp.dtype.names and not np.all(np.abs(pvp["AmpSF"]) < MAX_SAMPLE):
+        k = int(np.argmax(~(np.abs(pvp["AmpSF"]) < MAX_SAMPLE)))
+        raise InputDataError("cphd.PVP.AmpSF", f"must be below {MAX_SAMPLE:.0e} in magnitude, got "
+                             f"{float(pvp['AmpSF'][k])!r} in vector {start + k}")
     if np.any(np.diff(pvp["TxTime"]) < 0):
         k = int(np.argmax(np.diff(pvp["TxTime"]) < 0)) + 1
         raise InputDataError("cphd.PVP.TxTime", f"must not decrease from vector to vector (vector {start + k})")
