@@ -34,7 +34,7 @@ from sarnav.io.cphd_read import DEFAULT_BUDGET, MAX_GRID_AXIS, CphdCollect, conv
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
 __all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "collect_grid",
-           "open_collect", "CPHD_NS"]
+           "read_collect_header", "open_collect", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.0.1"
 _C = 299792458.0
@@ -282,6 +282,13 @@ def collect_grid(c: CphdCollect) -> PlaneGrid:
     """The default image grid of the opened collect ``c`` (``io.cphd_read.open_collect``): its SceneCoordinates
     ImageGrid, else its ImageArea at c / (2 FxBW), in ECEF (:func:`read_collect`)."""
     return _default_grid(c.xml, c.srp)
+
+
+def read_collect_header(path, *, channel=None, pulses=None, tropo: str = "in-data") -> tuple[CphdCollect, PlaneGrid]:
+    """(the checked header and PVPs of ``path``'s channel and vectors, ``io.cphd_read.open_collect``; its default
+    image grid, :func:`collect_grid`): what ``io.cphd_stream.image_collect`` images, nothing of the signal read."""
+    c = open_collect(path, channel=channel, pulses=pulses, tropo=tropo)
+    return c, collect_grid(c)
 
 
 def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None, channel=None, pulses=None,

@@ -26,7 +26,7 @@ from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.phase_history import default_range_axis, phase_history_to_pulses
 from sarnav.signal.windows import as_window
 
-__all__ = ["image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET"]
+__all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET"]
 
 _C = 299792458.0
 _FFBP_UPSAMPLE = 8                 # ffbp's default level-0 range upsampling
@@ -161,3 +161,7 @@ class _Shape:
         self.n_pulses = n_pulses
         self.data = np.broadcast_to(np.zeros((), np.complex64), (n_pulses, n_range))
         self.carrier_wavelength = wavelength
+
+
+#: :func:`image_collect` under an entry point's name (``sarnav image FILE.cphd`` wires it: tests/test_structure.py)
+run_image_collect = image_collect

@@ -107,23 +107,21 @@ def parse_budget(value) -> float:
 
 
 def _open(path: Path, channel, pulses, tropo):
-    from sarnav.io.cphd import collect_grid
-    from sarnav.io.cphd_read import open_collect
+    from sarnav.io.cphd import read_collect_header
 
     try:
-        c = open_collect(path, channel=channel, pulses=pulses, tropo=tropo)
+        return read_collect_header(path, channel=channel, pulses=pulses, tropo=tropo)
     except ConfigError as err:
         raise ConfigError(_FLAGS.get(err.field, err.field), err.message) from None
-    return c, collect_grid(c)
 
 
 def _form(c, grid, algorithm, window, filter_path, budget):
     from sarnav.io.cphd import read_filter
-    from sarnav.io.cphd_stream import image_collect
+    from sarnav.io.cphd_stream import run_image_collect
 
     h = None if filter_path is None else read_filter(filter_path, "--filter")
     try:
-        return image_collect(c, grid, algorithm, window=window, window_field="--window", filter=h, budget=budget,
+        return run_image_collect(c, grid, algorithm, window=window, window_field="--window", filter=h, budget=budget,
                              budget_field="--budget")
     except InputDataError as err:   # the filter's length against the collect's frequency samples
         if err.field in ("phase_history.data", "filter") and filter_path is not None:
