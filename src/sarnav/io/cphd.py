@@ -238,6 +238,7 @@ def read_phase_history(path, *, channel=None, pulses=None, tropo: str = "in-data
 
 def _grid_axis(xml, g: str, ext: str, spacing: str, first: str, num: str, loc: float) -> np.ndarray:
     sp = need(xml, g + f"{ext}/{{*}}{spacing}", "grid spacing")
+    sp = float(sp) if isinstance(sp, (int, float)) else sp
     if not (isinstance(sp, float) and math.isfinite(sp) and sp > 0):
         raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{spacing}", f"must be finite and > 0 m, got {sp!r}")
     n = need(xml, g + f"{ext}/{{*}}{num}", "grid size")

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,6 +35,8 @@ import numpy as np
 import sarkit.cphd as skcphd
 
 from sarnav.errors import ConfigError, InputDataError
+from sarnav.io.cphd_checks import (MAX_SAMPLE, MAX_SPAN, XmlValues, check_band, check_monostatic, check_pvps,
+                                   check_span, field_name, need)
 from sarnav.signal.phase_history import PhaseHistory
 
 __all__ = ["CphdCollect", "open_collect", "conversion_bytes", "DEFAULT_BUDGET", "TROPO", "SIGNAL_FORMATS", "MAX_SPAN", "MAX_GRID_AXIS", "need"]
@@ -46,27 +47,11 @@ SIGNAL_FORMATS = {"CI2": np.complex64, "CI4": np.complex64, "CI8": np.complex128
                   "CF8": np.complex64, "CF16": np.complex128}
 #: readings of TDTropoSRP (module doc); the first is the default
 TROPO = ("in-data", "compensated")
-#: the vectors' range windows may span at most this many times N samples (a real collect: ~1-2)
-MAX_SPAN = 16
 #: the most lines or samples of the file's image grid (its axes only are made: 8 MiB each)
 MAX_GRID_AXIS = 2**20
-#: the largest sample magnitude (AmpSF applied) and AmpSF read: back-projection sums complex64 samples (max 3.4e38)
-MAX_SAMPLE = 1e30
 #: the default memory budget of a read or an image [bytes] (1 GiB)
 DEFAULT_BUDGET = 2**30
 _REQUIRED_PVPS = ("TxTime", "TxPos", "RcvPos", "SRPPos", "SC0", "SCSS", "TOA1", "TOA2")
-_FINITE_PVPS = _REQUIRED_PVPS + ("AmpSF", "TDTropoSRP")
-
-
-def need(xml, path: str, what: str):
-    """The value at ``path`` of the XML helper ``xml``, or InputDataError naming it (``cphd.A.B``)."""
-    try:
-        v = xml.load(path)
-    except Exception as err:  # noqa: BLE001 - a corrupt text raises ValueError, TypeError, IndexError, lxml's...
-        raise InputDataError(_field(path), f"unreadable {what} ({type(err).__name__}: {str(err)[:80]})") from None
-    if v is None:
-        raise InputDataError(_field(path), f"missing required {what}")
-    return v
 
 
 def conversion_bytes(n: int, m: int, raw_itemsize: int) -> int:
@@ -75,10 +60,6 @@ def conversion_bytes(n: int, m: int, raw_itemsize: int) -> int:
     cycles, the chirp-z transform's FFTs (length next power of 2 >= N + M) and the post-twiddle (an upper bound)."""
     fft = 1 << int(math.ceil(math.log2(n + m)))
     return int(n * (raw_itemsize + 100) + 48 * fft + m * 88)
-
-
-def _field(path: str) -> str:
-    return "cphd." + re.sub(r"\[[^]]*\]", "", path).replace("./{*}", "").replace("/{*}", ".")
 
 
 @dataclass
@@ -95,8 +76,9 @@ class CphdCollect:
     fxc: float                       # Channel.Parameters.FxC [Hz]
     fxbw: float                      # Channel.Parameters.FxBW [Hz]
     pvp: np.ndarray                  # the selected vectors' PVPs
-    xml: object = field(repr=False)  # sarkit XmlHelper
+    xml: object = field(repr=False)  # the XML's values (io.cphd_checks.XmlValues: load(path), element_tree)
     tropo: str = "in-data"
+    signal_offset: int = 0           # byte offset of the channel's vector 0 in the file
 
     @property
     def n_pulses(self) -> int:
@@ -147,11 +129,17 @@ class CphdCollect:
 
     def read_signal(self, k0: int, k1: int) -> np.ndarray:
         """(k1 - k0, N) complex samples of vectors k0..k1 of the selection, AmpSF applied (only these are read)."""
+        raw_dtype = skcphd.binary_format_string_to_dtype(self.signal_format).newbyteorder(">")
+        count = (k1 - k0) * self.n_samples
         try:
-            with open(self.path, "rb") as f, skcphd.Reader(f) as r:
-                raw = r.read_signal(self.channel, start_vector=self.start + k0, stop_vector=self.start + k1)
+            with open(self.path, "rb") as f:
+                f.seek(self.signal_offset + (self.start + k0) * self.n_samples * raw_dtype.itemsize)
+                raw = np.fromfile(f, dtype=raw_dtype, count=count)
         except OSError as err:
             raise InputDataError("cphd", f"cannot read {str(self.path)!r}: {err.strerror or err}") from None
+        if raw.size != count:
+            raise InputDataError("cphd.Data.Channel.NumVectors", f"the file ends before vector {self.start + k1}")
+        raw = raw.reshape(k1 - k0, self.n_samples)
         dtype = SIGNAL_FORMATS[self.signal_format]
         if raw.dtype.names:                                    # CIn: (real, imag) integers
             sig = np.empty(raw.shape, dtype)
@@ -203,7 +191,7 @@ def _header(path: Path):
 def _int(xml, path: str, lo: int, hi: int) -> int:
     v = need(xml, path, "integer")
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
-        raise InputDataError(_field(path), f"must be an integer in [{lo}, {hi}], got {v!r}")
+        raise InputDataError(field_name(path), f"must be an integer in [{lo}, {hi}], got {v!r}")
     return int(v)
 
 
@@ -212,9 +200,9 @@ def _positive(xml, path: str, unit: str) -> float:
     try:
         v = float(v)
     except (TypeError, ValueError):
-        raise InputDataError(_field(path), f"must be a number [{unit}], got {v!r}") from None
+        raise InputDataError(field_name(path), f"must be a number [{unit}], got {v!r}") from None
     if not (math.isfinite(v) and v > 0):
-        raise InputDataError(_field(path), f"must be finite and > 0 {unit}, got {v!r}")
+        raise InputDataError(field_name(path), f"must be finite and > 0 {unit}, got {v!r}")
     return v
 
 
@@ -229,7 +217,7 @@ def _channel(xml, tree, channel) -> str:
     return str(channel)
 
 
-def _check_sizes(size: int, kvp: dict, xml, ch: str, n_vec: int, n_samp: int, fmt: str) -> None:
+def _check_sizes(size: int, kvp: dict, xml, ch: str, n_vec: int, n_samp: int, fmt: str):
     """The file holds the channel's signal array and PVPs (a header claiming 10^9 vectors is refused unread)."""
     base = f"./{{*}}Data/{{*}}Channel[{{*}}Identifier='{ch}']/{{*}}"
     itemsize = skcphd.binary_format_string_to_dtype(fmt).itemsize
@@ -239,10 +227,11 @@ def _check_sizes(size: int, kvp: dict, xml, ch: str, n_vec: int, n_samp: int, fm
         per_pvp = int(need(xml, "./{*}Data/{*}NumBytesPVP", "PVP size"))
     except InputDataError:
         raise
-    except (KeyError, ValueError, TypeError) as err:
+    except (KeyError, ValueError, TypeError, OverflowError) as err:
         raise InputDataError("cphd", f"file header without the block offsets ({type(err).__name__}: {err})") from None
     try:
-        layout = skcphd.get_pvp_dtype(xml.element_tree).itemsize
+        dt = skcphd.get_pvp_dtype(xml.element_tree).newbyteorder(">")
+        layout = dt.itemsize
     except Exception as err:  # noqa: BLE001 - offsets, sizes or formats that make no dtype
         raise InputDataError("cphd.PVP", f"the per-vector parameters' layout is unreadable ({type(err).__name__}: "
                              f"{str(err)[:80]})") from None
@@ -253,86 +242,10 @@ def _check_sizes(size: int, kvp: dict, xml, ch: str, n_vec: int, n_samp: int, fm
         if sig0 < 0 or pvp0 < 0 or end > size:
             raise InputDataError("cphd.Data.Channel.NumVectors", f"{n_vec} vectors x {n_samp} samples ({fmt}) need "
                                  f"{end:,} bytes, the file has {size:,}: a truncated file or a corrupt header")
-
-
-def _check_band(pvp: np.ndarray, n: int, fxc: float) -> None:
-    sc0, scss = pvp["SC0"], pvp["SCSS"]
-    for name, v in (("SC0", sc0), ("SCSS", scss)):
-        bad = ~(v > 0)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise InputDataError(f"cphd.PVP.{name}", f"must be > 0 Hz (FX domain), got {float(v[k])!r} in vector {k}")
-    top = sc0 + (n - 1) * scss
-    bad = ~(top < 2.0 * fxc)
-    if bad.any():
-        k = int(np.argmax(bad))
-        raise InputDataError("cphd.PVP.SCSS", f"the {n} samples of vector {k} reach {top[k]:.4g} Hz: SC0 + (N - 1) "
-                             f"SCSS must stay below 2 FxC = {2 * fxc:.4g} Hz, got SCSS = {float(scss[k])!r}")
-    bad = ~(pvp["TOA2"] > pvp["TOA1"])
-    if bad.any():
-        raise InputDataError("cphd.PVP.TOA2", f"must be > TOA1 in every vector (vector {int(np.argmax(bad))})")
-
-
-def _check_pvps(pvp: np.ndarray, start: int) -> None:
-    for name in _FINITE_PVPS:
-        if name in pvp.dtype.names:
-            dt = pvp.dtype[name]
-            want = (3,) if name.endswith("Pos") else ()
-            if dt.shape != want or dt.base.kind != "f":
-                raise InputDataError(f"cphd.PVP.{name}", f"must be {'X=F8;Y=F8;Z=F8;' if want else 'F8'}, got a "
-                                     f"{dt.base} field of shape {dt.shape}")
-    for name in _FINITE_PVPS:
-        if name not in pvp.dtype.names:
-            continue
-        bad = ~np.isfinite(np.asarray(pvp[name], dtype=np.float64).reshape(len(pvp), -1)).all(axis=1)
-        if bad.any():
-            raise InputDataError(f"cphd.PVP.{name}", f"must be finite: NaN/inf in vector {start + int(np.argmax(bad))}")
-    if "AmpSF" in pvp.dtype.names and not np.all(np.abs(pvp["AmpSF"]) < MAX_SAMPLE):
-        k = int(np.argmax(~(np.abs(pvp["AmpSF"]) < MAX_SAMPLE)))
-        raise InputDataError("cphd.PVP.AmpSF", f"must be below {MAX_SAMPLE:.0e} in magnitude, got "
-                             f"{float(pvp['AmpSF'][k])!r} in vector {start + k}")
-    if np.any(np.diff(pvp["TxTime"]) < 0):
-        k = int(np.argmax(np.diff(pvp["TxTime"]) < 0)) + 1
-        raise InputDataError("cphd.PVP.TxTime", f"must not decrease from vector to vector (vector {start + k})")
-
-
-def _check_monostatic(pvp: np.ndarray, fxc: float, start: int) -> None:
-    """The legs' mean range is exact to |b|^2 / (4 R) (b = RcvPos - TxPos) of two-way range: below lambda / 16."""
-    b = np.linalg.norm(pvp["RcvPos"] - pvp["TxPos"], axis=1)
-    r = np.minimum(np.linalg.norm(pvp["TxPos"] - pvp["SRPPos"], axis=1),
-                   np.linalg.norm(pvp["RcvPos"] - pvp["SRPPos"], axis=1))
-    err = b**2 / (4.0 * np.maximum(r, 1e-9))
-    lam16 = _C / fxc / 16.0
-    if np.any(err > lam16):
-        k = int(np.argmax(err))
-        raise InputDataError("cphd.PVP.RcvPos", f"is {b[k]:.4g} m from TxPos in vector {start + k}: a bistatic "
-                             f"collect (two-leg range error |RcvPos - TxPos|^2 / 4R = {err[k]:.3g} m, at most "
-                             f"lambda / 16 = {lam16:.3g} m for the monostatic imaging sarnav does)")
-
-
-def _check_span(c: CphdCollect) -> None:
-    """The union of the vectors' range windows spans at most MAX_SPAN x N samples; else name the vector and field
-    that jump (a flipped byte moving a position by hundreds of km)."""
-    p, n = c.pvp, c.n_samples
-    ref = c.ref_range
-    lo = ref + 0.5 * _C * p["TOA1"]
-    hi = ref + 0.5 * _C * p["TOA2"]
-    dr = _C / (2.0 * n * float(np.min(p["SCSS"])))
-    span = (float(np.max(hi)) - float(np.min(lo))) / dr
-    if span <= MAX_SPAN * n:
-        return
-    jumps = {}
-    for name in ("TxPos", "RcvPos", "SRPPos", "TOA1", "TOA2", "TDTropoSRP"):
-        if name not in p.dtype.names:
-            continue
-        v = np.asarray(p[name], np.float64).reshape(len(p), -1) * (1.0 if name.endswith("Pos") else 0.5 * _C)
-        dev = np.linalg.norm(v - np.median(v, axis=0), axis=1)
-        jumps[name] = (float(dev.max()), int(np.argmax(dev)))
-    name, (dev, k) = max(jumps.items(), key=lambda kv: kv[1][0])
-    raise InputDataError(f"cphd.PVP.{name}", f"vector {c.start + k} is {dev:.4g} m from the others' median (times "
-                         f"as c t / 2): "
-                         f"the vectors' range windows span {span:.3g} samples, at most {MAX_SPAN} N = {MAX_SPAN * n} "
-                         "(a corrupted vector: read a range of vectors without it)")
+    # the PVP records are NumBytesPVP apart, whatever the fields' own extent
+    dt = np.dtype({"names": list(dt.names), "formats": [dt.fields[n][0] for n in dt.names],
+                   "offsets": [dt.fields[n][1] for n in dt.names], "itemsize": per_pvp})
+    return sig0, pvp0, dt
 
 
 def _vectors(pulses, n_vec: int) -> tuple[int, int]:
@@ -348,14 +261,16 @@ def _vectors(pulses, n_vec: int) -> tuple[int, int]:
     return a, b
 
 
-def _read_pvps(path, ch: str, a: int, b: int) -> np.ndarray:
+def _read_pvps(path, pvp0: int, dtype: np.dtype, a: int, b: int) -> np.ndarray:
     try:
-        with open(path, "rb") as f, skcphd.Reader(f) as r:
-            return r.read_pvps(ch, start_vector=a, stop_vector=b)
+        with open(path, "rb") as f:
+            f.seek(pvp0 + a * dtype.itemsize)
+            pvp = np.fromfile(f, dtype=dtype, count=b - a)
     except OSError as err:
         raise InputDataError("cphd", f"cannot read {str(path)!r}: {err.strerror or err}") from None
-    except Exception as err:  # noqa: BLE001
-        raise _open_error(path, err) from None
+    if pvp.size != b - a:
+        raise InputDataError("cphd.Data.Channel.NumVectors", f"the file ends before vector {b}")
+    return pvp
 
 
 def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> CphdCollect:
@@ -366,7 +281,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
         raise ConfigError("tropo", f"must be one of {TROPO}, got {tropo!r}")
     path = Path(path)
     size, kvp, tree = _header(path)
-    xml = skcphd.XmlHelper(tree)
+    xml = XmlValues(tree)
     dom = need(xml, "./{*}Global/{*}DomainType", "domain type")
     if dom != "FX":
         raise InputDataError("cphd.Global.DomainType", f"must be 'FX' (frequency-domain vectors; TOA-domain files "
@@ -384,7 +299,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
     base = f"./{{*}}Data/{{*}}Channel[{{*}}Identifier='{ch}']/{{*}}"
     n_vec = _int(xml, base + "NumVectors", 1, 2**40)
     n_samp = _int(xml, base + "NumSamples", 2, 2**31)
-    _check_sizes(size, kvp, xml, ch, n_vec, n_samp, fmt)
+    sig0, pvp0, pvp_dtype = _check_sizes(size, kvp, xml, ch, n_vec, n_samp, fmt)
     for name in _REQUIRED_PVPS:
         if tree.find(f"./{{*}}PVP/{{*}}{name}") is None:
             raise InputDataError(f"cphd.PVP.{name}", "missing required per-vector parameter")
@@ -395,10 +310,10 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
     fxc = _positive(xml, par + "FxC", "Hz")
     fxbw = _positive(xml, par + "FxBW", "Hz")
     a, b = _vectors(pulses, n_vec)
-    pvp = _read_pvps(path, ch, a, b)
-    _check_pvps(pvp, a)
-    _check_band(pvp, n_samp, fxc)
-    c = CphdCollect(path, ch, a, b, n_samp, fmt, int(sgn), fxc, fxbw, pvp, xml, tropo)
-    _check_span(c)
-    _check_monostatic(pvp, fxc, a)
+    pvp = _read_pvps(path, pvp0, pvp_dtype, a, b)
+    check_pvps(pvp, a)
+    check_band(pvp, n_samp, fxc)
+    c = CphdCollect(path, ch, a, b, n_samp, fmt, int(sgn), fxc, fxbw, pvp, xml, tropo, sig0)
+    check_span(pvp, c.ref_range, n_samp, a)
+    check_monostatic(pvp, fxc, a)
     return c
