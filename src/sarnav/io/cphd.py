@@ -30,7 +30,7 @@ from sarnav.signal.phase_history import (PhaseHistory, default_range_axis, phase
                                          pulses_to_phase_history)
 from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
-from sarnav.io.cphd_read import DEFAULT_BUDGET, MAX_GRID_AXIS, CphdCollect, conversion_bytes, need, open_collect
+from sarnav.io.cphd_read import MAX_GRID_AXIS, CphdCollect, conversion_bytes, need, open_collect, read_budget
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
 __all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "collect_grid",
@@ -293,7 +293,7 @@ def read_collect_header(path, *, channel=None, pulses=None, tropo: str = "in-dat
 
 
 def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None, channel=None, pulses=None,
-                 tropo: str = "in-data", budget: float = DEFAULT_BUDGET) -> tuple[PulseData, PlaneGrid]:
+                 tropo: str = "in-data", budget: float | None = None) -> tuple[PulseData, PlaneGrid]:
     """Read an FX-domain CPHD into memory: (range-compressed PulseData in ECEF, default image grid).
 
     The pulses land on one absolute range axis (``range_axis`` or the default of
@@ -303,8 +303,9 @@ def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None,
     the frequency samples (``phase_history_to_pulses``; a phase history shorter than the filter is
     an error). ``channel`` (identifier, default the first), ``pulses`` = (start, stop) vectors (default all),
     ``tropo`` (TDTropoSRP: "in-data", the default, or "compensated"): ``io.cphd_read``. ``budget`` [bytes]: the
-    most memory the read may take (estimated before reading; larger collects are imaged in blocks by
-    ``io.cphd_stream.image_collect``).
+    most memory the read may take (estimated before reading, conservatively); default half the machine's physical
+    memory (``io.cphd_read.read_budget``), so that a read too large is one line instead of the kernel killing the
+    process; larger collects are imaged in blocks by ``io.cphd_stream.image_collect``.
 
     Raises
     ------
@@ -313,6 +314,7 @@ def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None,
     """
     c = open_collect(path, channel=channel, pulses=pulses, tropo=tropo)
     m = default_range_axis(c.header(), oversample).size if range_axis is None else np.size(range_axis)
+    budget = read_budget() if budget is None else budget
     need_bytes = c.n_pulses * (conversion_bytes(c.n_samples, m, c.raw_itemsize) + 16 * m)
     if not need_bytes <= budget:
         raise ConfigError("budget", f"reading {c.n_pulses} vectors x {c.n_samples} samples into memory takes "

@@ -39,7 +39,7 @@ from sarnav.io.cphd_checks import (MAX_SAMPLE, MAX_SPAN, XmlValues, check_band, 
                                    check_span, field_name, need)
 from sarnav.signal.phase_history import PhaseHistory
 
-__all__ = ["CphdCollect", "open_collect", "conversion_bytes", "DEFAULT_BUDGET", "TROPO", "SIGNAL_FORMATS", "MAX_SPAN", "MAX_GRID_AXIS", "need"]
+__all__ = ["CphdCollect", "open_collect", "conversion_bytes", "read_budget", "DEFAULT_BUDGET", "TROPO", "SIGNAL_FORMATS", "MAX_SPAN", "MAX_GRID_AXIS", "need"]
 
 _C = 299792458.0
 #: the uncompressed signal formats read (sarkit's table; CF16 and the 8-byte integers as complex128)
@@ -52,6 +52,15 @@ MAX_GRID_AXIS = 2**20
 #: the default memory budget of a read or an image [bytes] (1 GiB)
 DEFAULT_BUDGET = 2**30
 _REQUIRED_PVPS = ("TxTime", "TxPos", "RcvPos", "SRPPos", "SC0", "SCSS", "TOA1", "TOA2")
+
+
+def read_budget() -> float:
+    """The default budget of an in-memory read (``io.cphd.read_collect``): half the machine's physical memory
+    (8 GiB where the system does not tell)."""
+    try:
+        return 0.5 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 8.0 * 2**30
 
 
 def conversion_bytes(n: int, m: int, raw_itemsize: int) -> int:
