@@ -30,6 +30,7 @@ from sarnav.signal.phase_history import (PhaseHistory, default_range_axis, phase
                                          pulses_to_phase_history)
 from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
+from sarnav.io.cphd_checks import field_name
 from sarnav.io.cphd_read import MAX_GRID_AXIS, CphdCollect, conversion_bytes, need, open_collect, read_budget
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
@@ -236,41 +237,59 @@ def read_phase_history(path, *, channel=None, pulses=None, tropo: str = "in-data
     return c.phase_history(), c.xml, c.srp
 
 
+def _num(xml, path: str, what: str, integer: bool = False) -> float:
+    v = need(xml, path, what)
+    ok = isinstance(v, (int, np.integer)) if integer else isinstance(v, (int, float, np.number))
+    if not ok or not math.isfinite(v):
+        raise InputDataError(field_name(path), f"must be a finite {'integer' if integer else 'number'}, got {v!r}")
+    return v if integer else float(v)
+
+
+def _vec(xml, path: str, n: int, what: str) -> np.ndarray:
+    v = need(xml, path, what)
+    if not (isinstance(v, np.ndarray) and v.shape == (n,) and np.all(np.isfinite(v))):
+        raise InputDataError(field_name(path), f"must be {n} finite numbers, got {v!r}")
+    return v
+
+
 def _grid_axis(xml, g: str, ext: str, spacing: str, first: str, num: str, loc: float) -> np.ndarray:
-    sp = need(xml, g + f"{ext}/{{*}}{spacing}", "grid spacing")
-    sp = float(sp) if isinstance(sp, (int, float)) else sp
-    if not (isinstance(sp, float) and math.isfinite(sp) and sp > 0):
+    sp = _num(xml, g + f"{ext}/{{*}}{spacing}", "grid spacing")
+    if not sp > 0:
         raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{spacing}", f"must be finite and > 0 m, got {sp!r}")
-    n = need(xml, g + f"{ext}/{{*}}{num}", "grid size")
+    n = _num(xml, g + f"{ext}/{{*}}{num}", "grid size", integer=True)
     if not 1 <= n <= MAX_GRID_AXIS:
         raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{num}", f"must be an integer in [1, "
                              f"{MAX_GRID_AXIS}], got {n!r}")
-    f0 = need(xml, g + f"{ext}/{{*}}{first}", "first index")
-    if not (math.isfinite(loc) and abs(loc) <= 2**40 and abs(f0) <= 2**40):
-        raise InputDataError("cphd.SceneCoordinates.ImageGrid.IARPLocation", f"must be finite grid indices, got {loc!r}")
+    f0 = _num(xml, g + f"{ext}/{{*}}{first}", "first index", integer=True)
+    if not (abs(loc) <= 2**40 and abs(f0) <= 2**40):
+        raise InputDataError("cphd.SceneCoordinates.ImageGrid.IARPLocation", f"must be grid indices within 2^40, got "
+                             f"{loc!r} (first {f0!r})")
     return (np.arange(n) + f0 - loc) * sp
 
 
 def _default_grid(xml, srp) -> PlaneGrid:
     sc = "./{*}SceneCoordinates/{*}"
-    iarp = need(xml, sc + "IARP/{*}ECF", "SceneCoordinates/IARP/ECF")
-    uiax = need(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAX", "planar reference surface uIAX")
-    uiay = need(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAY", "planar reference surface uIAY")
-    for name, v in (("IARP.ECF", iarp), ("ReferenceSurface.Planar.uIAX", uiax), ("ReferenceSurface.Planar.uIAY", uiay)):
-        if not np.all(np.isfinite(v)) or (name != "IARP.ECF" and abs(np.linalg.norm(v) - 1.0) > 1e-6):
-            raise InputDataError(f"cphd.SceneCoordinates.{name}", "must be finite (and a unit vector for uIAX, uIAY)"
-                                 f", got {v!r}")
+    iarp = _vec(xml, sc + "IARP/{*}ECF", 3, "SceneCoordinates/IARP/ECF")
+    uiax = _vec(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAX", 3, "planar reference surface uIAX")
+    uiay = _vec(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAY", 3, "planar reference surface uIAY")
+    for name, v in (("uIAX", uiax), ("uIAY", uiay)):
+        if abs(np.linalg.norm(v) - 1.0) > 1e-6:
+            raise InputDataError(f"cphd.SceneCoordinates.ReferenceSurface.Planar.{name}", f"must be a unit vector, "
+                                 f"got {v!r}")
+    if abs(float(np.dot(uiax, uiay))) > 1e-6:
+        raise InputDataError("cphd.SceneCoordinates.ReferenceSurface.Planar.uIAY", f"must be orthogonal to uIAX "
+                             f"(|uIAX . uIAY| <= 1e-6), got {float(np.dot(uiax, uiay)):.3g}")
     if xml.element_tree.find(sc + "ImageGrid") is not None:
         g = sc + "ImageGrid/{*}"
-        loc = need(xml, g + "IARPLocation", "grid indices of the IARP")
+        loc = _vec(xml, g + "IARPLocation", 2, "grid indices of the IARP")
         lines = _grid_axis(xml, g, "IAXExtent", "LineSpacing", "FirstLine", "NumLines", float(loc[0]))
         samples = _grid_axis(xml, g, "IAYExtent", "SampleSpacing", "FirstSample", "NumSamples", float(loc[1]))
     else:
-        x1y1 = need(xml, sc + "ImageArea/{*}X1Y1", "SceneCoordinates/ImageArea/X1Y1")
-        x2y2 = need(xml, sc + "ImageArea/{*}X2Y2", "SceneCoordinates/ImageArea/X2Y2")
-        bw = float(need(xml, "./{*}Channel/{*}Parameters/{*}FxBW", "Channel/Parameters/FxBW"))
-        sp = _C / (2.0 * bw)
-        size = (np.asarray(x2y2) - np.asarray(x1y1)) / sp
+        x1y1 = _vec(xml, sc + "ImageArea/{*}X1Y1", 2, "SceneCoordinates/ImageArea/X1Y1")
+        x2y2 = _vec(xml, sc + "ImageArea/{*}X2Y2", 2, "SceneCoordinates/ImageArea/X2Y2")
+        bw = _num(xml, "./{*}Channel/{*}Parameters/{*}FxBW", "Channel/Parameters/FxBW")
+        sp = _C / (2.0 * bw) if bw > 0 else float("nan")
+        size = (x2y2 - x1y1) / sp
         if not (np.all(np.isfinite(size)) and np.all(size > 0) and np.all(size < MAX_GRID_AXIS)):
             raise InputDataError("cphd.SceneCoordinates.ImageArea.X2Y2", f"must exceed X1Y1 by at most {MAX_GRID_AXIS}"
                                  f" samples of c / (2 FxBW) = {sp:.4g} m, got {x1y1!r} to {x2y2!r}")

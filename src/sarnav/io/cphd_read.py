@@ -208,7 +208,7 @@ def _positive(xml, path: str, unit: str) -> float:
     v = need(xml, path, "value")
     try:
         v = float(v)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputDataError(field_name(path), f"must be a number [{unit}], got {v!r}") from None
     if not (math.isfinite(v) and v > 0):
         raise InputDataError(field_name(path), f"must be finite and > 0 {unit}, got {v!r}")
@@ -292,7 +292,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
     size, kvp, tree = _header(path)
     xml = XmlValues(tree)
     dom = need(xml, "./{*}Global/{*}DomainType", "domain type")
-    if dom != "FX":
+    if not (isinstance(dom, str) and dom == "FX"):
         raise InputDataError("cphd.Global.DomainType", f"must be 'FX' (frequency-domain vectors; TOA-domain files "
                              f"are not read), got {dom!r}")
     comp = tree.findtext("./{*}Data/{*}SignalCompressionID")
@@ -302,7 +302,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
         raise InputDataError("cphd.Data.SignalCompressionID", f"compressed signal arrays are not read (the "
                              f"compression is vendor-defined; an uncompressed array is required), got {comp!r}")
     fmt = need(xml, "./{*}Data/{*}SignalArrayFormat", "signal array format")
-    if fmt not in SIGNAL_FORMATS:
+    if not (isinstance(fmt, str) and fmt in SIGNAL_FORMATS):
         raise InputDataError("cphd.Data.SignalArrayFormat", f"must be one of {tuple(SIGNAL_FORMATS)}, got {fmt!r}")
     ch = _channel(xml, tree, channel)
     base = f"./{{*}}Data/{{*}}Channel[{{*}}Identifier='{ch}']/{{*}}"
@@ -313,7 +313,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
         if tree.find(f"./{{*}}PVP/{{*}}{name}") is None:
             raise InputDataError(f"cphd.PVP.{name}", "missing required per-vector parameter")
     sgn = need(xml, "./{*}Global/{*}SGN", "phase sign")
-    if sgn not in (-1, 1):
+    if not (isinstance(sgn, (int, np.integer)) and sgn in (-1, 1)):
         raise InputDataError("cphd.Global.SGN", f"must be -1 or +1, got {sgn!r}")
     par = f"./{{*}}Channel/{{*}}Parameters[{{*}}Identifier='{ch}']/{{*}}"
     fxc = _positive(xml, par + "FxC", "Hz")
