@@ -74,6 +74,8 @@ def cases():
          "cphd.SceneCoordinates.ImageGrid.IAXExtent.NumLines", r"must be an integer in \[1, 1048576\], got 1000000000"),
         ("SCSS = 1e300", pvp(lambda p: p["SCSS"].__setitem__(7, 1e300)), "cphd.PVP.SCSS",
          r"the 64 samples of vector 7 reach .* must stay below 2 FxC = .*, got SCSS = 1e\+300"),
+        ("SCSS = 1e-300", pvp(lambda p: p["SCSS"].__setitem__(5, 1e-300)), "cphd.PVP.SCSS",
+         r"the 64 samples of vector 5 span 6.3e-299 Hz: they must cover at least half the channel's FxBW"),
         ("TOA domain", xml(lambda t: set_text(t, "./{*}Global/{*}DomainType", "TOA")), "cphd.Global.DomainType",
          r"must be 'FX' .* got 'TOA'"),
         ("all at one position", pvp(lambda p: [p[k].__setitem__(n, p[0][n]) for k in range(len(p))

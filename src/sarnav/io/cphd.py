@@ -255,7 +255,8 @@ def _vec(xml, path: str, n: int, what: str) -> np.ndarray:
 def _grid_axis(xml, g: str, ext: str, spacing: str, first: str, num: str, loc: float) -> np.ndarray:
     sp = _num(xml, g + f"{ext}/{{*}}{spacing}", "grid spacing")
     if not sp > 0:
-        raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{spacing}", f"must be finite and > 0 m, got {sp!r}")
+        raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{spacing}",
+                             f"must be finite and > 0 m, got {sp!r}")
     n = _num(xml, g + f"{ext}/{{*}}{num}", "grid size", integer=True)
     if not 1 <= n <= MAX_GRID_AXIS:
         raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{num}", f"must be an integer in [1, "

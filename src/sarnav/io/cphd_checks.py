@@ -86,22 +86,31 @@ def check_pvps(pvp: np.ndarray, start: int) -> None:
         raise InputDataError("cphd.PVP.TxTime", f"must not decrease from vector to vector (vector {start + k})")
 
 
-def check_band(pvp: np.ndarray, n: int, fxc: float) -> None:
+def check_band(pvp: np.ndarray, n: int, fxc: float, fxbw: float, start: int = 0) -> None:
+    """SC0, SCSS > 0; each vector's samples below 2 FxC and spanning at least half the channel's FxBW."""
     sc0, scss = pvp["SC0"], pvp["SCSS"]
     for name, v in (("SC0", sc0), ("SCSS", scss)):
         bad = ~(v > 0)
         if bad.any():
             k = int(np.argmax(bad))
-            raise InputDataError(f"cphd.PVP.{name}", f"must be > 0 Hz (FX domain), got {float(v[k])!r} in vector {k}")
+            raise InputDataError(f"cphd.PVP.{name}",
+                                 f"must be > 0 Hz (FX domain), got {float(v[k])!r} in vector {start + k}")
+    bad = ~((n - 1) * scss >= 0.5 * fxbw)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise InputDataError("cphd.PVP.SCSS", f"the {n} samples of vector {start + k} span {(n - 1) * scss[k]:.4g} Hz: "
+                             f"they must cover at least half the channel's FxBW = {fxbw:.4g} Hz (SCSS >= FxBW / "
+                             f"(2 (N - 1)) = {0.5 * fxbw / (n - 1):.4g} Hz), got SCSS = {float(scss[k])!r}")
     top = sc0 + (n - 1) * scss
     bad = ~(top < 2.0 * fxc)
     if bad.any():
         k = int(np.argmax(bad))
-        raise InputDataError("cphd.PVP.SCSS", f"the {n} samples of vector {k} reach {top[k]:.4g} Hz: SC0 + (N - 1) "
+        raise InputDataError("cphd.PVP.SCSS", f"the {n} samples of vector {start + k} reach {top[k]:.4g} Hz: "
+                             f"SC0 + (N - 1) "
                              f"SCSS must stay below 2 FxC = {2 * fxc:.4g} Hz, got SCSS = {float(scss[k])!r}")
     bad = ~(pvp["TOA2"] > pvp["TOA1"])
     if bad.any():
-        raise InputDataError("cphd.PVP.TOA2", f"must be > TOA1 in every vector (vector {int(np.argmax(bad))})")
+        raise InputDataError("cphd.PVP.TOA2", f"must be > TOA1 in every vector (vector {start + int(np.argmax(bad))})")
 
 
 def check_monostatic(pvp: np.ndarray, fxc: float, start: int) -> None:

@@ -39,7 +39,8 @@ from sarnav.io.cphd_checks import (MAX_SAMPLE, MAX_SPAN, XmlValues, check_band, 
                                    check_span, field_name, need)
 from sarnav.signal.phase_history import PhaseHistory
 
-__all__ = ["CphdCollect", "open_collect", "conversion_bytes", "read_budget", "DEFAULT_BUDGET", "TROPO", "SIGNAL_FORMATS", "MAX_SPAN", "MAX_GRID_AXIS", "need"]
+__all__ = ["CphdCollect", "open_collect", "conversion_bytes", "read_budget", "DEFAULT_BUDGET", "TROPO",
+           "SIGNAL_FORMATS", "MAX_SPAN", "MAX_GRID_AXIS", "need"]
 
 _C = 299792458.0
 #: the uncompressed signal formats read (sarkit's table; CF16 and the 8-byte integers as complex128)
@@ -161,7 +162,8 @@ class CphdCollect:
             sig *= self.pvp["AmpSF"][k0:k1, None].astype(sig.real.dtype)
         bad = ~np.isfinite(sig).all(axis=1)
         if bad.any():
-            raise InputDataError("cphd.Signal", f"must be finite: NaN/inf in vector {self.start + k0 + int(np.argmax(bad))}")
+            raise InputDataError("cphd.Signal",
+                                 f"must be finite: NaN/inf in vector {self.start + k0 + int(np.argmax(bad))}")
         bad = ~(np.abs(sig) < MAX_SAMPLE).all(axis=1)
         if bad.any():
             raise InputDataError("cphd.Signal", f"must be below {MAX_SAMPLE:.0e} in magnitude (AmpSF applied; the "
@@ -284,7 +286,8 @@ def _read_pvps(path, pvp0: int, dtype: np.dtype, a: int, b: int) -> np.ndarray:
 
 def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> CphdCollect:
     """The checked header and PVPs of channel ``channel`` (identifier; default the first) of the CPHD ``path``,
-    vectors ``pulses = (start, stop)`` (default all; stop None: to the end); ``tropo`` one of :data:`TROPO` (module doc). Raises
+    vectors ``pulses = (start, stop)`` (default all; stop None: to the end); ``tropo`` one of :data:`TROPO` (module
+    doc). Raises
     InputDataError naming the file's field, ConfigError naming ``channel`` / ``pulses`` / ``tropo``."""
     if tropo not in TROPO:
         raise ConfigError("tropo", f"must be one of {TROPO}, got {tropo!r}")
@@ -321,7 +324,7 @@ def open_collect(path, *, channel=None, pulses=None, tropo: str = "in-data") -> 
     a, b = _vectors(pulses, n_vec)
     pvp = _read_pvps(path, pvp0, pvp_dtype, a, b)
     check_pvps(pvp, a)
-    check_band(pvp, n_samp, fxc)
+    check_band(pvp, n_samp, fxc, fxbw, a)
     c = CphdCollect(path, ch, a, b, n_samp, fmt, int(sgn), fxc, fxbw, pvp, xml, tropo, sig0)
     check_span(pvp, c.ref_range, n_samp, a)
     check_monostatic(pvp, fxc, a)
