@@ -1,10 +1,12 @@
 """``sarnav image FILE.cphd``: an image formed from a CPHD file (the command's options and wiring only).
 
-The collect is read with :func:`sarnav.io.cphd.read_collect` (monostatic, FX domain, ECEF; an optional filter of the
-frequency samples, ``io.cphd.read_filter``) and formed by ``imaging.collect_image.run_collect_image``
-(back-projection "bpa" or fast factorised back-projection "ffbp", an optional azimuth window; the collect's figures
-and the image's metrics) onto a plane grid: the file's image grid by default, or the same plane resampled with
-``spacing`` / ``extent`` (``imaging.grid.PlaneGrid.resampled``).
+The file's header and PVPs are read and checked by :func:`sarnav.io.cphd.read_collect_header` (one channel,
+``--channel``; a range of vectors, ``--pulses START:STOP``; the reading of TDTropoSRP, ``--tropo``; every
+uncompressed signal format, AmpSF, SGN) and the image is formed by ``io.cphd_stream.run_image_collect``:
+back-projection "bpa" or fast factorised back-projection "ffbp" of the vectors read in blocks within the memory
+``--budget`` (default 1G), an optional azimuth window and filter of the frequency samples (``io.cphd.read_filter``),
+the collect's figures and the image's metrics, onto a plane grid: the file's image grid by default, or the same
+plane resampled with ``spacing`` / ``extent`` (``imaging.grid.PlaneGrid.resampled``).
 Written into ``out`` by ``report.image_files.write_image_files``: ``image.npz``, ``image.png``, ``metrics.json`` (as
 for a scenario) and, with ``sicd``, the image as SICD ``image.nitf``. Bad input is one line naming the flag or the
 file's field.
