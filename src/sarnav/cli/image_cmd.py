@@ -39,6 +39,13 @@ def add_parser(subparsers) -> None:
     p.add_argument("--extent", metavar="X[,Y]", help="FILE.cphd: image size [m] along the file's uIAX, uIAY about "
                    "its image grid's centre (default: its image grid)")
     p.add_argument("--filter", metavar="FILE.npy", help="FILE.cphd: weights of the frequency samples (1-D .npy)")
+    p.add_argument("--channel", metavar="ID", help="FILE.cphd: the channel's identifier (default: the first)")
+    p.add_argument("--pulses", metavar="START:STOP", help="FILE.cphd: the vectors imaged, STOP exclusive, either may "
+                   "be empty (default: all); only these are read")
+    p.add_argument("--tropo", choices=("in-data", "compensated"), help="FILE.cphd: TDTropoSRP is a delay left in the "
+                   "data and removed (in-data, default) or already compensated and ignored (compensated)")
+    p.add_argument("--budget", metavar="SIZE", help="FILE.cphd: memory of the image formation, e.g. 512M, 2G "
+                   "(default 1G); the vectors are read and imaged in blocks that fit")
     p.add_argument("--overwrite", action="store_true", help="replace another scenario's results in --out")
     p.set_defaults(handler=run)
 
@@ -54,9 +61,13 @@ def _cphd(args) -> int:
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{path.stem}"
     report = run_cphd_image(path, out, algorithm=args.algorithm or "bpa", spacing=args.spacing, extent=args.extent,
                             window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite,
+                            channel=args.channel, pulses=args.pulses, tropo=args.tropo or "in-data",
+                            budget=args.budget,
                             geotiff=args.geotiff)
     shape = report["image_shape"]
-    print(f"{path.name}: {report['algorithm']} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses -> {out}")
+    st = report["stream"]
+    print(f"{path.name}: {report['algorithm']} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses of channel "
+          f"{report['channel']} ({st['blocks']} block(s) of <= {st['pulses_per_block']}) -> {out}")
     return 0
 
 
@@ -69,7 +80,8 @@ def run(args) -> int:
     if is_cphd(args.scenario):
         return _cphd(args)
     for flag, given in (("--spacing", args.spacing), ("--extent", args.extent), ("--filter", args.filter),
-                        ("--geotiff", args.geotiff or None)):
+                        ("--channel", args.channel), ("--pulses", args.pulses), ("--tropo", args.tropo),
+                        ("--budget", args.budget), ("--geotiff", args.geotiff or None)):
         if given is not None:
             raise ConfigError(flag, "applies to a CPHD file (sarnav image FILE.cphd), not to a simulated scenario")
     if args.algorithm == "ffbp":

@@ -26,12 +26,16 @@ import sarkit.wgs84 as wgs84
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData
-from sarnav.signal.phase_history import PhaseHistory, phase_history_to_pulses, pulses_to_phase_history
+from sarnav.signal.phase_history import (PhaseHistory, default_range_axis, phase_history_to_pulses,
+                                         pulses_to_phase_history)
 from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
+from sarnav.io.cphd_checks import field_name
+from sarnav.io.cphd_read import MAX_GRID_AXIS, CphdCollect, conversion_bytes, need, open_collect, read_budget
 from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
 
-__all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "CPHD_NS"]
+__all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "collect_grid",
+           "read_collect_header", "open_collect", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.0.1"
 _C = 299792458.0
@@ -40,7 +44,6 @@ _PVP_FIELDS = (  # (name, words): F8 scalars and XYZ triples, in file order
     ("TxTime", 1), ("TxPos", 3), ("TxVel", 3), ("RcvTime", 1), ("RcvPos", 3), ("RcvVel", 3), ("SRPPos", 3),
     ("aFDOP", 1), ("aFRR1", 1), ("aFRR2", 1), ("FX1", 1), ("FX2", 1), ("TOA1", 1), ("TOA2", 1),
     ("TDTropoSRP", 1), ("SC0", 1), ("SCSS", 1), ("SIGNAL", 1))
-_REQUIRED_PVPS = ("TxTime", "TxPos", "RcvPos", "SRPPos", "SC0", "SCSS", "TOA1", "TOA2")
 
 
 def _pvp_xml() -> dict:
@@ -226,94 +229,120 @@ def write_collect(path, pulses: PulseData, reference_point, *, params=None, fram
     return ph
 
 
-def _need(xml, path: str, what: str):
-    v = xml.load(path)
-    if v is None:
-        raise InputDataError(f"cphd.{path.replace('./{*}', '').replace('/{*}', '.')}", f"missing required {what}")
+def read_phase_history(path, *, channel=None, pulses=None, tropo: str = "in-data",
+                       ) -> tuple[PhaseHistory, object, np.ndarray]:
+    """(PhaseHistory of channel ``channel`` (default the first), vectors ``pulses = (start, stop)`` (default all),
+    ECEF; the XML helper; the SRP ECEF of the middle vector). Formats, checks and ``tropo``: ``io.cphd_read``."""
+    c = open_collect(path, channel=channel, pulses=pulses, tropo=tropo)
+    return c.phase_history(), c.xml, c.srp
+
+
+def _num(xml, path: str, what: str, integer: bool = False) -> float:
+    v = need(xml, path, what)
+    ok = isinstance(v, (int, np.integer)) if integer else isinstance(v, (int, float, np.number))
+    if not ok or not math.isfinite(v):
+        raise InputDataError(field_name(path), f"must be a finite {'integer' if integer else 'number'}, got {v!r}")
+    return v if integer else float(v)
+
+
+def _vec(xml, path: str, n: int, what: str) -> np.ndarray:
+    v = need(xml, path, what)
+    if not (isinstance(v, np.ndarray) and v.shape == (n,) and np.all(np.isfinite(v))):
+        raise InputDataError(field_name(path), f"must be {n} finite numbers, got {v!r}")
     return v
 
 
-def read_phase_history(path) -> tuple[PhaseHistory, object, np.ndarray]:
-    """(PhaseHistory of the first channel (ECEF), the XML helper, SRP ECEF of the reference vector)."""
-    try:
-        with open(path, "rb") as f, skcphd.Reader(f) as r:
-            tree = r.metadata.xmltree
-            xml = skcphd.XmlHelper(tree)
-            dom = _need(xml, "./{*}Global/{*}DomainType", "Global/DomainType")
-            if dom != "FX":
-                raise InputDataError("cphd.Global.DomainType", f"only FX-domain CPHD is supported, got {dom!r}")
-            ch = _need(xml, "./{*}Data/{*}Channel/{*}Identifier", "Data/Channel/Identifier")
-            for name in _REQUIRED_PVPS:
-                if tree.find(f"./{{*}}PVP/{{*}}{name}") is None:
-                    raise InputDataError(f"cphd.PVP.{name}", "missing required per-vector parameter")
-            sig, pvp = r.read_channel(ch)
-            sgn = int(_need(xml, "./{*}Global/{*}SGN", "Global/SGN"))
-    except InputDataError:
-        raise
-    except OSError as err:
-        raise InputDataError("cphd", f"cannot read {str(path)!r}: {err.strerror or err}") from None
-    except Exception as err:  # noqa: BLE001 - sarkit raises many kinds on a file that is not a CPHD
-        raise InputDataError("cphd", f"{str(path)!r} is not a readable CPHD 1.x file ({type(err).__name__}: "
-                             f"{str(err)[:120]})") from None
-    for name in ("TxPos", "RcvPos", "SRPPos", "TxTime", "SC0", "SCSS", "TOA1", "TOA2"):
-        bad = ~np.isfinite(np.asarray(pvp[name], dtype=np.float64).reshape(len(pvp), -1)).all(axis=1)
-        if bad.any():
-            raise InputDataError(f"cphd.PVP.{name}", f"must be finite: NaN/inf in vector {int(np.argmax(bad))}")
-    if not np.all(np.isfinite(sig)):
-        raise InputDataError("cphd.Signal", "contains NaN/inf samples")
-    tx, rx, srp = pvp["TxPos"], pvp["RcvPos"], pvp["SRPPos"]
-    ref = 0.5 * (np.linalg.norm(tx - srp, axis=1) + np.linalg.norm(rx - srp, axis=1))
-    ph = PhaseHistory(np.asarray(sig), pvp["SC0"], pvp["SCSS"], 0.5 * (tx + rx), ref, pvp["TxTime"],
-                      np.stack([pvp["TOA1"], pvp["TOA2"]], axis=1), sgn)
-    return ph, xml, srp[len(srp) // 2]
+def _grid_axis(xml, g: str, ext: str, spacing: str, first: str, num: str, loc: float) -> np.ndarray:
+    sp = _num(xml, g + f"{ext}/{{*}}{spacing}", "grid spacing")
+    if not sp > 0:
+        raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{spacing}",
+                             f"must be finite and > 0 m, got {sp!r}")
+    n = _num(xml, g + f"{ext}/{{*}}{num}", "grid size", integer=True)
+    if not 1 <= n <= MAX_GRID_AXIS:
+        raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{ext}.{num}", f"must be an integer in [1, "
+                             f"{MAX_GRID_AXIS}], got {n!r}")
+    f0 = _num(xml, g + f"{ext}/{{*}}{first}", "first index", integer=True)
+    if not (abs(loc) <= 2**40 and abs(f0) <= 2**40):
+        raise InputDataError("cphd.SceneCoordinates.ImageGrid.IARPLocation", f"must be grid indices within 2^40, got "
+                             f"{loc!r} (first {f0!r})")
+    return (np.arange(n) + f0 - loc) * sp
 
 
 def _default_grid(xml, srp) -> PlaneGrid:
     sc = "./{*}SceneCoordinates/{*}"
-    iarp = _need(xml, sc + "IARP/{*}ECF", "SceneCoordinates/IARP/ECF")
-    uiax = _need(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAX", "planar reference surface uIAX")
-    uiay = _need(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAY", "planar reference surface uIAY")
+    iarp = _vec(xml, sc + "IARP/{*}ECF", 3, "SceneCoordinates/IARP/ECF")
+    uiax = _vec(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAX", 3, "planar reference surface uIAX")
+    uiay = _vec(xml, sc + "ReferenceSurface/{*}Planar/{*}uIAY", 3, "planar reference surface uIAY")
+    for name, v in (("uIAX", uiax), ("uIAY", uiay)):
+        if abs(np.linalg.norm(v) - 1.0) > 1e-6:
+            raise InputDataError(f"cphd.SceneCoordinates.ReferenceSurface.Planar.{name}", f"must be a unit vector, "
+                                 f"got {v!r}")
+    if abs(float(np.dot(uiax, uiay))) > 1e-6:
+        raise InputDataError("cphd.SceneCoordinates.ReferenceSurface.Planar.uIAY", f"must be orthogonal to uIAX "
+                             f"(|uIAX . uIAY| <= 1e-6), got {float(np.dot(uiax, uiay)):.3g}")
     if xml.element_tree.find(sc + "ImageGrid") is not None:
         g = sc + "ImageGrid/{*}"
-        lsp = float(xml.load(g + "IAXExtent/{*}LineSpacing"))
-        ssp = float(xml.load(g + "IAYExtent/{*}SampleSpacing"))
-        for name, v in (("IAXExtent.LineSpacing", lsp), ("IAYExtent.SampleSpacing", ssp)):
-            if not (math.isfinite(v) and v > 0):
-                raise InputDataError(f"cphd.SceneCoordinates.ImageGrid.{name}", f"must be finite and > 0 m, got {v!r}")
-        loc = xml.load(g + "IARPLocation")
-        lines = (np.arange(int(xml.load(g + "IAXExtent/{*}NumLines"))) + int(xml.load(g + "IAXExtent/{*}FirstLine"))
-                 - loc[0]) * lsp
-        samples = (np.arange(int(xml.load(g + "IAYExtent/{*}NumSamples")))
-                   + int(xml.load(g + "IAYExtent/{*}FirstSample")) - loc[1]) * ssp
+        loc = _vec(xml, g + "IARPLocation", 2, "grid indices of the IARP")
+        lines = _grid_axis(xml, g, "IAXExtent", "LineSpacing", "FirstLine", "NumLines", float(loc[0]))
+        samples = _grid_axis(xml, g, "IAYExtent", "SampleSpacing", "FirstSample", "NumSamples", float(loc[1]))
     else:
-        x1y1 = _need(xml, sc + "ImageArea/{*}X1Y1", "SceneCoordinates/ImageArea/X1Y1")
-        x2y2 = _need(xml, sc + "ImageArea/{*}X2Y2", "SceneCoordinates/ImageArea/X2Y2")
-        bw = float(_need(xml, "./{*}Channel/{*}Parameters/{*}FxBW", "Channel/Parameters/FxBW"))
-        sp = _C / (2.0 * bw)
+        x1y1 = _vec(xml, sc + "ImageArea/{*}X1Y1", 2, "SceneCoordinates/ImageArea/X1Y1")
+        x2y2 = _vec(xml, sc + "ImageArea/{*}X2Y2", 2, "SceneCoordinates/ImageArea/X2Y2")
+        bw = _num(xml, "./{*}Channel/{*}Parameters/{*}FxBW", "Channel/Parameters/FxBW")
+        sp = _C / (2.0 * bw) if bw > 0 else float("nan")
+        size = (x2y2 - x1y1) / sp
+        if not (np.all(np.isfinite(size)) and np.all(size > 0) and np.all(size < MAX_GRID_AXIS)):
+            raise InputDataError("cphd.SceneCoordinates.ImageArea.X2Y2", f"must exceed X1Y1 by at most {MAX_GRID_AXIS}"
+                                 f" samples of c / (2 FxBW) = {sp:.4g} m, got {x1y1!r} to {x2y2!r}")
         lines = np.arange(x1y1[0], x2y2[0] + 0.5 * sp, sp)
         samples = np.arange(x1y1[1], x2y2[1] + 0.5 * sp, sp)
     return PlaneGrid(iarp, uiax, uiay, lines, samples, "iax", "iay")
 
 
-def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None) -> tuple[PulseData, PlaneGrid]:
-    """Read a monostatic FX-domain CPHD: (range-compressed PulseData in ECEF, default image grid).
+def collect_grid(c: CphdCollect) -> PlaneGrid:
+    """The default image grid of the opened collect ``c`` (``io.cphd_read.open_collect``): its SceneCoordinates
+    ImageGrid, else its ImageArea at c / (2 FxBW), in ECEF (:func:`read_collect`)."""
+    return _default_grid(c.xml, c.srp)
+
+
+def read_collect_header(path, *, channel=None, pulses=None, tropo: str = "in-data") -> tuple[CphdCollect, PlaneGrid]:
+    """(the checked header and PVPs of ``path``'s channel and vectors, ``io.cphd_read.open_collect``; its default
+    image grid, :func:`collect_grid`): what ``io.cphd_stream.image_collect`` images, nothing of the signal read."""
+    c = open_collect(path, channel=channel, pulses=pulses, tropo=tropo)
+    return c, collect_grid(c)
+
+
+def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None, channel=None, pulses=None,
+                 tropo: str = "in-data", budget: float | None = None) -> tuple[PulseData, PlaneGrid]:
+    """Read an FX-domain CPHD into memory: (range-compressed PulseData in ECEF, default image grid).
 
     The pulses land on one absolute range axis (``range_axis`` or the default of
     :func:`sarnav.signal.phase_history.default_range_axis`), wavelength c / FxC. The default grid is
     the file's SceneCoordinates image grid (IARP + line uIAX + sample uIAY, ECEF), or its image area
     sampled at c / (2 FxBW) when the file has no image grid. ``filter``: optional (N,) weights of
     the frequency samples (``phase_history_to_pulses``; a phase history shorter than the filter is
-    an error).
+    an error). ``channel`` (identifier, default the first), ``pulses`` = (start, stop) vectors (default all),
+    ``tropo`` (TDTropoSRP: "in-data", the default, or "compensated"): ``io.cphd_read``. ``budget`` [bytes]: the
+    most memory the read may take (estimated before reading, conservatively); default half the machine's physical
+    memory (``io.cphd_read.read_budget``), so that a read too large is one line instead of the kernel killing the
+    process; larger collects are imaged in blocks by ``io.cphd_stream.image_collect``.
 
     Raises
     ------
-    InputDataError naming the missing or bad field (``cphd.PVP.SRPPos``, ``cphd.Global.DomainType``, ...).
+    InputDataError naming the missing or bad field (``cphd.PVP.SRPPos``, ``cphd.Global.DomainType``, ...);
+    ConfigError naming ``channel``, ``pulses``, ``tropo`` or ``budget``.
     """
-    ph, xml, srp = read_phase_history(path)
-    fxc = float(_need(xml, "./{*}Channel/{*}Parameters/{*}FxC", "Channel/Parameters/FxC"))
-    rc = phase_history_to_pulses(ph, range_axis, wavelength=_C / fxc, oversample=oversample, filter=filter,
-                                 metadata={"source": "cphd", "file": str(path)})
-    return rc, _default_grid(xml, srp)
+    c = open_collect(path, channel=channel, pulses=pulses, tropo=tropo)
+    m = default_range_axis(c.header(), oversample).size if range_axis is None else np.size(range_axis)
+    budget = read_budget() if budget is None else budget
+    need_bytes = c.n_pulses * (conversion_bytes(c.n_samples, m, c.raw_itemsize) + 16 * m)
+    if not need_bytes <= budget:
+        raise ConfigError("budget", f"reading {c.n_pulses} vectors x {c.n_samples} samples into memory takes "
+                          f"~{need_bytes / 2**30:.3g} GiB, over the budget of {budget / 2**30:.3g} GiB: read a "
+                          "range of vectors (pulses=) or image the file in blocks (io.cphd_stream.image_collect)")
+    rc = phase_history_to_pulses(c.phase_history(), range_axis, wavelength=_C / c.fxc, oversample=oversample,
+                                 filter=filter, metadata={"source": "cphd", "file": str(path), "channel": c.channel})
+    return rc, _default_grid(c.xml, c.srp)
 
 
 def read_filter(path, field: str = "filter") -> np.ndarray:

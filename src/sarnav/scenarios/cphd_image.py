@@ -1,10 +1,12 @@
 """``sarnav image FILE.cphd``: an image formed from a CPHD file (the command's options and wiring only).
 
-The collect is read with :func:`sarnav.io.cphd.read_collect` (monostatic, FX domain, ECEF; an optional filter of the
-frequency samples, ``io.cphd.read_filter``) and formed by ``imaging.collect_image.run_collect_image``
-(back-projection "bpa" or fast factorised back-projection "ffbp", an optional azimuth window; the collect's figures
-and the image's metrics) onto a plane grid: the file's image grid by default, or the same plane resampled with
-``spacing`` / ``extent`` (``imaging.grid.PlaneGrid.resampled``).
+The file's header and PVPs are read and checked by :func:`sarnav.io.cphd.read_collect_header` (one channel,
+``--channel``; a range of vectors, ``--pulses START:STOP``; the reading of TDTropoSRP, ``--tropo``; every
+uncompressed signal format, AmpSF, SGN) and the image is formed by ``io.cphd_stream.run_image_collect``:
+back-projection "bpa" or fast factorised back-projection "ffbp" of the vectors read in blocks within the memory
+``--budget`` (default 1G), an optional azimuth window and filter of the frequency samples (``io.cphd.read_filter``),
+the collect's figures and the image's metrics, onto a plane grid: the file's image grid by default, or the same
+plane resampled with ``spacing`` / ``extent`` (``imaging.grid.PlaneGrid.resampled``).
 Written into ``out`` by ``report.image_files.write_image_files``: ``image.npz``, ``image.png``, ``metrics.json`` (as
 for a scenario), with ``sicd`` the image as SICD ``image.nitf`` (without ``spacing``: on the same extent at the
 spacing of its impulse-response bandwidth, ``io.sicd.SicdGeometry.at_resolution``), with ``geotiff`` the image
@@ -70,11 +72,61 @@ def _grid(default, spacing, extent):
     return default.resampled(sp, ext)
 
 
-def _read(path: Path, filter_path):
-    from sarnav.io.cphd import read_collect, read_filter
+#: errors of the library's parameters that name a flag of ``sarnav image FILE.cphd``
+_FLAGS = {"channel": "--channel", "pulses": "--pulses", "tropo": "--tropo", "budget": "--budget"}
+_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "KIB": 2**10, "M": 2**20, "MB": 2**20, "MIB": 2**20,
+          "G": 2**30, "GB": 2**30, "GIB": 2**30}
+
+
+def parse_pulses(value):
+    """``--pulses START:STOP`` (vector indices, STOP exclusive; either may be empty) -> (start, stop) or None."""
+    if value is None:
+        return None
+    parts = str(value).split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        start = int(parts[0]) if parts[0].strip() else 0
+        stop = int(parts[1]) if parts[1].strip() else None
+    except ValueError:
+        raise ConfigError("--pulses", f"must be START:STOP vector indices (STOP exclusive), got {value!r}") from None
+    return start, stop
+
+
+def parse_budget(value) -> float:
+    """``--budget SIZE``: bytes, or a number with K, M, G (binary: MiB, GiB); default :data:`DEFAULT_BUDGET`."""
+    from sarnav.io.cphd_stream import DEFAULT_BUDGET
+
+    if value is None:
+        return float(DEFAULT_BUDGET)
+    text = str(value).strip().upper()
+    num = text.rstrip("KMGIB")
+    try:
+        v = float(num) * _UNITS[text[len(num):]]
+    except (ValueError, KeyError):
+        raise ConfigError("--budget", f"must be a size such as 1.5G, 512M or 1e9 (bytes), got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError("--budget", f"must be finite and > 0, got {value!r}")
+    return v
+
+
+def _open(path: Path, channel, pulses, tropo):
+    from sarnav.io.cphd import read_collect_header
 
     try:
-        return read_collect(path, filter=None if filter_path is None else read_filter(filter_path, "--filter"))
+        return read_collect_header(path, channel=channel, pulses=pulses, tropo=tropo)
+    except ConfigError as err:
+        raise ConfigError(_FLAGS.get(err.field, err.field), err.message) from None
+
+
+def _form(c, grid, algorithm, window, filter_path, budget):
+    from sarnav.io.cphd import read_filter
+    from sarnav.io.cphd_stream import run_image_collect
+
+    h = None if filter_path is None else read_filter(filter_path, "--filter")
+    try:
+        return run_image_collect(c, grid, algorithm, window=window, window_field="--window", filter=h, budget=budget,
+                             budget_field="--budget")
     except InputDataError as err:   # the filter's length against the collect's frequency samples
         if err.field in ("phase_history.data", "filter") and filter_path is not None:
             raise InputDataError("--filter", f"{err.message} ({str(filter_path)!r})") from None
@@ -89,9 +141,11 @@ def _identity(path: Path, options: dict) -> dict:
 
 
 def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=None, window: str | None = None,
-                   filter_path=None, sicd: bool = False, overwrite: bool = False, geotiff: bool = False) -> dict:
-    """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics."""
-    from sarnav.imaging.collect_image import run_collect_image
+                   filter_path=None, sicd: bool = False, overwrite: bool = False, channel=None, pulses=None,
+                   tropo: str = "in-data", budget=None, geotiff: bool = False) -> dict:
+    """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics.
+    ``channel``: identifier (default the first); ``pulses``: ``START:STOP`` or (start, stop); ``tropo``: the
+    reading of TDTropoSRP (``io.cphd_read.TROPO``); ``budget``: memory of the image formation (``--budget``)."""
     from sarnav.io.sicd import SicdGeometry
     from sarnav.montecarlo.outdir import OutputFolder
     from sarnav.report.image_files import write_image_files
@@ -105,21 +159,28 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
         from sarnav.io.geotiff import check_geo_extra
 
         check_geo_extra("--geotiff")
-    rc, default = _read(path, filter_path)
+    budget = parse_budget(budget)
+    pulses = parse_pulses(pulses) if isinstance(pulses, str) else pulses
+    c, default = _open(path, channel, pulses, tropo)
     grid = _grid(default, spacing, extent)
     if sicd and spacing is None:      # the SICD's pixels spaced from its impulse-response bandwidth (sicdcheck: OSR)
-        grid = SicdGeometry.of_collect(grid, rc).at_resolution().grid
+        from sarnav.io.cphd_stream import read_sicd_geometry
+
+        grid = read_sicd_geometry(c, grid).at_resolution().grid
         if grid.shape[0] * grid.shape[1] > MAX_PIXELS:
             raise ConfigError("--sicd", f"the resolution's spacing gives {grid.shape} pixels (at most {MAX_PIXELS:.3g}): "
                               "give --spacing or a smaller --extent")
     options = {"algorithm": algorithm, "spacing": spacing, "extent": extent, "window": window,
-               "filter": str(filter_path), "sicd": sicd, **({"geotiff": True} if geotiff else {})}
+               "filter": str(filter_path), "sicd": sicd, "channel": c.channel, "pulses": [c.start, c.stop],
+               "tropo": tropo, **({"geotiff": True} if geotiff else {})}
     with OutputFolder(out, _identity(path, options), overwrite=overwrite):
-        img, figures, metrics = run_collect_image(rc, grid, algorithm, window, window_field="--window")
-        report = {"source": str(path), **metrics}
+        img, figures, metrics = _form(c, grid, algorithm, window, filter_path, budget)
+        report = {"source": str(path), "channel": c.channel, "vectors": [c.start, c.stop], "tropo": tropo,
+                  **metrics}
         if sicd or geotiff:
             report["files"] = [name for name, on in (("image.nitf", sicd), ("image.tif", geotiff)) if on]
-        geometry = SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength, figures.bandwidth) if sicd else None
+        geometry = SicdGeometry(grid, c.positions, c.pulse_times, figures.wavelength, figures.bandwidth) \
+            if sicd else None
         write_image_files(out, img, figures, report, f"{path.name}: {algorithm.upper()}", speed=figures.speed,
                           sicd=geometry, geotiff=grid if geotiff else None)
         return report

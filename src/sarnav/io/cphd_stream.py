@@ -1,0 +1,179 @@
+"""The image of a CPHD collect formed block by block, its memory bounded by a budget whatever the file's size.
+
+Back-projection is a sum over pulses (thesis (4.27)), and the FFBP image of a set of pulses is the sum of the FFBP
+images of its blocks (each block an exact back-projection up to its own factorisation's error): the vectors are read
+``block`` at a time (:meth:`io.cphd_read.CphdCollect.phase_history`: only those bytes are read), turned into pulses
+on the one range axis of the whole selection (``signal.phase_history.default_range_axis`` of the header: the same
+axis for every block), imaged and added. The block size is the largest whose estimated peak fits the budget
+(:func:`stream_plan`: the fixed part, i.e. PVPs and the image, plus ``block`` times the bytes of one vector's read,
+conversion and imaging); the blocks are then balanced. The interpolation of back-projection is chosen once for all
+blocks, from the band of 8 vectors in the middle of the selection, so that the image does not depend on the
+budget (only the float64 summation order does).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sarnav.errors import ConfigError, InputDataError
+from sarnav.imaging.backprojection import backproject, data_oversampling, resolve_interpolation
+from sarnav.imaging.collect_image import ALGORITHMS, CollectFigures, collect_image_metrics
+from sarnav.imaging.ffbp import ffbp
+from sarnav.io.cphd_read import DEFAULT_BUDGET, CphdCollect, conversion_bytes
+from sarnav.signal.data import PulseData, SarImage
+from sarnav.signal.phase_history import default_range_axis, phase_history_to_pulses
+from sarnav.signal.windows import as_window
+
+__all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET", "read_sicd_geometry"]
+
+_C = 299792458.0
+_FFBP_UPSAMPLE = 8                 # ffbp's default level-0 range upsampling
+_PIXEL_BYTES = {"bpa": 64, "ffbp": 192}   # accumulator, the former's outputs (and FFBP's polar images) per pixel
+_FIXED_BYTES = 2**20               # small arrays, slack
+_BAND_VECTORS = 8                  # vectors in the middle of the selection whose spectrum gives the band
+
+
+class StreamPlan:
+    """Block size and memory of an image formed in blocks (:func:`stream_plan`)."""
+
+    def __init__(self, pulses_per_block: int, n_blocks: int, vector_bytes: int, fixed_bytes: int, budget: float):
+        self.pulses_per_block = pulses_per_block
+        self.n_blocks = n_blocks
+        self.vector_bytes = vector_bytes
+        self.fixed_bytes = fixed_bytes
+        self.budget = budget
+
+    @property
+    def peak_bytes(self) -> int:
+        """Estimated peak [bytes]: fixed part + one block."""
+        return self.fixed_bytes + self.pulses_per_block * self.vector_bytes
+
+    def as_dict(self) -> dict:
+        return {"pulses_per_block": self.pulses_per_block, "blocks": self.n_blocks, "budget_bytes": float(self.budget),
+                "estimated_peak_bytes": self.peak_bytes}
+
+
+def _check_budget(budget, field: str) -> float:
+    try:
+        b = float(budget)
+    except (TypeError, ValueError):
+        raise ConfigError(field, f"must be a number of bytes > 0, got {budget!r}") from None
+    if not (math.isfinite(b) and b > 0):
+        raise ConfigError(field, f"must be finite and > 0 bytes, got {budget!r}")
+    return b
+
+
+def stream_plan(c: CphdCollect, m: int, pixels: int, algorithm: str, upsample: int | None,
+                budget: float = DEFAULT_BUDGET, *, budget_field: str = "budget") -> StreamPlan:
+    """How many vectors of ``c`` to image at a time on ``m`` range samples and ``pixels`` pixels within ``budget``
+    [bytes] (``upsample``: back-projection's FFT upsampling factor, None when it interpolates the samples directly).
+    ConfigError naming ``budget_field`` when not even the smallest block fits."""
+    budget = _check_budget(budget, budget_field)
+    up = _FFBP_UPSAMPLE if algorithm == "ffbp" else (upsample or 0)
+    # the block's pulses (M complex128) stay while the next stage runs: the read and conversion, then the former's
+    # complex64 copy, its FFT upsampling (spectrum, up x M, in place) and its padded copy (up x M)
+    per = 16 * m + max(conversion_bytes(c.n_samples, m, c.raw_itemsize), 32 * m + 24 * up * m)
+    fixed = _FIXED_BYTES + _PIXEL_BYTES[algorithm] * pixels + 8 * c.pvp.nbytes
+    least = 2 if algorithm == "ffbp" else 1
+    fit = int((budget - fixed) // per)
+    if fit < min(least, c.n_pulses):
+        raise ConfigError(budget_field, f"{budget / 2**20:.4g} MiB cannot hold the image ({pixels} pixels) and "
+                          f"{least} vector(s) of {c.n_samples} samples on {m} range samples: needs at least "
+                          f"{(fixed + least * per) / 2**20:.4g} MiB")
+    n_blocks = math.ceil(c.n_pulses / max(fit, least))
+    block = math.ceil(c.n_pulses / n_blocks)
+    return StreamPlan(block, n_blocks, per, fixed, budget)
+
+
+def _check_aperture(c: CphdCollect) -> None:
+    pos = c.positions
+    span = float(np.max(np.linalg.norm(pos - pos[0], axis=1)))
+    lam = _C / c.fxc
+    if not span >= lam:
+        raise InputDataError("cphd.PVP.TxPos", f"the {c.n_pulses} vectors span {span:.3g} m of track: no synthetic "
+                             f"aperture (at least one wavelength, {lam:.3g} m, is needed)")
+
+
+def _pulses(c: CphdCollect, k0: int, k1: int, axis: np.ndarray, filt) -> PulseData:
+    ph = c.phase_history(k0, k1)
+    return phase_history_to_pulses(ph, axis, wavelength=_C / c.fxc, filter=filt,
+                                   metadata={"source": "cphd", "file": str(c.path), "channel": c.channel})
+
+
+def _figures(c: CphdCollect, mid: PulseData) -> CollectFigures:
+    """``collect_image.collect_figures`` of the whole selection: the band from the middle vectors' spectrum."""
+    fs = _C / (2.0 * float(mid.slant_range[1] - mid.slant_range[0]))
+    bandwidth = fs / data_oversampling(mid)
+    t = np.asarray(c.pvp["TxTime"], np.float64)
+    prf = (c.n_pulses - 1) / float(np.ptp(t)) if c.n_pulses > 1 and np.ptp(t) > 0 else float("nan")
+    pos = c.positions
+    speed = float(np.mean(np.sqrt(np.sum(np.diff(pos, axis=0) ** 2, axis=1))) * prf) if c.n_pulses > 1 else 0.0
+    return CollectFigures(c.fxc, bandwidth, _C / c.fxc, prf, speed)
+
+
+def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, window_field: str = "window",
+                  filter=None, range_axis=None, oversample: float = 1.0, budget: float = DEFAULT_BUDGET,
+                  budget_field: str = "budget") -> tuple[SarImage, CollectFigures, dict]:
+    """The image of the selected vectors of ``c`` (``io.cphd_read.open_collect``) on ``grid`` by ``algorithm``
+    ("bpa" or "ffbp"), formed in blocks within ``budget`` bytes (module doc); the azimuth ``window`` over all the
+    selected pulses, ``filter`` the frequency samples' weights. Returns what ``imaging.collect_image.
+    run_collect_image`` returns for the whole collect read into memory (image, figures, metrics), the metrics with
+    ``stream`` (blocks, pulses per block, budget, estimated peak)."""
+    if algorithm not in ALGORITHMS:
+        raise ConfigError("algorithm", f"must be one of {ALGORITHMS}, got {algorithm!r}")
+    _check_aperture(c)
+    axis = default_range_axis(c.header(), oversample) if range_axis is None else np.asarray(range_axis, np.float64)
+    p = c.n_pulses
+    k0 = max(0, p // 2 - _BAND_VECTORS // 2)
+    mid = _pulses(c, k0, min(p, k0 + _BAND_VECTORS), axis, filter)        # the band, once for all blocks
+    figures = _figures(c, mid)
+    mode, up = ("upsample", _FFBP_UPSAMPLE) if algorithm == "ffbp" else \
+        resolve_interpolation(mid, "auto", 4, figures.bandwidth)
+    del mid
+    pixels = int(np.prod(grid.shape))
+    plan = stream_plan(c, axis.size, pixels, algorithm, up if mode == "upsample" else None, budget,
+                       budget_field=budget_field)
+    w = as_window(window or "none", window_field)
+    weights = w.samples(p) if w.name != "none" else None
+    acc, img = None, None
+    for a in range(0, p, plan.pulses_per_block):
+        b = min(p, a + plan.pulses_per_block)
+        rc = _pulses(c, a, b, axis, filter)
+        if weights is not None:
+            rc.data *= weights[a:b, None]
+        img = backproject(rc, grid, interpolation=mode, upsample=up, bandwidth=figures.bandwidth) \
+            if algorithm == "bpa" else ffbp(rc, grid)
+        acc = img.data if acc is None else acc + img.data
+        del rc
+    img.data = acc
+    img.metadata.update({"n_pulses": p, "window": w.label})
+    metrics = collect_image_metrics(_Shape(p, axis.size, _C / c.fxc), img, algorithm, figures.bandwidth)
+    metrics["stream"] = plan.as_dict()
+    return img, figures, metrics
+
+
+class _Shape:
+    """What ``collect_image_metrics`` reads of the collect: its pulse count, range samples and wavelength."""
+
+    def __init__(self, n_pulses: int, n_range: int, wavelength: float):
+        self.n_pulses = n_pulses
+        self.data = np.broadcast_to(np.zeros((), np.complex64), (n_pulses, n_range))
+        self.carrier_wavelength = wavelength
+
+
+#: :func:`image_collect` under an entry point's name (``sarnav image FILE.cphd`` wires it: tests/test_structure.py)
+run_image_collect = image_collect
+
+
+def read_sicd_geometry(c, grid):
+    """The SICD geometry (``io.sicd.SicdGeometry``) of the collect ``c`` (``open_collect``) on ``grid`` before the
+    image is formed: its carrier and band from 8 vectors in the middle (``imaging.collect_image.collect_figures``)."""
+    from sarnav.imaging.collect_image import collect_figures
+    from sarnav.io.sicd import SicdGeometry
+    from sarnav.signal.phase_history import phase_history_to_pulses
+
+    mid = c.n_pulses // 2
+    rc = phase_history_to_pulses(c.phase_history(max(mid - 4, 0), min(mid + 4, c.n_pulses)))
+    return SicdGeometry(grid, c.positions, c.pulse_times, rc.wavelength, collect_figures(rc).bandwidth)
