@@ -9,9 +9,9 @@ from typing import Sequence
 import numpy as np
 import xarray as xr
 
-import sarnav
 from sarnav.errors import InputDataError
 from sarnav.montecarlo.record import RunRecord
+from sarnav.version import provenance
 
 __all__ = ["assemble_results", "write_results", "open_results"]
 
@@ -75,7 +75,8 @@ def assemble_results(
     for dim, (values, cattrs) in (extra_coords or {}).items():
         coords[dim] = (dim, np.asarray(values), dict(cattrs))
     ds = xr.Dataset(data, coords=coords, attrs=dict(attrs))
-    ds.attrs.setdefault("sarnav_version", sarnav.__version__)
+    for key, value in provenance().items():  # sarnav_version, sarnav_commit
+        ds.attrs.setdefault(key, value)
     for name, (units, description) in STANDARD_ATTRS.items():
         if name in ds.variables:
             ds[name].attrs.setdefault("units", units)  # state and meas keep their list of units
