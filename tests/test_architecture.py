@@ -15,7 +15,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "sarnav"
 LAYERS = [
     ("errors",),
     ("units", "tomlio", "record", "version"),
-    ("rotations", "frames"),
+    ("rotations", "frames", "cf"),
     ("signal",),
     ("trajectory", "sensors"),
     ("ins",),

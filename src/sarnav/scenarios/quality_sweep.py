@@ -132,7 +132,7 @@ def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> 
         marker = out / "INCOMPLETE"
         marker.write_text("quality-sweep running\n")
         res = run(prm)
-        ds = sweep_dataset(res["sweeps"], {"scenario": cfg["scenario"]["name"], "source": "Hathaway 2023 §4.1.1"})
+        ds = sweep_dataset(res["sweeps"], {"scenario": cfg["scenario"]["name"], "references": "Hathaway 2023 §4.1.1"})
         path = out / "sweep.nc"
         ds.to_netcdf(out / "sweep.nc.partial")
         Path(out / "sweep.nc.partial").replace(path)
