@@ -30,13 +30,18 @@ def override_strings(overrides: dict) -> list[str]:
                 walk(f"{prefix}.{k}", v)
             return
         try:
-            text = tomli_w.dumps({"v": value}).strip()
+            text = toml_value(value)
         except TypeError:
             from sarnav.errors import ConfigError
 
             raise ConfigError(prefix, f"must be a TOML value (number, string, boolean, list), got "
                               f"{type(value).__name__} {value!r}") from None
-        out.append(f"{prefix}={text.partition('=')[2].strip()}")
+        out.append(f"{prefix}={text}")
+
+    def toml_value(value) -> str:  # one line, as typed after --set
+        if isinstance(value, (list, tuple)):
+            return "[" + ", ".join(toml_value(v) for v in value) + "]"
+        return tomli_w.dumps({"v": value}).partition("=")[2].strip()
 
     for key, value in overrides.items():
         walk(key.replace("__", "."), value)
