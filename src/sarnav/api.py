@@ -96,9 +96,16 @@ def run(scenario: str | os.PathLike = "rda-nav", runs: int | None = None, seed: 
     **overrides : scenario values, as ``--set`` (module docstring): ``imu={"grade": "consumer"}`` or
         ``imu__grade="consumer"``.
 
-    The Dataset equals the file ``sarnav run`` writes for the same scenario, runs, seed and overrides (the results
-    do not depend on the executor). Kinds that write their own files instead of one campaign (studies, sweeps,
-    images) are a :class:`~sarnav.errors.ConfigError` naming the command that runs them.
+    Returns
+    -------
+    xarray.Dataset
+        equal to the file ``sarnav run`` writes for the same scenario, runs, seed and overrides (the results do not
+        depend on the executor).
+
+    Notes
+    -----
+    Kinds that write their own files instead of one campaign (studies, sweeps, images) are a
+    :class:`~sarnav.errors.ConfigError` naming the command that runs them.
     """
     if out is not None:
         return run_result(scenario, runs, seed, out=out, executor=executor, workers=workers, quiet=quiet,
