@@ -3,23 +3,38 @@
 See docs/architecture.md for the package layout and docs/conventions.md for frames,
 units, attitude and error-state conventions.
 
-When this interpreter runs the ``sarnav`` command (the console script or ``python -m sarnav.cli.main``; never a
-worker process, a test runner or a program importing sarnav), SIGINT and SIGTERM are deferred from the first line
+When this interpreter runs the ``sarnav`` command (the console script, ``python -m sarnav`` or
+``python -m sarnav.cli.main``; never a worker process, a test runner or a program importing sarnav), SIGINT and SIGTERM are deferred from the first line
 of this package on: a signal that arrives while the command is still importing is recorded in
 :data:`PENDING_SIGNALS` and answered by :func:`sarnav.cli.main.main` with the one "interrupted" line and exit
 status 128 + N. The handlers are installed through the built-in ``_signal`` module (the ``signal`` module alone
 imports ``enum`` and costs ~10 ms), so the only moment left to the operating system's defaults is the interpreter's
 own start-up, before it runs any sarnav code.
+
+From Python (docs/api.md): ``sarnav.run(scenario, runs=..., seed=..., **overrides)`` runs a campaign and returns its
+results Dataset; ``sarnav.figures`` draws them; ``sarnav.__version__`` is the version derived from git
+(:mod:`sarnav.version`). These are imported on first use: ``import sarnav`` stays light.
 """
 
 import sys as _sys
 
-__version__ = "0.2.0"
+
+def __getattr__(name):  # PEP 562: the version (asks git in a checkout) and the API on first use
+    if name == "__version__":
+        from sarnav.version import version
+
+        return version()
+    if name in ("run", "run_result"):
+        from sarnav import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'sarnav' has no attribute {name!r}")
+
 
 #: SIGINT / SIGTERM received before :func:`sarnav.cli.main.main` took over (set only when running the command)
 PENDING_SIGNALS: list[int] = []
 
-_COMMAND_MODULES = ("sarnav.cli.main", "sarnav.cli")
+_COMMAND_MODULES = ("sarnav", "sarnav.cli.main", "sarnav.cli")
 
 
 def _runs_the_command(argv) -> bool:

@@ -126,3 +126,31 @@ def raise_interrupted(signum, frame):
 
 
 raise_interrupted.raises_interrupted = True
+
+
+class MissingExtraError(SarnavError, ImportError):
+    """A feature needs an optional dependency that is not installed; names the extra of sarnav that installs it
+    (``pip install 'sarnav[dask]'``; the extras are in pyproject.toml)."""
+
+    def __init__(self, field: str, extra: str, package: str):
+        self.field, self.extra, self.package = field, extra, package
+        super().__init__(f"{field}: needs the optional package {package}, which is not installed: "
+                         f"pip install 'sarnav[{extra}]'")
+
+    def __reduce__(self):
+        return (type(self), (self.field, self.extra, self.package))
+
+
+def require_extra(field: str, extra: str, module: str, package: str | None = None) -> None:
+    """Raise :class:`MissingExtraError` when the optional ``module`` cannot be found (looked up, not imported).
+
+    ``field`` names what needs it (``--executor``, ``measurement.mode``, a function), ``extra`` the extra of sarnav
+    that installs it, ``package`` its distribution name when it differs from the module's (``scikit-image``)."""
+    import importlib.util
+
+    try:
+        found = importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):  # a parent package missing, or a module set to None in sys.modules
+        found = False
+    if not found:
+        raise MissingExtraError(field, extra, package or module)

@@ -57,7 +57,7 @@ def test_serial_campaign_writes_schema_and_summary(tmp_path):
     res = run_campaign(cfg, tmp_path, TOY, executor="serial", quiet=True, chunk_size=7)
     ds = open_results(tmp_path / "results.nc")
     assert dict(ds.sizes) == {"run": 40, "time": 61, "state": 1, "update": 60, "meas": 2}
-    assert list(ds["state"].values) == ["x"] and list(ds["state"].attrs["units"]) == ["m"]
+    assert list(ds["state"].values) == ["x"] and list(ds["state_units"].values) == ["m"]
     assert list(ds["meas"].values) == ["z1", "z2"]
     assert ds.attrs["complete"] == 1 and ds.attrs["seed"] == 7
     assert ds.attrs["scenario"] == dump_toml(cfg)

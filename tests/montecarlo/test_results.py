@@ -68,8 +68,8 @@ def test_assembled_dataset_schema_and_netcdf_round_trip(tmp_path):
     write_results(ds, tmp_path / "results.nc")
     back = open_results(tmp_path / "results.nc")
     assert list(back["state"].values) == STATES
-    assert list(back["state"].attrs["units"]) == UNITS and list(back["state_units"].values) == UNITS
-    assert list(back["meas"].attrs["units"]) == ["m", "m"]
+    assert list(back["state_units"].values) == UNITS and "units" not in back["state"].attrs  # CF: labels have none
+    assert list(back["meas_units"].values) == ["m", "m"] and back["error"].attrs["units_coordinate"] == "state_units"
     assert back.attrs["scenario"] == "x = 1\n" and back.attrs["seed"] == 4 and back.attrs["complete"] == 1
     assert back.attrs["sarnav_version"]
     for v in ("error", "sigma", "nees", "residual", "residual_sigma", "nis", "nis_dof", "registration_error", "scale"):

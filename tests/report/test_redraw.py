@@ -19,16 +19,12 @@ STANDARD = ["attitude.png", "position.png", "residuals.png", "velocity.png"]
 
 @pytest.fixture
 def cheap_panels(monkeypatch):
+    from matplotlib.figure import Figure
+
     from sarnav.report import figures as F
 
-    def stub(*args):
-        path = next(a for a in args if isinstance(a, (str, Path)))
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        Path(path).write_bytes(b"\x89PNG\r\n\x1a\n")
-        return str(path)
-
-    monkeypatch.setattr(F, "plot_error_block", lambda ds, idx, title, path, max_runs=50: stub(path))
-    monkeypatch.setattr(F, "plot_residuals", lambda ds, path, max_runs=20: stub(path))
+    monkeypatch.setattr(F, "error_figure", lambda ds, idx, title, max_runs=50: Figure(figsize=(1, 1)))
+    monkeypatch.setattr(F, "residual_figure", lambda ds, max_runs=20: Figure(figsize=(1, 1)))
 
 
 @pytest.fixture

@@ -90,7 +90,7 @@ def test_results_are_bit_identical_for_any_executor_and_workers(tmp_path):
     for v in ("error", "sigma", "nees", "residual", "nis", "error_ric", "sigma_ric", "nees_block", "beta"):
         assert np.array_equal(da[v].values, db[v].values, equal_nan=True), v
     assert list(da["state"].values) == ["rX", "rY", "rZ", "vX", "vY", "vZ", "muX", "muY", "muZ"]
-    assert list(da["state"].attrs["units"]) == ["m", "m", "m", "m/s", "m/s", "m/s", "rad", "rad", "rad"]
+    assert list(da["state_units"].values) == ["m", "m", "m", "m/s", "m/s", "m/s", "rad", "rad", "rad"]
     st = a.summary["states"]["rY"]
     assert st["final_sample_sigma"] == pytest.approx(np.std(da["error"].values[:, -1, 1], ddof=1), rel=1e-12)
     assert st["final_sigma"] == pytest.approx(np.mean(da["sigma"].values[:, -1, 1]), rel=1e-12)

@@ -192,8 +192,8 @@ def summarize(ds, confidence: float = 0.95) -> dict:
     final_mean = np.nanmean(error[:, -1, :], axis=0)
     final_sample = np.nanstd(error[:, -1, :], axis=0, ddof=1) if n_runs > 1 else np.full(len(states), np.nan)
     contain = sigma_containment(error, sigma, 3.0)
-    s_units = list(ds["state"].attrs.get("units", [""] * len(states)))
-    m_units = list(ds["meas"].attrs.get("units", [""] * len(meas)))
+    s_units = [str(u) for u in ds["state_units"].values] if "state_units" in ds.variables else [""] * len(states)
+    m_units = [str(u) for u in ds["meas_units"].values] if "meas_units" in ds.variables else [""] * len(meas)
     per_state = {
         s: {
             "units": str(s_units[i]) if i < len(s_units) else "",

@@ -432,23 +432,32 @@ def _reliability(prm: QualitySweepParams) -> tuple[dict, np.ndarray, np.ndarray]
     return reliability_claims(best, errors, rel.measures), best / (errors[1] - errors[0]), errors
 
 
-def run(prm: QualitySweepParams) -> dict:
+def run(prm: QualitySweepParams, progress=None) -> dict:
     """The sweeps ({direction: :func:`quality_sweep` Dataset}), the claims (T3, T7-T17 beside
-    :data:`SOURCE_CLAIMS`), the T3 example (:func:`t3_example`) and the reliability study (or None)."""
+    :data:`SOURCE_CLAIMS`), the T3 example (:func:`t3_example`) and the reliability study (or None).
+    ``progress(text)``, when given, is told each stage as it starts."""
+    say = progress or (lambda text: None)
     geo = prm.geometry
     scene, rng, snr = make_scene(prm.scene, geo)
+    say("echoes")
     rc = compressed_pulses(geo, scene, snr, rng)
-    sweeps = {d: quality_sweep(rc, geo, error_grid(geo, d, prm.steps, prm.span_depths), d, prm.sizes, prm.bins,
-                               prm.measures, prm.pivot) for d in prm.directions}
+    sweeps = {}
+    for k, d in enumerate(prm.directions):
+        say(f"{d}-track sweep ({k + 1} of {len(prm.directions)}: sizes {list(prm.sizes)}, {2 * prm.steps + 1} errors)")
+        sweeps[d] = quality_sweep(rc, geo, error_grid(geo, d, prm.steps, prm.span_depths), d, prm.sizes, prm.bins,
+                                  prm.measures, prm.pivot)
     claims = {"source": SOURCE_CLAIMS, "focus_depth": focus_depth(geo),
               "step": {d: float(ds["error"].values[1] - ds["error"].values[0]) for d, ds in sweeps.items()}}
     if "along" in sweeps:
         claims.update(along_claims(sweeps["along"], prm.figure_size))
     if "cross" in sweeps:
         claims.update(cross_claims(sweeps["cross"], prm.figure_size))
+    say("T3 example")
     t3 = t3_example(rc, geo, prm.figure_size)
     claims["T3"] = {k: v for k, v in t3.items() if not isinstance(v, np.ndarray)}
     claims.setdefault("T17", {})["mean_over_rms"] = mean_to_rms(t3["reference"])
+    if prm.reliability.scenes:
+        say(f"reliability over {prm.reliability.scenes} scenes")
     rel = _reliability(prm)
     if rel is not None:
         claims["T16"] = rel[0]

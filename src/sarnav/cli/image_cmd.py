@@ -59,6 +59,7 @@ def _cphd(args) -> int:
             raise ConfigError(flag, f"applies to simulated scenarios, not to the CPHD file {args.scenario!r}")
     path = Path(args.scenario)
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{path.stem}"
+    _progress(f"{path.name}: forming the {args.algorithm or 'bpa'} image")
     report = run_cphd_image(path, out, algorithm=args.algorithm or "bpa", spacing=args.spacing, extent=args.extent,
                             window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite,
                             channel=args.channel, pulses=args.pulses, tropo=args.tropo or "in-data",
@@ -100,6 +101,7 @@ def run(args) -> int:
                           f"run it with `sarnav run {args.scenario}`")
     name = cfg["scenario"]["name"] or Path(str(args.scenario)).stem
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{name}"
+    _progress(f"{name}: simulating the echoes and forming the {cfg['image']['algorithm']} image")
     report = run_image(cfg, out, overwrite=args.overwrite, cphd=args.cphd, sicd=args.sicd)
     shape = report["image_shape"]
     print(f"{name}: {cfg['image']['algorithm']} image {shape[0]}x{shape[1]} -> {out}")
@@ -115,6 +117,12 @@ def run(args) -> int:
     for f in report.get("files", []):
         print(f"  wrote {out / f}")
     return 0
+
+
+def _progress(text: str) -> None:
+    """What the command is doing, on stderr when that is a terminal (the results go to stdout)."""
+    if sys.stderr.isatty():
+        print(f"sarnav image: {text} ...", file=sys.stderr, flush=True)
 
 
 def _fmt(value, spec: str, unit: str) -> str:

@@ -46,14 +46,25 @@ class _Parser(argparse.ArgumentParser):
         raise ConfigError(field, message)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    import sarnav
+class _Version(argparse.Action):
+    """``--version``: the version derived from git and the commit (sarnav.version), computed only when asked."""
 
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from sarnav.version import commit, version
+
+        print(f"sarnav {version()} (commit {commit()})")
+        parser.exit()
+
+
+def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="sarnav",
         description="GPS-denied navigation aided by SAR: scenarios, Monte Carlo campaigns, results and figures.",
     )
-    parser.add_argument("--version", action="version", version=f"sarnav {sarnav.__version__}")
+    parser.add_argument("--version", action=_Version, help="print the version (derived from git) and commit, and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for mod in __getattr__("COMMANDS"):
         mod.add_parser(sub)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sarnav.errors import ConfigError, InputDataError
+from sarnav.errors import ConfigError, InputDataError, require_extra
 
 __all__ = ["AffineMatch", "feature_affine", "correlation_shift", "FEATURES", "to_gray"]
 
@@ -73,6 +73,7 @@ def feature_affine(image, reference, method: str = "orb", min_inliers: int = 3, 
                    residual_threshold: float = 2.0, max_trials: int = 2000, seed: int = 0) -> AffineMatch | None:
     """Affine image -> reference from features + RANSAC (module docstring); None when fewer than ``min_inliers``
     inliers (or matches) are found. ``image``, ``reference``: amplitudes (2-D). RANSAC draws from ``seed``."""
+    require_extra("feature_affine", "registration", "skimage", "scikit-image")
     from skimage.feature import match_descriptors
     from skimage.measure import ransac
     from skimage.transform import AffineTransform
@@ -103,6 +104,7 @@ def feature_affine(image, reference, method: str = "orb", min_inliers: int = 3, 
 def correlation_shift(moving, reference, upsample: int = 20):
     """(d_row, d_col, error): the shift that maps ``moving`` onto ``reference`` (reference(x) ~ moving(x - d)), by
     phase correlation of the amplitudes with ``upsample``-fold sub-pixel refinement."""
+    require_extra("correlation_shift", "registration", "skimage", "scikit-image")
     from skimage.registration import phase_cross_correlation
 
     a, b = np.abs(np.asarray(moving, float)), np.abs(np.asarray(reference, float))

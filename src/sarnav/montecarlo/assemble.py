@@ -9,9 +9,9 @@ from typing import Sequence
 import numpy as np
 import xarray as xr
 
-import sarnav
 from sarnav.errors import InputDataError
 from sarnav.montecarlo.record import RunRecord
+from sarnav.cf import UNITS_COORDINATE, apply_cf
 
 __all__ = ["assemble_results", "write_results", "open_results"]
 
@@ -33,8 +33,9 @@ def assemble_results(
     """Stack run records (sorted by run) into a Dataset with dims ``run, time, state, update, meas``.
 
     ``time`` and ``update_time`` must be identical in every run (RunRecord contract); a mismatch is
-    an :class:`InputDataError`. Every variable and coordinate gets ``units`` and ``description`` attributes
-    (``extra_attrs``: those of the kind's extras; ``extra_coords``: labels of the kind's own dimensions).
+    an :class:`InputDataError`. Every variable and coordinate gets ``long_name`` and UDUNITS ``units`` attributes
+    (``extra_attrs``: those of the kind's extras; ``extra_coords``: labels of the kind's own dimensions), and the
+    Dataset the CF-1.10 attributes (:func:`sarnav.cf.apply_cf`).
     """
     records = sorted(records, key=lambda r: r.run)
     if not records:
@@ -67,44 +68,50 @@ def assemble_results(
         "run": ("run", np.array([r.run for r in records], dtype=np.int64)),
         "time": ("time", t0.astype(np.float64), {"units": "s"}),
         "update_time": ("update", u0.astype(np.float64), {"units": "s"}),
-        "state": ("state", np.array(list(state_names), dtype=str), {"units": list(state_units)}),
-        "meas": ("meas", np.array(list(meas_names), dtype=str), {"units": list(meas_units)}),
+        "state": ("state", np.array(list(state_names), dtype=str)),
+        "meas": ("meas", np.array(list(meas_names), dtype=str)),
         "state_units": ("state", np.array(list(state_units), dtype=str)),
         "meas_units": ("meas", np.array(list(meas_units), dtype=str)),
     }
     for dim, (values, cattrs) in (extra_coords or {}).items():
         coords[dim] = (dim, np.asarray(values), dict(cattrs))
     ds = xr.Dataset(data, coords=coords, attrs=dict(attrs))
-    ds.attrs.setdefault("sarnav_version", sarnav.__version__)
-    for name, (units, description) in STANDARD_ATTRS.items():
+    for name, (units, long_name) in STANDARD_ATTRS.items():
         if name in ds.variables:
-            ds[name].attrs.setdefault("units", units)  # state and meas keep their list of units
-            ds[name].attrs["description"] = description
+            ds[name].attrs.update(_units_attrs(units), long_name=long_name)
     for name, a in (extra_attrs or {}).items():
         if name in ds.variables:
             ds[name].attrs.update(a)
     for name in ds.variables:  # kinds outside sarnav may not describe their extras
-        ds[name].attrs.setdefault("units", "")
-        ds[name].attrs.setdefault("description", f"kind-specific variable {name!r}")
-    return ds
+        if UNITS_COORDINATE not in ds[name].attrs:
+            ds[name].attrs.setdefault("units", "")
+        if "description" not in ds[name].attrs:
+            ds[name].attrs.setdefault("long_name", f"kind-specific variable {name!r}")
+    return apply_cf(ds, f"sarnav {attrs.get('kind', '')} campaign {attrs.get('scenario_name', '')}".replace("  ", " "))
 
 
-#: units and description of every standard variable and coordinate of results.nc (docs/results.md)
+def _units_attrs(units: str) -> dict:
+    """``units`` of a standard variable, or ``units_coordinate`` for a ``@coordinate`` reference (sarnav.cf)."""
+    return {UNITS_COORDINATE: units[1:]} if units.startswith("@") else {"units": units}
+
+
+#: units (UDUNITS; ``@name``: one per component, in the coordinate variable ``name``) and long name of every standard
+#: variable and coordinate of results.nc (docs/results.md; sarnav.cf makes the file CF-1.10)
 STANDARD_ATTRS = {
-    "error": ("per state: see state_units", "truth minus estimate (error-state coordinates)"),
-    "sigma": ("per state: see state_units", "filter 1-sigma, sqrt(diag P)"),
+    "error": ("@state_units", "estimation error: truth minus estimate (error-state coordinates)"),
+    "sigma": ("@state_units", "filter 1-sigma, sqrt(diag P)"),
     "nees": ("1", "normalised estimation error squared e^T P^-1 e, dof = number of states"),
-    "residual": ("per measurement: see meas_units", "measurement residual z - z_hat, NaN where absent"),
-    "residual_sigma": ("per measurement: see meas_units", "sqrt(diag(H P- H^T + R)), NaN where absent"),
+    "residual": ("@meas_units", "measurement residual z - z_hat, NaN where absent"),
+    "residual_sigma": ("@meas_units", "residual 1-sigma sqrt(diag(H P- H^T + R)), NaN where absent"),
     "nis": ("1", "normalised innovation squared over the measurements present"),
     "nis_dof": ("1", "number of measurements in nis"),
     "run": ("1", "Monte Carlo run index (seed: SeedSequence(campaign seed).spawn(runs)[run])"),
-    "time": ("s", "output epochs"),
-    "update_time": ("s", "epochs of the measurement updates"),
-    "state": ("", "names of the error states (attribute units: one per state)"),
-    "meas": ("", "names of the measurement components (attribute units: one per component)"),
-    "state_units": ("1", "units of each error state"),
-    "meas_units": ("1", "units of each measurement component"),
+    "time": ("s", "time of the output epochs since the start of the run"),
+    "update_time": ("s", "time of the measurement updates since the start of the run"),
+    "state": ("", "names of the error states"),
+    "meas": ("", "names of the measurement components"),
+    "state_units": ("", "units of each error state (UDUNITS)"),
+    "meas_units": ("", "units of each measurement component (UDUNITS)"),
 }
 
 

@@ -18,7 +18,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from sarnav.errors import ConfigError, InputDataError, SarnavError
+from sarnav.errors import ConfigError, InputDataError, SarnavError, require_extra
 from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.kind import ScenarioKind
 
@@ -164,6 +164,8 @@ class ChunkRunner:
             raise ConfigError("--workers", f"must be an integer >= 1, got {workers!r}")
         if scheduler and executor != "dask":
             raise ConfigError("--scheduler", f"needs --executor dask, got --executor {executor}")
+        if executor == "dask":  # an optional dependency: one line naming the extra, before anything is written
+            require_extra("--executor", "dask", "distributed", "dask[distributed]")
         if scheduler:
             _check_address(scheduler)
         self.executor = executor

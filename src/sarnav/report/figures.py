@@ -18,8 +18,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["state_blocks", "thin_runs", "plot_error_block", "residual_limit", "residual_figure", "plot_residuals",
-           "write_campaign_figures", "save_png", "png_bytes"]
+__all__ = ["state_blocks", "thin_runs", "error_figure", "plot_error_block", "residual_limit", "residual_figure",
+           "plot_residuals", "campaign_figures", "write_campaign_figures", "save_png", "png_bytes"]
 
 #: figure name -> (title, state names); drawn when all three states exist
 KNOWN_BLOCKS = (
@@ -72,7 +72,7 @@ def _units(ds, coord: str) -> list[str]:
     return [""] * ds.sizes[coord]
 
 
-def plot_error_block(ds, indices: Sequence[int], title: str, path, max_runs: int = 50) -> str:
+def error_figure(ds, indices: Sequence[int], title: str, max_runs: int = 50) -> Figure:
     """Panels (one per state) of error hairlines with ±3σ (mean σ over runs)."""
     t = ds["time"].values
     err = ds["error"].values
@@ -91,7 +91,12 @@ def plot_error_block(ds, indices: Sequence[int], title: str, path, max_runs: int
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time [s]")
     fig.suptitle(f"{title}: {len(runs)} of {err.shape[0]} runs")
-    return save_png(fig, path)
+    return fig
+
+
+def plot_error_block(ds, indices: Sequence[int], title: str, path, max_runs: int = 50) -> str:
+    """:func:`error_figure` saved as PNG at ``path``."""
+    return save_png(error_figure(ds, indices, title, max_runs), path)
 
 
 #: residual panels: y limits = RESIDUAL_MARGIN x the RESIDUAL_PERCENTILE-th percentile over updates of the per-update
@@ -164,12 +169,20 @@ def plot_residuals(ds, path, max_runs: int = 20) -> str:
     return save_png(residual_figure(ds, max_runs), path)
 
 
-def write_campaign_figures(ds, out, kind=None, max_runs: int = 50) -> list[str]:
-    """All standard figures of a campaign into ``out/figures/``; returns the paths written."""
-    figdir = Path(out) / "figures"
-    paths = [plot_error_block(ds, idx, title, figdir / f"{stem}.png", max_runs) for stem, title, idx in state_blocks(ds["state"].values)]
+def campaign_figures(ds, max_runs: int = 50) -> dict[str, Figure]:
+    """The standard figures of a campaign, ``{name: Figure}``: one per block of states (``position``, ``velocity``,
+    ``attitude``, ...) and ``residuals`` when the campaign has measurement updates (``sarnav.figures``)."""
+    figs = {stem: error_figure(ds, idx, title, max_runs) for stem, title, idx in state_blocks(ds["state"].values)}
     if ds.sizes.get("update", 0) and ds.sizes.get("meas", 0):
-        paths.append(plot_residuals(ds, figdir / "residuals.png"))
+        figs["residuals"] = residual_figure(ds)
+    return figs
+
+
+def write_campaign_figures(ds, out, kind=None, max_runs: int = 50) -> list[str]:
+    """All standard figures of a campaign (:func:`campaign_figures`) into ``out/figures/<name>.png``, then the
+    kind's own; returns the paths written."""
+    figdir = Path(out) / "figures"
+    paths = [save_png(fig, figdir / f"{stem}.png") for stem, fig in campaign_figures(ds, max_runs).items()]
     if kind is not None:
         paths.extend(kind.figures(ds, figdir))
     return paths

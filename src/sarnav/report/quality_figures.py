@@ -21,6 +21,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sarnav.analysis.consistency import strict
+from sarnav.cf import apply_cf
 from sarnav.report.figures import save_png
 
 __all__ = ["write_rows_csv", "write_strict_json", "sweep_dataset", "plot_score_curves", "plot_t3", "plot_reliability", "plot_whiskers",
@@ -63,21 +64,34 @@ def write_strict_json(obj, path) -> Path:
 
 def sweep_dataset(sweeps: dict, attrs: dict) -> xr.Dataset:
     """One Dataset of the sweeps of every direction: dims ``direction``, ``size``, ``bins``, ``step`` (grid step,
-    0 = no error); ``error`` (direction, step) is the injected error (along-track: relative, cross-track: m/m)."""
-    parts = []
+    0 = no error); ``error`` (direction, step) is the injected error (along-track: relative, cross-track: m/m), CF-1.10
+    (:mod:`sarnav.cf`); the sweeps' ``maximise_<measure>`` (1: larger is better focus) and ``pivot`` attributes kept."""
+    parts, kept = [], {}
     for direction, ds in sweeps.items():
+        kept.update({k: v for k, v in ds.attrs.items() if k.startswith("maximise_") or k == "pivot"})
         n = ds.sizes["error"]
         d = ds.assign_coords(step=("error", np.arange(n) - n // 2)).swap_dims(error="step").reset_coords("error")
         d.attrs = {}
         parts.append(d.expand_dims(direction=[direction]))
     out = xr.concat(parts, dim="direction")
-    out["error"].attrs = {"units": "relative (along) or m/m (cross)",
-                          "description": "constant velocity error of the track used for back-projection"}
+    out["error"].attrs = {"units": "1", "long_name": "constant velocity error of the track used for back-projection: "
+                          "relative along-track speed error (direction along) or cross-track velocity over the speed "
+                          "(direction cross)"}
     for name in out.data_vars:
         if name != "error":
-            out[name].attrs["description"] = f"{name} of the BPA image (maximise: {attrs.get('maximise_' + name)})"
+            sense = kept.get(f"maximise_{name}")
+            better = "" if sense is None else f": {'larger' if sense else 'smaller'} is better focus"
+            out[name].attrs.update(units="1", long_name=f"{name} of the BPA image{better}")
+    coords = {"direction": ("", "direction of the velocity error"),
+              "size": ("1", "image size n (n x n pixels over the fixed scene extent)"),
+              "bins": ("1", "histogram bins N of the entropy measures"),
+              "step": ("1", "step of the error grid (0: no error)")}
+    for name, (units, long_name) in coords.items():
+        if name in out.coords:
+            out[name].attrs.update({"long_name": long_name, **({"units": units} if units else {})})
     out.attrs.update({k: v for k, v in attrs.items() if isinstance(v, (str, int, float))})
-    return out
+    out.attrs.update({k: int(v) if isinstance(v, (bool, np.bool_)) else v for k, v in kept.items()})
+    return apply_cf(out, "sarnav quality-sweep: focus measures of BPA images versus velocity error")
 
 
 def _panel_curve(ax, ds, measure, size, n_bins, scatter):

@@ -28,6 +28,7 @@ analysis; the source's numbers) and ``figures/``.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from sarnav.errors import ConfigError
@@ -131,7 +132,7 @@ def _figures(rows, prm: GpsdSearchParams, figdir: Path) -> None:
 
 
 def _progress(rows: int, seconds: float) -> None:
-    print(f"gpsd-search: {rows} runs, {seconds:.0f} s", flush=True)
+    print(f"gpsd-search: {rows} runs, {seconds:.0f} s", file=sys.stderr, flush=True)
 
 
 def run_search_scenario(cfg: dict, out, figures: bool = True, overwrite: bool = False, quiet: bool = True) -> Path:

@@ -143,7 +143,8 @@ class NavFocusKind(SourceKind):
         return {"source": (list(prm.sources), {"units": "", "description": "navigation sources"}),
                 "reflector": (list(range(len(prm.geometry.reflectors))), {"units": "", "description": "reflector "
                               "index (scene.along_track_m, scene.ground_range_m)"}),
-                "metric": (list(FOCUS_METRICS), {"units": "", "description": "focus measures"}),
+                "metric": (list(FOCUS_METRICS), {"units": ["m", "1", "m", "1", "1"], "description": "focus measures "
+                           "(units: metric_units; pslr_along_db in dB and entropy in nats, dimensionless)"}),
                 "axis": (list(AXES), {"units": "", "description": "NED axes"}),
                 "filter": (self.filters(prm), {"units": "", "description": "filters with a covariance"}),
                 "pulse": (pt, {"units": "s", "description": "pulse times"})}

@@ -16,6 +16,8 @@ Sizes keep the ground extent (``scene.extent``) and vary the pixel count (gap 4)
 
 from __future__ import annotations
 
+import sys
+import time
 from pathlib import Path
 
 from sarnav.analysis.quality_sweep import DIRECTIONS, QualitySweepParams, ReliabilitySpec, run
@@ -120,9 +122,17 @@ def _figures(res: dict, prm: QualitySweepParams, figdir: Path) -> list[Path]:
     return paths
 
 
-def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> Path:
+def _stderr_progress():
+    """``progress(text)`` of :func:`analysis.quality_sweep.run`: one line per stage on stderr, with the seconds since
+    the sweep started."""
+    t0 = time.perf_counter()
+    return lambda text: print(f"quality-sweep: {text} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+
+
+def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False, quiet: bool = True) -> Path:
     """Run the sweep (``analysis.quality_sweep.run``) into ``out`` (claimed as ``montecarlo.outdir.OutputFolder``;
-    ``INCOMPLETE`` until the end); returns the path of ``sweep.nc``."""
+    ``INCOMPLETE`` until the end); returns the path of ``sweep.nc``. Unless ``quiet``, each stage is told on
+    stderr."""
     from sarnav.montecarlo.outdir import OutputFolder, identity
     from sarnav.report.quality_figures import sweep_dataset, write_strict_json
 
@@ -131,8 +141,8 @@ def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False) -> 
     with OutputFolder(out, identity(cfg), overwrite=overwrite):
         marker = out / "INCOMPLETE"
         marker.write_text("quality-sweep running\n")
-        res = run(prm)
-        ds = sweep_dataset(res["sweeps"], {"scenario": cfg["scenario"]["name"], "source": "Hathaway 2023 §4.1.1"})
+        res = run(prm, None if quiet else _stderr_progress())
+        ds = sweep_dataset(res["sweeps"], {"scenario": cfg["scenario"]["name"], "references": "Hathaway 2023 §4.1.1"})
         path = out / "sweep.nc"
         ds.to_netcdf(out / "sweep.nc.partial")
         Path(out / "sweep.nc.partial").replace(path)
@@ -149,3 +159,4 @@ class QualitySweepKind(FileKind):
     kind = "quality-sweep"
     needs_campaign = False
     config, check, write = staticmethod(default_config), staticmethod(parse), staticmethod(run_sweep)
+    options = ("figures", "overwrite", "quiet")

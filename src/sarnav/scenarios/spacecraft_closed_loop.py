@@ -14,7 +14,7 @@ R and B use ``[measurement] sigma_vic`` and ``D``, set from the Monte Carlo of t
 from __future__ import annotations
 
 from sarnav import units
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError, require_extra, require_finite
 from sarnav.filters.mekf import STATE_NAMES
 from sarnav.measurements.spacecraft import MEASUREMENT_NAMES
 from sarnav.measurements.spacecraft_image import REGISTRATIONS, STAGES, ImagingConfig
@@ -137,7 +137,8 @@ class ClosedLoopKind(ScenarioKind):
         return default_config()
 
     def validate(self, cfg: dict) -> None:
-        parse(cfg)
+        if parse(cfg).mode == "image":  # registration by scikit-image, an optional dependency
+            require_extra("measurement.mode", "registration", "skimage", "scikit-image")
 
     def state_names(self, cfg):
         return list(STATE_NAMES)

@@ -60,8 +60,8 @@ FOCUS_METRICS = ("irw_along_m", "pslr_along_db", "peak_offset_m", "entropy", "ku
 FOCUS_FILTERS = {"upf": ("upf", "spline-pf"), "kf-interp": ("kf-interp", "spline-kf")}
 #: attributes of the record variables of :func:`run_focus_records` (results.nc)
 FOCUS_ATTRS = {
-    "focus": {"units": "m, dB, m, nats, 1", "description": "per source and reflector: irw_along_m, pslr_along_db, "
-              "peak_offset_m, entropy, kurtosis of the BPA chip (simulation.nav_focus)"},
+    "focus": {"units_coordinate": "metric_units", "description": "per source and reflector: irw_along_m, "
+              "pslr_along_db, peak_offset_m, entropy, kurtosis of the BPA chip (simulation.nav_focus)"},
     "focus_censored": {"units": "1", "description": "1 where the along-track response does not reach -3 dB or a null "
                        "inside the chip (IRW = chip length, PSLR = 0 dB)"},
     "los_error_rms": {"units": "m", "description": "RMS over the aperture of the line-of-sight antenna position error "

@@ -51,9 +51,9 @@ RIC_UNITS = ("m", "m", "m", "m/s", "m/s", "m/s")
 BLOCK_NAMES = ("position", "velocity", "misalignment")
 #: attributes of the record variables of :func:`open_loop_records` (results.nc)
 OPEN_LOOP_ATTRS = {
-    "error_ric": {"units": "m, m/s (see ric_units)", "description": "position / velocity error in the radial, "
+    "error_ric": {"units_coordinate": "ric_units", "description": "position / velocity error in the radial, "
                   "in-track, cross-track frame of the true orbit (truth - estimate)"},
-    "sigma_ric": {"units": "m, m/s (see ric_units)", "description": "filter 1-sigma in the radial, in-track, "
+    "sigma_ric": {"units_coordinate": "ric_units", "description": "filter 1-sigma in the radial, in-track, "
                   "cross-track frame (the ECEF covariance blocks rotated)"},
     "nees_block": {"units": "1", "description": "NEES of the position, velocity and misalignment blocks (3 dof each)"},
     "beta": {"units": "1", "description": "Lear underweighting factor beta applied at each update (0: none)"},
