@@ -310,3 +310,16 @@ def test_any_imu_rate_steps_at_the_samples_nearest_the_epochs(paper, tmp_path):
 
 def test_layout_and_step_are_the_campaigns():
     assert STATE_LAYOUT == rda_nav.STATE_LAYOUT and COV_STEP == rda_nav.COV_STEP
+
+
+def test_trajectory_nc_follows_cf(paper):
+    """trajectory.nc passes the CF attribute check every campaign results file passes (tests/report/test_cf.py)."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("cf_check", Path(__file__).parents[1] / "report" / "test_cf.py")
+    cf_check = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cf_check)
+    root, _ = paper
+    with xr.open_dataset(root / "out" / "trajectory.nc") as ds:
+        assert cf_check.cf_problems(ds) == []

@@ -29,6 +29,7 @@ import numpy as np
 import pymap3d
 
 import sarnav
+from sarnav.cf import apply_cf
 from sarnav.analysis.consistency import nees_statistics, nis_statistics, sigma_containment
 from sarnav.errors import ConfigError
 from sarnav.filters import error_state
@@ -207,24 +208,26 @@ def _dataset(rec, nav: Navigation, traj: dict, est: dict, errors: dict | None, c
     data["gyro_bias"] = (("time", "axis"), est["bg"], {"units": "rad s-1", "long_name": "gyro bias estimate"})
     data["measurement_bias"] = (("time", "measurement_bias"), est["bm"],
                                 {"units": "m", "long_name": "altimeter, SAR range and SAR cross-range bias estimates"})
-    data["sigma"] = (("time", "state"), est["sigma"], {"units": "see state_units", "long_name": "1-sigma per error state"})
+    data["sigma"] = (("time", "state"), est["sigma"], {"units_coordinate": "state_units",
+                                                      "long_name": "1-sigma per error state"})
     data["covariance"] = (("time", "state", "state2"), est["P"],
-                          {"units": "state_units x state_units", "long_name": "error-state covariance P"})
+                          {"units_coordinate": "state_units", "long_name": "error-state covariance P (element i, j in "
+                                                                         "state_units[i] times state_units[j])"})
     data.update(_update_vars(nav, REJECTIONS))
     data.update(_gnss_vars(nav))
     if errors is not None:
-        data["error"] = (("time", "state"), errors["error"], {"units": "see state_units",
+        data["error"] = (("time", "state"), errors["error"], {"units_coordinate": "state_units",
                                                               "long_name": "truth minus estimate (error state)"})
         data["nees"] = ("time", errors["nees"], {"units": "1", "long_name": "normalised estimation error squared",
                                                  "dof": errors["nees_dof"]})
     coords = {"time": ("time", est["time"], {"units": "s", "long_name": "recording time (from the manifest's epoch)"}),
               "state": ("state", np.array(names), {"long_name": "error states"}),
               "state_units": ("state", np.array(units), {"long_name": "units of each error state"})}
-    attrs = {"Conventions": "CF-1.8", "title": "sarnav navigate: SAR-aided navigation of a recorded flight",
-             "source": f"sarnav {sarnav.__version__}", "recording": str(rec.folder), "complete": int(complete),
+    attrs = {"recording": str(rec.folder), "complete": int(complete),
              "epoch": rec.manifest.time.epoch.isoformat(),
              "origin_lat_lon_height": [float(x) for x in rec.manifest.frame.origin]}
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return apply_cf(xr.Dataset(data, coords=coords, attrs=attrs),
+                    "sarnav navigate: SAR-aided navigation of a recorded flight")
 
 
 def _update_vars(nav: Navigation, rejections) -> dict:
@@ -271,11 +274,14 @@ def _gnss_vars(nav: Navigation) -> dict:
         "gnss_time": ("gnss_update", col("time", float), {"units": "s", "long_name": "time of each GNSS update"}),
         "gnss_fix": ("gnss_update", col("fix", np.int64), {"units": "1", "long_name": "row of gnss.csv fused (0: the "
                                                                                        "first fix)"}),
-        "gnss_residual": (("gnss_update", "gnss_meas"), res, {"units": "1", "long_name": "GNSS residual z - z_hat: "
-                                                              "north, east, down (m), then v_north, v_east, v_down "
-                                                              "(m s-1)"}),
-        "gnss_residual_sigma": (("gnss_update", "gnss_meas"), rsig, {"units": "1", "long_name": "predicted 1-sigma "
-                                                                     "of the GNSS residual (units of gnss_residual)"}),
+        "gnss_residual": (("gnss_update", "gnss_meas"), res, {"units_coordinate": "gnss_meas_units", "long_name":
+                                                              "GNSS residual z - z_hat: north, east, down, then "
+                                                              "v_north, v_east, v_down"}),
+        "gnss_residual_sigma": (("gnss_update", "gnss_meas"), rsig, {"units_coordinate": "gnss_meas_units",
+                                                                     "long_name": "predicted 1-sigma of the GNSS "
+                                                                                  "residual"}),
+        "gnss_meas_units": ("gnss_meas", np.array(["m"] * 3 + ["m s-1"] * 3), {"long_name": "units of each GNSS "
+                                                                                        "component (UDUNITS)"}),
         "gnss_nis": ("gnss_update", col("nis", float), {"units": "1", "long_name": "NIS of the GNSS update"}),
         "gnss_nis_dof": ("gnss_update", col("nis_dof", np.int64), {"units": "1", "long_name": "components in gnss_nis"}),
     }
