@@ -272,3 +272,22 @@ def test_twenty_runs_with_reference_b_are_consistent(tmp_path):
     assert ne["band"][0] <= ne["time_average"] <= ne["band"][1], ne
     assert ni["per_dof_band"][0] <= ni["per_dof"] <= ni["per_dof_band"][1], ni
     assert np.sum(final > 3.0) <= 1
+
+
+def test_export_command_writes_the_terrain_flights_dem(tmp_path):
+    """``sarnav export --reference orthoimage`` on the terrain flight: the tiles and the DEM are written and named;
+    the DEM read back gives the world's terrain (down = -height) at the reference points, to a centimetre."""
+    out = tmp_path / "rec"
+    sets = ["--set", "trajectory.duration=2.0"]
+    assert main(["export", "rda-nav-terrain", "--run", "0", "--runs", "2", *sets, "--reference", "orthoimage",
+                 "--out", str(out), "--quiet"]) == 0
+    rec = read_recording(out)
+    assert rec.manifest.reference.dem == "reference/dem.tif"
+    assert [ap.reference for ap in rec.manifest.apertures] == ["reference/0000.tif", "reference/0001.tif"]
+    assert not list(out.glob("reference/*.cphd"))
+    prm = rn.parse(load_scenario("rda-nav-terrain", ["trajectory.duration=2.0"], runs=2))
+    terrain = rda_nav_world.terrain_of(prm)
+    targets = rda_nav_world.reference_targets(prm)
+    down = rec.reference_products()(0).surface_down(targets.reshape(-1, 3))
+    np.testing.assert_allclose(down, -terrain.height(targets[..., 0], targets[..., 1]).ravel(), atol=0.01)
+    np.testing.assert_allclose(targets[..., 2], -terrain.height(targets[..., 0], targets[..., 1]), atol=1e-9)
