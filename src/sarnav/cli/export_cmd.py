@@ -21,6 +21,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--runs", type=int, help="number of runs of the campaign (campaign.runs)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, TOML value), repeatable")
+    p.add_argument("--reference", choices=("cphd-pass", "orthoimage"), default="cphd-pass",
+                   help="reference (a): the reference passes as CPHD (default); (b): GeoTIFF orthoimages (and a DEM)")
     p.add_argument("--overwrite", action="store_true", help="replace a recording found in --out")
     p.add_argument("--quiet", action="store_true", help="no summary line")
     p.set_defaults(handler=run)
@@ -49,7 +51,8 @@ def run(args) -> int:
     check_exportable(prm)
     out = prepare_folder(args.out, args.overwrite)
     done = export_rda_nav(prm, out, run_seeds(seed, runs)[args.run_id], run=args.run_id, runs=runs,
-                          campaign_seed=seed, scenario_name=name, scenario_text=dump_toml(cfg))
+                          campaign_seed=seed, scenario_name=name, scenario_text=dump_toml(cfg),
+                          reference=args.reference)
     if not args.quiet:
         apertures = sum(f.startswith("apertures/") for f in done.files)
         print(f"{name}: run {args.run_id} of seed {seed} -> {out} ({len(done.files)} files, {apertures} apertures)")

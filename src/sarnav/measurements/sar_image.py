@@ -44,6 +44,8 @@ from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_
 from sarnav.radar.params import RadarParams
 from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGES, ApertureMeasurements,
                                              AperturePasses, ApertureSource, ImagingSettings, ReferencePulses)
+from sarnav.measurements.sar_product import (ProductReference, closest_approaches, predicted_amplitude,
+                                             product_noise_power, rda_pixels)
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
 from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
@@ -167,6 +169,9 @@ class SubApertureImager:
         """The reference chips of sub-aperture u for run ``run`` (cached under the source's key) and the seconds spent
         on the reference pass."""
         ref = self.source.reference(u, run)  # its own seconds in ref.seconds
+        if isinstance(ref, ProductReference):  # reference (b): the chips are predicted along each run's track
+            return {"times": ref.times, "chips": [None] * self.targets.shape[1], "product": ref,
+                    "seconds": ref.seconds, "shared": False}
         if ref.key is not None and ref.key in self._cache:
             return self._cache[ref.key]
         t0 = time.perf_counter()
@@ -241,6 +246,43 @@ class SubApertureImager:
         model = SeparableNoise.from_images(np.stack(imgs), chip_columns)
         return replace(model, power=model.power * ref.amplitude**2 / 10.0 ** (ref.snr_db / 10.0))
 
+    def _product_chip(self, u, k, ref: ProductReference, rc, p_hat, speed: float) -> dict:
+        """The chip of target k predicted from a geocoded product along the estimated track ``p_hat``
+        (``measurements.sar_product``): RDA on the in-flight image's (time, slant range) lattice, BPA on the ground
+        grid the in-flight image is formed on. Its noise: the product's power with the in-flight chain's correlation."""
+        st, times, targ, look = self.settings, ref.times, self.targets[u, k], self.radar.look_side
+        eta_a, r_a = (float(x) for x in closest_approaches(targ, times, p_hat))
+        raw = ref.raw.with_positions(p_hat)
+        if st.algorithm == "bpa":
+            i_c = int(np.argmin(np.abs(times - eta_a)))
+            along, across = _ground_frame(p_hat[-1] - p_hat[0], look)
+            g0 = float(np.hypot(*(targ - p_hat[i_c])[:2]))
+            da, dg = self._bpa_spacing(r_a, g0, speed)
+            hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r_a, speed) / da))
+            hj = int(math.ceil(st.chip_half_range_m * r_a / g0 / dg))
+            grid = _Grid(np.asarray(targ, dtype=np.float64), along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
+            eta, rng = closest_approaches(grid.points(), times, p_hat)
+            rows, anchor, extra = np.arange(2 * hi + 1), (0.0, 0.0), {"grid": grid}
+            wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
+            form = lambda pc: backproject(pc, wide.points(), positions=p_hat).data  # noqa: E731
+        else:
+            hi = min(self.n_pulses // 4, max(4, int(math.ceil(st.chip_half_az_cells * self._az_resolution(r_a, speed)
+                                                              / (speed / self.radar.prf)))))
+            hj = int(math.ceil(st.chip_half_range_m / self.radar.range_bin_spacing))
+            eta, rng, rows, anchor = rda_pixels(times, self.radar.prf, rc.slant_range, eta_a, r_a, hi, hj)
+            extra = {}
+            form = lambda pc: range_doppler(_crop_range(pc, r_a - st.search_half_range_m,  # noqa: E731
+                                                        r_a + st.search_half_range_m), speed).data
+        chip = predicted_amplitude(ref.product, times, p_hat, eta, rng, look, targ[2])
+        if (u, k) not in self._noise_cache:
+            self._noise_cache[(u, k)] = self._noise_model(u, k, raw, ref, form, 2 * hj + 1)
+        noise = self._noise_cache[(u, k)]
+        image = SarImage(chip.astype(np.complex128), np.arange(chip.shape[0]) * speed / self.radar.prf,
+                         np.arange(chip.shape[1]) * self.radar.range_bin_spacing, "predicted_row", "predicted_column")
+        return {"chip": chip.astype(np.complex128), "anchor": anchor, "rows": rows, "noise": noise,
+                "chip_noise": replace(noise, power=product_noise_power(ref.product)), "reference": image,
+                "speed": speed, **extra}
+
     # --- the in-flight images ---------------------------------------------------------------------
     def measure(self, u: int, ap_t, ap_p, ap_v, speed_sigma=None, map_targets=None,
                 along_sigma=None, ap_q=None) -> ApertureMeasurements:
@@ -281,6 +323,8 @@ class SubApertureImager:
         out.speed[r] = speed_hat
         for k in range(self.targets.shape[1]):
             try:
+                if "product" in ap:
+                    ap["chips"][k] = self._product_chip(u, k, ap["product"], rc, p_hat, speed_hat)
                 if self.settings.algorithm == "bpa":
                     self._measure_bpa(u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, map_targets[k], out)
                 else:
@@ -457,7 +501,7 @@ class SubApertureImager:
         fine = register(chip, cut, use_magnitude=True, subpixel=self.settings.subpixel)
         shift = refine_shift(chip, cut, fine.shift_pixels)
         noise_rows = rows if circular else ch["rows"]
-        sigma = (magnitude_shift_precision(chip_c, image[window], shift, (ch["noise"], ch["rows"]),
+        sigma = (magnitude_shift_precision(chip_c, image[window], shift, (ch.get("chip_noise", ch["noise"]), ch["rows"]),
                                            (ch["noise"], noise_rows)) if precision else (np.nan, np.nan))
         return i1 + shift[0] + anchor[0], j1 + shift[1] + anchor[1], {"sigma_px": sigma, "quality": fine.peak}
 

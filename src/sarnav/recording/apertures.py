@@ -26,6 +26,7 @@ from sarnav.errors import InputDataError
 from sarnav.io.cphd import read_collect
 from sarnav.io.frames import ecef_to_ned, ned_basis
 from sarnav.measurements.sar_aperture import ReferencePulses
+from sarnav.measurements.sar_product import ProductReference
 from sarnav.radar.params import RadarParams
 from sarnav.recording.manifest import ApertureInfo
 from sarnav.signal.data import PulseData
@@ -47,7 +48,7 @@ class RecordedApertures:
     """
 
     def __init__(self, root, apertures: Sequence[ApertureInfo], radar: RadarParams, origin, noise_power: float,
-                 radar_clock_offset: float = 0.0, runs: int = 1):
+                 radar_clock_offset: float = 0.0, runs: int = 1, product=None):
         self.root, self.apertures, self.radar = Path(root), tuple(apertures), radar
         self.origin = np.asarray(origin, dtype=np.float64)
         self.noise_power, self.clock_offset = float(noise_power), float(radar_clock_offset)
@@ -56,13 +57,14 @@ class RecordedApertures:
         self._runs = runs
         self.n_pulses = int(round(radar.prf))
         self._loaded: tuple | None = None
+        self.product = product  # reference (b): product(u) -> the aperture's GeocodedProduct (recording.ortho)
 
     @property
     def runs(self) -> int:
         return self._runs
 
-    def reference(self, u: int, run: int) -> ReferencePulses:
-        """The reference pass of aperture u (the same for every run)."""
+    def reference(self, u: int, run: int) -> ReferencePulses | ProductReference:
+        """The reference pass of aperture u (the same for every run), or its geocoded product (reference (b))."""
         return self._load(u, run)[1]
 
     def flight(self, u: int, run: int) -> tuple[PulseData, float]:
@@ -85,6 +87,13 @@ class RecordedApertures:
         self._check_clock(ap, tx_time)
         rc = replace(rc, pulse_times=times)
         t1 = time.perf_counter()
+        if self.product is not None:  # reference (b): the product, and the in-flight shape for the noise model
+            raw = PulseData(np.broadcast_to(np.zeros((), np.complex128), rc.data.shape), rc.slant_range, times,
+                            rc.positions, params=self.radar, compressed=False, **self.radar.pulse_data_fields())
+            ref = ProductReference(times, self.product(u), raw, math.sqrt(self.noise_power), 0.0,
+                                   seconds=time.perf_counter() - t1)
+            self._loaded = (u, ref, rc, t1 - t0)
+            return self._loaded
         ref_rc, ref_tx = self._read(ap.reference)
         if ref_rc.n_pulses != rc.n_pulses:
             raise InputDataError(ap.reference, f"has {ref_rc.n_pulses} pulses, its aperture {ap.file} {rc.n_pulses}: "

@@ -32,7 +32,7 @@ __all__ = ["FORMAT", "FORMAT_VERSION", "Manifest", "TimeSystem", "LocalFrame", "
 FORMAT = "sarnav-recording"
 FORMAT_VERSION = 1
 SAMPLE_KINDS = ("rates", "increments")
-REFERENCE_KINDS = ("cphd-pass",)
+REFERENCE_KINDS = ("cphd-pass", "orthoimage")
 IMU_OVERRIDES = ("vrw_3sigma", "accel_bias_3sigma", "arw_3sigma", "gyro_bias_3sigma")
 #: ``[radar]`` key -> (RadarParams field, conversion to SI): the scenario vocabulary's keys (docs/scenarios/vocabulary.md)
 RADAR_KEYS = {
@@ -108,23 +108,30 @@ class InitialState:
 
 @dataclass(frozen=True)
 class ApertureInfo:
-    """One aperture: its CPHD (``file``), the recording times of its first and last pulse [s], the reference pass's
-    CPHD and that pass's own start time (None: not stated)."""
+    """One aperture: its CPHD (``file``), the recording times of its first and last pulse [s], its reference (the
+    reference pass's CPHD, or with ``[reference] kind = "orthoimage"`` the aperture's orthoimage, default the
+    table's ``image``) and that pass's own start time (None: not stated)."""
 
     file: str
     start: float
     end: float
-    reference: str
+    reference: str | None
     reference_start: float | None
 
 
 @dataclass(frozen=True)
 class ReferenceInfo:
-    """The reference: ``kind`` ("cphd-pass": an earlier pass per aperture as CPHD with trusted positions) and the
-    reference points' file."""
+    """The reference: ``kind`` ("cphd-pass": an earlier pass per aperture as CPHD with trusted positions;
+    "orthoimage": a geocoded GeoTIFF orthoimage, ``image``, with an optional DEM, ``dem``, and its geolocation
+    1-sigma ``geolocation_sigma`` (3,) NED [m]; ``noise_power``: the orthoimage's noise power per pixel, None:
+    estimated from it) and the reference points' file."""
 
     kind: str
     points: str
+    image: str | None = None
+    dem: str | None = None
+    geolocation_sigma: np.ndarray | None = None
+    noise_power: float | None = None
 
 
 @dataclass(frozen=True)
@@ -194,7 +201,7 @@ def parse_manifest(doc: dict) -> Manifest:
                                              "tau_gyro") + IMU_OVERRIDES))
     apertures = _apertures(top.get("aperture", []))
     radar, noise = _radar(top.get("radar", None), bool(apertures))
-    reference = _reference(top.get("reference", None), bool(apertures))
+    reference = _reference(top.get("reference", None), apertures)
     gnss = _file_table(top.get("gnss", None), "gnss")
     initial = _initial(Table(top.get("initial"), "initial", _INITIAL_KEYS), imu.spec.grade, gnss)
     return Manifest(version=version, description=head.string("description", default=""),
@@ -336,17 +343,34 @@ def _apertures(data) -> tuple:
                               "(apertures in time order)")
         last = start
         ref_start = t.number("reference_start_s", -1e12, 1e12, "s") if t.has("reference_start_s") else None
-        out.append(ApertureInfo(t.path("file"), start, end, t.path("reference"), ref_start))
+        out.append(ApertureInfo(t.path("file"), start, end, t.path("reference", default=None), ref_start))
     return tuple(out)
 
 
-def _reference(data, needed: bool) -> ReferenceInfo | None:
+def _reference(data, apertures: tuple) -> ReferenceInfo | None:
+    needed = bool(apertures)
     if data is None:
         if needed:
             raise ConfigError(f"{MANIFEST}:reference", "missing: a recording with apertures states its reference")
         return None
-    t = Table(data, "reference", ("kind", "points"))
-    return ReferenceInfo(t.string("kind", REFERENCE_KINDS), t.path("points"))
+    t = Table(data, "reference", ("kind", "points", "image", "dem", "geolocation_sigma_m", "noise_power"))
+    kind = t.string("kind", REFERENCE_KINDS)
+    if kind == "cphd-pass":
+        for key in ("image", "dem", "geolocation_sigma_m", "noise_power"):
+            if t.has(key):
+                raise ConfigError(t.field(key), "belongs to kind = 'orthoimage' (a 'cphd-pass' reference is the "
+                                  "apertures' reference CPHD files)")
+        for i, ap in enumerate(apertures):
+            if ap.reference is None:
+                raise ConfigError(f"{MANIFEST}:aperture[{i}].reference", "missing: a 'cphd-pass' reference names each "
+                                  "aperture's reference pass")
+        return ReferenceInfo(kind, t.path("points"))
+    image = t.path("image", default=None)
+    if image is None and any(ap.reference is None for ap in apertures):
+        raise ConfigError(t.field("image"), "missing: the orthoimage of the apertures that name no reference")
+    sigma = t.vector("geolocation_sigma_m", 3, 0.0, 1e4, "m")
+    noise = t.positive("noise_power", hi=1e30) if t.has("noise_power") else None
+    return ReferenceInfo(kind, t.path("points"), image, t.path("dem", default=None), sigma, noise)
 
 
 def _file_table(data, name: str) -> str | None:

@@ -8,7 +8,7 @@ field. ``Recording.imager(settings)`` is the extractor of image-derived measurem
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +61,27 @@ class Recording:
         if m.radar is None or not m.apertures:
             raise InputDataError(MANIFEST, "has no apertures (no [radar] and [[aperture]] tables)")
         return RecordedApertures(self.folder, m.apertures, m.radar, m.frame.origin, m.noise_power,
-                                 m.time.radar_clock_offset, runs)
+                                 m.time.radar_clock_offset, runs, product=self.reference_products())
+
+    def reference_products(self):
+        """Reference (b): aperture u -> its ``recording.ortho.OrthoProduct`` (each file read once); None for (a)."""
+        m = self.manifest
+        if m.reference is None or m.reference.kind != "orthoimage":
+            return None
+        from sarnav.recording.ortho import OrthoProduct, read_raster
+
+        ref, cache = m.reference, {}
+        dem = None if ref.dem is None else read_raster(self.folder / ref.dem, f"{MANIFEST}:reference.dem")
+
+        def product(u: int) -> OrthoProduct:
+            ap = m.apertures[u]
+            rel = ap.reference or ref.image
+            if rel not in cache:
+                key = f"{MANIFEST}:aperture[{u}].reference" if ap.reference else f"{MANIFEST}:reference.image"
+                cache.clear()
+                cache[rel] = OrthoProduct(read_raster(self.folder / rel, key), dem, m.frame.origin, ref.noise_power)
+            return cache[rel]
+        return product
 
     def imager(self, settings: ImagingSettings | None = None, runs: int = 1,
                capture_aperture: int | None = None) -> SubApertureImager:
@@ -69,6 +89,18 @@ class Recording:
         return SubApertureImager(self.manifest.radar, self.points.anchors if self.points is not None else None,
                                  self.source(runs), self.noise_model_seed,
                                  ImagingSettings() if settings is None else settings, capture_aperture)
+
+
+def _product_points(folder: Path, m: Manifest, points: ReferencePoints) -> ReferencePoints:
+    """Reference (b): its files exist, and the product's geolocation 1-sigma joins each point's map 1-sigma (root
+    sum of squares: independent errors; both enter R)."""
+    ref = m.reference
+    if ref.kind != "orthoimage":
+        return points
+    for key, rel in (("image", ref.image), ("dem", ref.dem)):
+        if rel is not None and not (folder / rel).is_file():
+            raise InputDataError(f"{MANIFEST}:reference.{key}", f"{rel!r} is not a file of the recording")
+    return replace(points, map_sigma=np.hypot(points.map_sigma, ref.geolocation_sigma))
 
 
 def read_recording(folder) -> Recording:
@@ -86,9 +118,10 @@ def read_recording(folder) -> Recording:
     if m.apertures:
         for i, ap in enumerate(m.apertures):
             for key, rel in (("file", ap.file), ("reference", ap.reference)):
-                if not (folder / rel).is_file():
+                if rel is not None and not (folder / rel).is_file():
                     raise InputDataError(f"{MANIFEST}:aperture[{i}].{key}", f"{rel!r} is not a file of the recording")
         points = read_points(folder / m.reference.points, m.reference.points, len(m.apertures))
+        points = _product_points(folder, m, points)
     sim = m.simulation
     if sim is not None:
         if sim.sar_offsets is not None and points is not None:

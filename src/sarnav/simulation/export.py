@@ -26,12 +26,13 @@ from sarnav.errors import ConfigError
 from sarnav.io.cphd import write_collect
 from sarnav.record import RunRecord
 from sarnav.recording.logs import IMU_COLUMNS, OFFSET_COLUMNS, POINT_COLUMNS, TRUTH_COLUMNS, TRUTH_EXTRA
-from sarnav.recording.manifest import FORMAT, FORMAT_VERSION
+from sarnav.recording.manifest import FORMAT, FORMAT_VERSION, REFERENCE_KINDS
 from sarnav.recording.tables import write_columns
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
 from sarnav.sensors.imu import IMU_GRADES
 from sarnav.signal.windows import Window
-from sarnav.simulation import rda_nav
+from sarnav.simulation import rda_nav, rda_nav_world
+from sarnav.simulation.export_ortho import geolocation_errors, horizontal, write_dem, write_ortho_tile
 from sarnav.tomlio import dump_toml
 
 __all__ = ["export_rda_nav", "check_exportable", "prepare_folder", "Export", "EXPORT_KINDS", "RECORDING_FILES", "DEFAULT_EPOCH",
@@ -41,7 +42,7 @@ __all__ = ["export_rda_nav", "check_exportable", "prepare_folder", "Export", "EX
 EXPORT_KINDS = ("rda-nav",)
 #: what an export writes (globs in the recording's folder): all that ``prepare_folder`` removes with ``overwrite``
 RECORDING_FILES = ("flight.toml", "flight.toml.partial", "imu.csv", "altimeter.csv", "truth.csv", "gnss.csv", "sar_offsets.csv",
-                   "scenario.toml", "apertures/*.cphd", "reference/*.cphd", "reference/points.csv")
+                   "scenario.toml", "apertures/*.cphd", "reference/*.cphd", "reference/*.tif", "reference/points.csv")
 
 #: the recording's time 0 (the simulated flight's t = 0) and the NED origin of a non-rotating world (lat, lon, h)
 DEFAULT_EPOCH = datetime.datetime(2026, 1, 1, tzinfo=datetime.timezone.utc)
@@ -60,13 +61,18 @@ class Export:
 
 def export_rda_nav(prm: rda_nav.RdaNavParams, out, seed: np.random.SeedSequence, *, run: int, runs: int,
                    campaign_seed: int, scenario_name: str, scenario_text: str,
-                   epoch: datetime.datetime = DEFAULT_EPOCH) -> Export:
+                   epoch: datetime.datetime = DEFAULT_EPOCH, reference: str = "cphd-pass") -> Export:
     """Fly run ``run`` (its seed ``seed``: ``montecarlo.seeding.run_seeds(campaign_seed, runs)[run]``) and write it
-    to the folder ``out`` as a recording (module docstring). ``scenario_text``: the scenario as TOML."""
+    to the folder ``out`` as a recording (module docstring). ``scenario_text``: the scenario as TOML. ``reference``:
+    "cphd-pass" (reference (a)) or "orthoimage" (reference (b), ``simulation.export_ortho``)."""
     check_exportable(prm)
+    if reference not in REFERENCE_KINDS:
+        raise ConfigError("--reference", f"must be one of {list(REFERENCE_KINDS)}, got {reference!r}")
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     rec = _Recorder(prm, folder, epoch)
+    if reference == "orthoimage":
+        rec.ortho = geolocation_errors(seed, prm.n_updates, prm.scene["geolocation_sigma"])
     record = rda_nav.run(prm, [seed], [run], observer=rec)[0]
     (folder / "scenario.toml").write_text(scenario_text, encoding="utf-8")
     sim = {"scenario": scenario_name, "scenario_file": "scenario.toml", "seed": int(campaign_seed), "run": int(run),
@@ -116,6 +122,7 @@ class _Recorder:
         self.origin = _origin(prm)
         self.imu, self.bias, self.alt, self.apertures, self.points, self.offsets = [], [], [], [], [], []
         self.files: list[str] = []
+        self.ortho = None  # reference (b): (U, 3) each tile's geolocation error
 
     def start(self, fl, sar) -> None:
         if fl.R != 1:
@@ -141,7 +148,14 @@ class _Recorder:
         ref, (rc, _) = sar.imager.source.last[u]
         targets = sar.targets[u]
         names = (f"apertures/{u:04d}.cphd", f"reference/{u:04d}.cphd")
-        for rel, pulses, vel in zip(names, (rc, ref.pulses), (None, ref.velocities)):  # the trusted velocities
+        passes = zip(names, (rc, ref.pulses), (None, ref.velocities))  # the trusted velocities
+        if self.ortho is not None:  # reference (b): the pass imaged on the ground instead of its pulses
+            names = (names[0], f"reference/{u:04d}.tif")
+            (self.folder / "reference").mkdir(exist_ok=True)
+            write_ortho_tile(self.folder / names[1], ref, targets, self.origin, rda_nav_world.terrain_of(self.prm),
+                             self.ortho[u])
+            passes = [(names[0], rc, None)]
+        for rel, pulses, vel in passes:
             (self.folder / rel).parent.mkdir(exist_ok=True)
             start = self.epoch + datetime.timedelta(seconds=float(pulses.pulse_times[0]))
             write_collect(self.folder / rel, pulses, self.origin, signal_format="CF16",
@@ -149,9 +163,14 @@ class _Recorder:
         times = rc.pulse_times
         self.apertures.append({"file": names[0], "start_s": float(times[0]), "end_s": float(times[-1]),
                                "reference": names[1], "reference_start_s": float(ref.pulses.pulse_times[0])})
+        if self.ortho is not None:
+            del self.apertures[-1]["reference_start_s"]
         sigma = np.asarray(self.prm.scene["geolocation_sigma"], dtype=np.float64)
         for k in range(targets.shape[0]):
-            self.points.append([u, k, *targets[k], *sar.map[0, u, k], *sigma])
+            if self.ortho is not None:  # where the product puts the point is the map; its sigma is the manifest's
+                self.points.append([u, k, *(targets[k] + self.ortho[u]), *(targets[k] + self.ortho[u]), 0, 0, 0])
+            else:
+                self.points.append([u, k, *targets[k], *sar.map[0, u, k], *sigma])
             self.offsets.append([u, k, *sar.added[0, k]])
         self.files += list(names)
 
@@ -212,10 +231,23 @@ class _Recorder:
         doc["initial"] = self._initial()
         if self.apertures:
             doc["reference"] = {"kind": "cphd-pass", "points": "reference/points.csv"}
+            if self.ortho is not None:
+                doc["reference"] = self._ortho_reference()
             doc["aperture"] = self.apertures
         doc["truth"] = {"file": "truth.csv"}
         doc["simulation"] = simulation
         return doc
+
+    def _ortho_reference(self) -> dict:
+        """``[reference]`` of reference (b); the terrain's DEM written."""
+        out = {"kind": "orthoimage", "points": "reference/points.csv",
+               "geolocation_sigma_m": [float(x) for x in horizontal(self.prm.scene["geolocation_sigma"])]}
+        terrain = rda_nav_world.terrain_of(self.prm)
+        if terrain is not None:
+            write_dem(self.folder / "reference/dem.tif", rda_nav_world.swath_extent(self.prm), self.origin, terrain)
+            out["dem"] = "reference/dem.tif"
+            self.files.append("reference/dem.tif")
+        return out
 
     def _initial(self) -> dict:
         p, v, q, ba, bg, bm, s = self.initial
