@@ -40,7 +40,7 @@ AMPLITUDE, COMPRESSED_NOISE = 1.0, 1.0
 VRW3, ACC_B3, ARW3, GYR_B3 = 0.05, 0.003, 0.05, 3.0  # m/s/sqrt(hr), g, deg/sqrt(hr), deg/hr
 ALT_SIGMA3, ALT_BIAS3 = 3.0, 0.3
 GNSS_SIGMA, GNSS_VSIGMA = np.array([1.5, 1.5, 3.0]), np.array([0.05, 0.05, 0.1])
-MAP_SIGMA = 0.0
+MAP_SIGMA = 0.3
 P3, V3, TH3 = (3.0, 3.0, 6.0), (0.3, 0.3, 0.5), (0.002, 0.002, 0.006)
 
 
@@ -91,19 +91,22 @@ def _imu(rng, duration, gap):
     return t, accel, gyro, accel_bias, gyro_bias
 
 
-def _phase_history(rng, pos, srp, target):
-    """FX samples of one point scatterer, SGN = -1 (docs/recording.md §5), + white noise of COMPRESSED_NOISE / N per
-    sample (the formed pulse sums N samples); the PVPs."""
+def _phase_history(rng, pos, srp, target, stated=None):
+    """FX samples of one point scatterer echoed at the antenna positions ``pos``, SGN = -1 (docs/recording.md §5),
+    + white noise of COMPRESSED_NOISE / N per sample (the formed pulse sums N samples); the PVPs. ``stated``: the
+    positions the radar believes and the file states (default ``pos``): the data are compensated to the SRP along
+    them, as a radar does with its own positions."""
+    stated = pos if stated is None else stated
     P = pos.shape[0]
     f = FC - BW / 2 + SCSS * np.arange(N_FX)
     r_t = np.linalg.norm(pos - target, axis=1)
-    r_ref = np.linalg.norm(pos - srp, axis=1)
+    r_ref = np.linalg.norm(stated - srp, axis=1)
     samples = AMPLITUDE / N_FX * np.exp(-2j * math.pi * f[None] * 2.0 * (r_t - r_ref)[:, None] / C)
     samples += math.sqrt(COMPRESSED_NOISE / N_FX / 2.0) * (rng.standard_normal(samples.shape)
                                                          + 1j * rng.standard_normal(samples.shape))
     far = NEAR + (N_RANGE - 1) * C / (2.0 * FS)
     zeros = np.zeros(P)
-    pvp = {"TxTime": np.arange(P) / PRF, "TxPos": pos, "RcvPos": pos, "RcvTime": np.arange(P) / PRF,
+    pvp = {"TxTime": np.arange(P) / PRF, "TxPos": stated, "RcvPos": stated, "RcvTime": np.arange(P) / PRF,
            "SRPPos": np.tile(srp, (P, 1)), "aFDOP": zeros, "aFRR1": zeros, "aFRR2": zeros,
            "FX1": np.full(P, f[0]), "FX2": np.full(P, f[-1]), "TOA1": 2.0 * (NEAR - r_ref) / C,
            "TOA2": 2.0 * (far - r_ref) / C, "TDTropoSRP": zeros, "SC0": np.full(P, f[0]), "SCSS": np.full(P, SCSS)}
@@ -138,8 +141,7 @@ class ForeignFlight:
         for name, aside, stated in (("flight", 0.0, np.zeros(3)), ("reference", REF_ASIDE, geo)):
             ned, vel, _ = truth_at(times)
             ned = ned + [0.0, aside, 0.0]
-            samples, pvp = _phase_history(rng, ned_to_ecef(ned), srp, ned_to_ecef(target))
-            pvp["TxPos"] = pvp["RcvPos"] = ned_to_ecef(ned + stated)  # the trusted track as the file states it
+            samples, pvp = _phase_history(rng, ned_to_ecef(ned), srp, ned_to_ecef(target), ned_to_ecef(ned + stated))
             ecef_v = ned_to_ecef(vel) - ned_to_ecef(np.zeros(3))
             pvp["TxVel"] = pvp["RcvVel"] = ecef_v
             out[name] = (samples, pvp, srp)
