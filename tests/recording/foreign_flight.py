@@ -113,12 +113,47 @@ def _phase_history(rng, pos, srp, target, stated=None):
     return samples, pvp
 
 
+ORTHO_NOISE, ORTHO_SPACING, ORTHO_HALF = 1e-3, 0.1, 30.0  # noise power per pixel, pixel [m], tile half-size [m]
+
+
+def write_orthoimage(path: Path, centre, rng) -> None:
+    """A GeoTIFF orthoimage tile (docs/recording.md §6b) written with rasterio, EPSG:4326, north-up: the amplitude of
+    the radar's point-target response where the product puts the point (``centre``, NED), |sinc(dn / rho_a)
+    sinc(de / rho_g)| with the azimuth and ground-range resolutions of the flight, plus complex noise of
+    ORTHO_NOISE per pixel."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    slant = math.hypot(GROUND_EAST, HEIGHT)
+    rho_g, rho_a = C / (2 * BW) * slant / GROUND_EAST, C / FC * slant / (2 * SPEED * 1.0)
+    n_pix = int(round(2 * ORTHO_HALF / ORTHO_SPACING))
+    corner = ned_to_ecef(np.array([centre[0] + ORTHO_HALF, centre[1] - ORTHO_HALF, 0.0]))
+    lat0, lon0, _ = wgs84.cartesian_to_geodetic(corner)
+    step_n = ned_to_ecef(np.array([centre[0] + ORTHO_HALF - ORTHO_SPACING, centre[1] - ORTHO_HALF, 0.0]))
+    step_e = ned_to_ecef(np.array([centre[0] + ORTHO_HALF, centre[1] - ORTHO_HALF + ORTHO_SPACING, 0.0]))
+    dlat = lat0 - wgs84.cartesian_to_geodetic(step_n)[0]
+    dlon = wgs84.cartesian_to_geodetic(step_e)[1] - lon0
+    rows, cols = np.meshgrid(np.arange(n_pix) + 0.5, np.arange(n_pix) + 0.5, indexing="ij")
+    llh = np.stack([lat0 - rows * dlat, lon0 + cols * dlon, np.zeros_like(rows)], axis=-1)
+    ecef = wgs84.geodetic_to_cartesian(llh)
+    o = np.array(ORIGIN)
+    basis = np.stack([np.asarray(f(o)) for f in (wgs84.north, wgs84.east, wgs84.up)])
+    rel = (ecef - wgs84.geodetic_to_cartesian(o)) @ basis.T - [centre[0], centre[1], 0.0]
+    amp = np.sinc(rel[..., 0] / rho_a) * np.sinc(rel[..., 1] / rho_g)
+    noise = math.sqrt(ORTHO_NOISE / 2) * (rng.standard_normal(amp.shape) + 1j * rng.standard_normal(amp.shape))
+    values = np.abs(amp + noise).astype(np.float32)
+    with rasterio.open(path, "w", driver="GTiff", width=n_pix, height=n_pix, count=1, dtype="float32",
+                       crs="EPSG:4326", transform=from_origin(lon0, lat0, dlon, dlat), nodata=float("nan")) as f:
+        f.write(values, 1)
+
+
 class ForeignFlight:
     """One flight of ``duration`` s drawn from ``seed``; ``write(folder)`` writes its recording."""
 
-    def __init__(self, seed: int, duration: int = 12, gnss_until: float = 5.0, gap=(7.2, 7.7)):
+    def __init__(self, seed: int, duration: int = 12, gnss_until: float = 5.0, gap=(7.2, 7.7),
+                 reference: str = "cphd-pass"):
         rng = np.random.default_rng(seed)
-        self.duration, self.gnss_until = duration, gnss_until
+        self.duration, self.gnss_until, self.reference = duration, gnss_until, reference
         self.imu_t, self.accel, self.gyro, self.accel_bias, self.gyro_bias = _imu(rng, duration, gap)
         self.alt_t = np.arange(1, duration + 1, dtype=np.float64)
         self.alt_bias = rng.standard_normal() * ALT_BIAS3 / 3.0
@@ -136,6 +171,8 @@ class ForeignFlight:
         p_mid, _, _ = truth_at(np.array([u + 0.5]))
         target = np.array([p_mid[0, 0] + rng.uniform(-3.0, 3.0), GROUND_EAST + rng.uniform(-20.0, 20.0), 0.0])
         geo = rng.standard_normal(3) * MAP_SIGMA  # the reference pass's position error: its product's geolocation
+        if self.reference == "orthoimage":
+            geo[2] = 0.0  # the product's heights are the flat ground's, exactly
         srp = ned_to_ecef(np.array([p_mid[0, 0], GROUND_EAST, 0.0]))
         out = {"times": times, "target": target, "map": target + geo}
         for name, aside, stated in (("flight", 0.0, np.zeros(3)), ("reference", REF_ASIDE, geo)):
@@ -153,7 +190,7 @@ class ForeignFlight:
 file = "apertures/{u:04d}.cphd"
 start_s = {u - RADAR_OFFSET!r}
 end_s = {u + 0.99 - RADAR_OFFSET!r}
-reference = "reference/{u:04d}.cphd"
+reference = "reference/{u:04d}.{'cphd' if self.reference == 'cphd-pass' else 'tif'}"
 """ for u in range(self.duration))
         roll, pitch, yaw = (math.degrees(a) for a in self.theta0)
         return f"""
@@ -219,10 +256,14 @@ file = "gnss.csv"
 [truth]
 file = "truth.csv"
 
-[reference]
-kind = "cphd-pass"
-points = "reference/points.csv"
+{self._reference_table()}
 {aps}"""
+
+    def _reference_table(self) -> str:
+        if self.reference == "cphd-pass":
+            return '[reference]\nkind = "cphd-pass"\npoints = "reference/points.csv"\n'
+        return ('[reference]\nkind = "orthoimage"\npoints = "reference/points.csv"\n'
+                f'geolocation_sigma_m = [{MAP_SIGMA!r}, {MAP_SIGMA!r}, 0.0]\nnoise_power = {ORTHO_NOISE!r}\n')
 
     def write(self, folder: Path) -> Path:
         folder = Path(folder)
@@ -248,11 +289,15 @@ points = "reference/points.csv"
         write_csv(folder / "reference/points.csv",
                   ["aperture", "point", "anchor_north_m", "anchor_east_m", "anchor_down_m", "map_north_m",
                    "map_east_m", "map_down_m", "map_sigma_north_m", "map_sigma_east_m", "map_sigma_down_m"],
-                  [[u, 0, *ap["map"], *ap["map"], MAP_SIGMA, MAP_SIGMA, MAP_SIGMA]
+                  [[u, 0, *ap["map"], *ap["map"], *([MAP_SIGMA] * 3 if self.reference == "cphd-pass" else [0.0] * 3)]
                    for u, ap in enumerate(self.apertures)])
+        if self.reference == "orthoimage":
+            for u, ap in enumerate(self.apertures):
+                write_orthoimage(folder / f"reference/{u:04d}.tif", ap["map"], np.random.default_rng([u, 7]))
         uiax, uiay = (np.asarray(f(np.array(ORIGIN))) for f in (wgs84.east, wgs84.north))
         for u, ap in enumerate(self.apertures):
-            for name, sub in (("flight", "apertures"), ("reference", "reference")):
+            for name, sub in (("flight", "apertures"), ("reference", "reference"))[
+                    :2 if self.reference == "cphd-pass" else 1]:
                 samples, pvp, srp = ap[name]
                 (folder / sub).mkdir(exist_ok=True)
                 write_cphd(folder / f"{sub}/{u:04d}.cphd", samples, pvp, FC, BW, srp, uiax, uiay, fmt="CF8")
