@@ -29,7 +29,7 @@ def add_parser(subparsers) -> None:
                    help="where runs execute (default: processes; dask when --scheduler is given)")
     p.add_argument("--workers", type=int, help="worker processes (default: number of cores)")
     p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--chunk-size", type=int, help="runs per task (default: about 2 tasks per worker, <= 50)")
+    p.add_argument("--chunk-size", type=int, help="runs per task (default: sized by work, about 20 s per task once the cost of a run is measured)")
     p.add_argument("--resume", action="store_true",
                    help="keep the runs already stored in --out and finish (or extend: a larger --runs)")
     p.add_argument("--redo-run", dest="redo_runs", type=int, action="append", default=[], metavar="K",

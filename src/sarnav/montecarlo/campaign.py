@@ -17,6 +17,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +30,7 @@ from sarnav.errors import ConfigError, Interrupted, raise_interrupted
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
 from sarnav.montecarlo.executors import ChunkRunner
-from sarnav.montecarlo.seeding import default_chunk_size, make_chunks, run_seeds
+from sarnav.montecarlo.seeding import ChunkPlan, run_seeds
 from sarnav.montecarlo.kind import ScenarioKind, validate_common
 from sarnav.montecarlo.outdir import OutputFolder, fingerprint, identity
 from sarnav.tomlio import dump_toml, parse_toml
@@ -133,8 +134,10 @@ def run_campaign(
     redo_runs : with ``resume``: run indices whose stored files are discarded and simulated again (the repair a
         damaged run file's error message names).
     overwrite : replace whatever another scenario left in ``out`` (otherwise refused, ``montecarlo.outdir``).
-    quiet : no progress bar (it is also off when stderr is not a terminal).
-    chunk_size : runs per task (default about two tasks per worker, at most 50).
+    quiet : no progress (a bar on stderr when it is a terminal, else one line per chunk at most every
+        :data:`PROGRESS_EVERY` seconds).
+    chunk_size : runs per task (default: sized by work, :class:`~sarnav.montecarlo.seeding.ChunkPlan`: each chunk
+        about 20 s once the per-run cost is measured on the first ones).
 
     Returns
     -------
@@ -168,7 +171,7 @@ def run_campaign(
         done = _verified_runs(out, n_runs, stamp) if keep else set()
         seeds = run_seeds(seed, n_runs)
         todo = [i for i in range(n_runs) if i not in done]
-        chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
+        chunks = ChunkPlan(todo, runner.workers, size=chunk_size)
         _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
                           cfg["scenario"]["name"], quiet, stamp)
         ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed, stamp)
@@ -240,22 +243,58 @@ def _open_store(out: Path, cfg: dict, text: str, resume: bool) -> tuple[dict, bo
     return manifest, keep
 
 
+#: a non-terminal stderr gets a progress line when a chunk ends and at least this many seconds passed since the last
+PROGRESS_EVERY = 5.0
+
+
+def _clock(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+class _Progress:
+    """Runs done, elapsed time and an estimate of the time left, per finished chunk: a tqdm bar when stderr is a
+    terminal, else a line at most every :data:`PROGRESS_EVERY` s (a log file shows a long campaign moving without
+    filling up); nothing when ``quiet``."""
+
+    def __init__(self, name: str, total: int, done: int, quiet: bool):
+        self.name, self.total, self.start_done, self.done = name, total, done, done
+        self.t0 = self.last = time.monotonic()
+        tty = sys.stderr.isatty()
+        self.lines = not quiet and not tty
+        self.bar = tqdm(total=total, initial=done, unit="run", desc=name, file=sys.stderr, disable=quiet or not tty)
+
+    def update(self, n: int) -> None:
+        self.done += n
+        self.bar.update(n)
+        now = time.monotonic()
+        if self.lines and now - self.last >= PROGRESS_EVERY:
+            self.last = now
+            elapsed = now - self.t0
+            rate = (self.done - self.start_done) / max(elapsed, 1e-9)
+            left = (self.total - self.done) / rate if rate > 0 else float("nan")
+            print(f"sarnav: {self.name}: {self.done}/{self.total} runs, {_clock(elapsed)} elapsed, about "
+                  f"{_clock(left)} left", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
 def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, n_done, name, quiet,
                       stamp) -> None:
-    """Run the chunks, storing every record as it arrives; signals become :class:`CampaignInterrupted`."""
-    bar = tqdm(total=n_runs, initial=n_done, unit="run", desc=name, file=sys.stderr,
-               disable=quiet or not sys.stderr.isatty())
+    """Run the chunks, storing every record as its chunk ends; signals become :class:`CampaignInterrupted`."""
+    progress = _Progress(name, n_runs, n_done, quiet)
     clean = False
     try:
         with _SignalsToException():
-            if chunks:
+            if chunks.remaining:
                 for ids, records in runner.run(kind, canonical, chunks, seeds):
                     for rec in records:
                         store.save_record(out, rec, stamp)
-                    bar.update(len(ids))
+                    progress.update(len(ids))
             clean = True
     finally:
-        bar.close()
+        progress.close()
         if own_runner:
             runner.close(abort=not clean)
 

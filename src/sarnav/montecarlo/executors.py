@@ -12,6 +12,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from typing import Iterator, Sequence
@@ -21,6 +22,7 @@ import numpy as np
 from sarnav.errors import ConfigError, InputDataError, SarnavError
 from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.montecarlo.seeding import ChunkPlan, FixedChunks
 
 __all__ = ["EXECUTORS", "simulate_chunk", "ChunkRunner", "WorkerInputError"]
 
@@ -77,20 +79,25 @@ def simulate_chunk(
 
 
 def _chunk_task(kind, cfg, run_ids, seeds):
-    """The work item sent to workers: records, or the input error as a picklable *value* (so that
-    neither pickling nor the workers' error logging gets in the way of a one-line message)."""
+    """The work item sent to workers: ``(records, seconds of compute)``, or the input error as a picklable *value*
+    (so that neither pickling nor the workers' error logging gets in the way of a one-line message)."""
     try:
-        return simulate_chunk(kind, cfg, run_ids, seeds)
+        t0 = time.perf_counter()
+        records = simulate_chunk(kind, cfg, run_ids, seeds)
+        return records, time.perf_counter() - t0
     except SarnavError as err:
         cls = type(err)
         return WorkerInputError(cls.__module__, cls.__qualname__, getattr(err, "field", None),
                                 getattr(err, "message", str(err)))
 
 
-def _checked(result):
+def _checked(result, plan: ChunkPlan, ids) -> list[RunRecord]:
+    """The records of a finished task (its compute time goes to the plan), or its input error raised."""
     if isinstance(result, WorkerInputError):
         reraise_input_error(result)
-    return result
+    records, seconds = result
+    plan.finished(len(ids), seconds)
+    return records
 
 
 def _limit_worker_threads(threads: int) -> None:
@@ -265,45 +272,80 @@ class ChunkRunner:
 
     # -- work
     def run(self, kind, cfg, chunks, seeds) -> Iterator[tuple[list[int], list[RunRecord]]]:
-        """Yield ``(run_ids, records)`` for each chunk as it finishes."""
+        """Yield ``(run_ids, records)`` for each chunk as it finishes. ``chunks``: a list of run-id lists, or a
+        :class:`~sarnav.montecarlo.seeding.ChunkPlan` asked for the next chunk whenever a worker is free (one chunk
+        in flight per worker, so a chunk's runs are stored as soon as it ends and the plan sizes the next one from
+        the compute times measured so far)."""
+        plan = chunks if isinstance(chunks, ChunkPlan) else FixedChunks(chunks)
         if self.executor == "serial":
-            for ids in chunks:
-                yield ids, simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
+            while (ids := plan.next_chunk()) is not None:
+                t0 = time.perf_counter()
+                records = simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
+                plan.finished(len(ids), time.perf_counter() - t0)
+                yield ids, records
         elif self.executor == "processes":
-            yield from self._run_processes(kind, cfg, chunks, seeds)
+            yield from self._run_processes(kind, cfg, plan, seeds)
         else:
-            yield from self._run_dask(kind, cfg, chunks, seeds)
+            yield from self._run_dask(kind, cfg, plan, seeds)
 
-    def _run_processes(self, kind, cfg, chunks, seeds):
+    def _run_processes(self, kind, cfg, plan, seeds):
         pool = self._ensure_pool()
         clean = False
         pending = {}
+
+        def submit():
+            ids = plan.next_chunk()
+            if ids is not None:
+                with _children_start_with_sigint_blocked():
+                    pending[pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids])] = ids
+
         try:
-            with _children_start_with_sigint_blocked():
-                pending = {pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
+            for _ in range(self.workers):
+                submit()
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
                     ids = pending.pop(fut)
-                    yield ids, _checked(fut.result())
+                    records = _checked(fut.result(), plan, ids)
+                    submit()
+                    yield ids, records
             clean = True
         finally:
             if not clean:  # interrupted or failed: do not leave workers computing
                 self.close(abort=True)
 
-    def _run_dask(self, kind, cfg, chunks, seeds):
+    def _dask_slots(self, client) -> int:
+        """Chunks kept in flight on dask: one per worker thread of the cluster (at least ``workers``)."""
+        try:
+            return max(self.workers, sum(client.nthreads().values()))
+        except Exception:  # noqa: BLE001 - a scheduler that cannot say: the requested workers
+            return self.workers
+
+    def _run_dask(self, kind, cfg, plan, seeds):
         from dask.distributed import as_completed
 
         client = self._ensure_client()
         futures, owner = [], {}
         clean = False
+
+        def submit():
+            ids = plan.next_chunk()
+            if ids is None:
+                return None
+            f = client.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
+            futures.append(f)
+            owner[f.key] = ids
+            return f
+
         try:
-            for ids in chunks:
-                f = client.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
-                futures.append(f)
-                owner[f.key] = ids
-            for fut in as_completed(futures):
-                yield owner[fut.key], _checked(fut.result())
+            queue = as_completed([f for f in (submit() for _ in range(self._dask_slots(client))) if f is not None])
+            for fut in queue:
+                ids = owner[fut.key]
+                records = _checked(fut.result(), plan, ids)
+                nxt = submit()
+                if nxt is not None:
+                    queue.add(nxt)
+                yield ids, records
             clean = True
         finally:
             if not clean:
