@@ -1,6 +1,8 @@
 """``montecarlo.seeding``: run i's stream depends only on (seed, i) (design/architecture.md §3), and chunks
 partition the run ids in order."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -26,38 +28,37 @@ def test_chunks_partition_the_runs_in_order(n, size):
         make_chunks(ids, 0)
 
 
-def _drain(plan, seconds_per_run, fixed=0.0):
-    """Hand out every chunk, reporting each as taking ``fixed + n * seconds_per_run`` s of compute."""
+def _drain(plan, a, b, workers, compile_s=2.0):
+    """Hand out every chunk, worker k % workers running chunk k and reporting ``a + b n`` s of compute (its first
+    chunk ``compile_s`` more)."""
     chunks = []
     while (ids := plan.next_chunk()) is not None:
+        first = len(chunks) < workers
         chunks.append(ids)
-        plan.finished(len(ids), fixed + len(ids) * seconds_per_run)
+        plan.finished(len(ids), a + b * len(ids) + (compile_s if first else 0.0), first_in_worker=first)
     return chunks
 
 
-@pytest.mark.parametrize("per_run, fixed", [(8.0, 0.0), (8.0, 3.0), (0.01, 0.5), (120.0, 0.0)])
-def test_chunk_plan_sizes_chunks_by_work(per_run, fixed):
-    plan = ChunkPlan(range(200), workers=2, target_s=20.0)
-    chunks = _drain(plan, per_run, fixed)
-    assert sum(chunks, []) == list(range(200))  # every run once, in order
-    assert [len(c) for c in chunks[:2]] == [1, 1]  # one probe per worker
-    # after the probes: the largest chunk of at most 20 s at the cost measured, capped, growing at most 4x a step
+@pytest.mark.parametrize("a, b", [(0.0, 8.0), (1.0, 8.0), (3.5, 0.03), (0.0, 120.0), (2.0, 0.5)])
+def test_chunk_plan_sizes_chunks_by_work(a, b):
+    """Chunks of the runs that fill 20 s at the fitted cost a + b n, more where a would exceed a tenth of a chunk
+    (a batched kind), at most MAX_CHUNK; the last chunks an even share but not below that efficiency."""
+    plan = ChunkPlan(range(400), workers=2, target_s=20.0)
+    chunks = _drain(plan, a, b, workers=2)
     sizes = [len(c) for c in chunks]
-    for prev, n in zip(sizes[1:], sizes[2:]):
-        assert n <= 4 * max(sizes[: sizes.index(prev) + 1])
-    middle = sizes[2:-4]
-    want = max(1, min(MAX_CHUNK, int(20.0 / (per_run + fixed / max(middle or [1])))))
-    steady = [n for n in middle if n == max(middle)] if middle else []
-    assert steady and abs(max(middle) - want) <= max(1, want // 4), (sizes, want)
-    assert all((fixed + n * per_run) <= 20.0 or n == 1 for n in middle)
+    assert sum(chunks, []) == list(range(400))  # every run once, in order
+    assert sizes[:2] == [1, 1]  # one probe per worker
+    efficient = math.ceil(9 * a / b)
+    want = min(MAX_CHUNK, max(int((20 - a) / b), efficient, 1))
+    assert plan.cost() == pytest.approx((a, b), rel=1e-6, abs=1e-9)
+    assert max(sizes) == want and sizes.count(want) >= len(sizes) // 2, sizes
+    assert all(n >= min(efficient, MAX_CHUNK, want) for n in sizes[4:-1]), sizes  # the tail keeps the batching
+    if a == 0:  # no fixed cost: the last chunks split what is left between the workers
+        assert sizes[-1] <= max(1, want // 2 + 1)
 
 
-def test_chunk_plan_ends_with_an_even_share_and_a_fixed_size_is_kept():
-    plan = ChunkPlan(range(40), workers=4)
-    sizes = [len(c) for c in _drain(plan, 0.001)]
-    assert sum(sizes) == 40 and sizes[:4] == [1, 1, 1, 1]
-    assert max(sizes) <= -(-36 // 4)  # never more than an even share of what was left per worker
+def test_chunk_plan_a_fixed_size_is_kept():
     fixed = ChunkPlan(range(10), workers=3, size=4)
-    assert [len(c) for c in _drain(fixed, 1.0)] == [4, 4, 2]
+    assert [len(c) for c in _drain(fixed, 0.0, 1.0, workers=3)] == [4, 4, 2]
     with pytest.raises(ValueError, match="chunk_size"):
         ChunkPlan(range(3), size=0)

@@ -175,7 +175,7 @@ def run_campaign(
         _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
                           cfg["scenario"]["name"], quiet, stamp)
         ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed, stamp)
-        manifest.update(complete=True, finished=_now())
+        manifest.update(complete=True, finished=_now(), **{store.CHECKSUMS: store.product_checksums(out)})
         store.write_manifest(out, manifest)
         (out / store.MARKER).unlink(missing_ok=True)
     return CampaignResult(out, out / store.RESULTS, out / store.SUMMARY, ds, summary, len(todo))

@@ -79,24 +79,26 @@ def simulate_chunk(
 
 
 def _chunk_task(kind, cfg, run_ids, seeds):
-    """The work item sent to workers: ``(records, seconds of compute)``, or the input error as a picklable *value*
+    """The work item sent to workers: ``(records, seconds of compute, worker pid)``, or the input error as a picklable *value*
     (so that neither pickling nor the workers' error logging gets in the way of a one-line message)."""
     try:
         t0 = time.perf_counter()
         records = simulate_chunk(kind, cfg, run_ids, seeds)
-        return records, time.perf_counter() - t0
+        return records, time.perf_counter() - t0, os.getpid()
     except SarnavError as err:
         cls = type(err)
         return WorkerInputError(cls.__module__, cls.__qualname__, getattr(err, "field", None),
                                 getattr(err, "message", str(err)))
 
 
-def _checked(result, plan: ChunkPlan, ids) -> list[RunRecord]:
-    """The records of a finished task (its compute time goes to the plan), or its input error raised."""
+def _checked(result, plan: ChunkPlan, ids, seen: set) -> list[RunRecord]:
+    """The records of a finished task (its compute time goes to the plan; ``seen``: the worker pids that finished a
+    chunk before), or its input error raised."""
     if isinstance(result, WorkerInputError):
         reraise_input_error(result)
-    records, seconds = result
-    plan.finished(len(ids), seconds)
+    records, seconds, worker = result
+    plan.finished(len(ids), seconds, first_in_worker=worker not in seen)
+    seen.add(worker)
     return records
 
 
@@ -314,18 +316,21 @@ class ChunkRunner:
         in flight per worker, so a chunk's runs are stored as soon as it ends and the plan sizes the next one from
         the compute times measured so far)."""
         plan = chunks if isinstance(chunks, ChunkPlan) else FixedChunks(chunks)
+        seen: set = set()
         if self.executor == "serial":
+            plan_first = None
             while (ids := plan.next_chunk()) is not None:
+                plan_first = ids if plan_first is None else plan_first
                 t0 = time.perf_counter()
                 records = simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
-                plan.finished(len(ids), time.perf_counter() - t0)
+                plan.finished(len(ids), time.perf_counter() - t0, first_in_worker=ids is plan_first)
                 yield ids, records
         elif self.executor == "processes":
-            yield from self._run_processes(kind, cfg, plan, seeds)
+            yield from self._run_processes(kind, cfg, plan, seeds, seen)
         else:
-            yield from self._run_dask(kind, cfg, plan, seeds)
+            yield from self._run_dask(kind, cfg, plan, seeds, seen)
 
-    def _run_processes(self, kind, cfg, plan, seeds):
+    def _run_processes(self, kind, cfg, plan, seeds, seen):
         pool = self._ensure_pool()
         clean = False
         pending = {}
@@ -343,7 +348,7 @@ class ChunkRunner:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
                     ids = pending.pop(fut)
-                    records = _checked(fut.result(), plan, ids)
+                    records = _checked(fut.result(), plan, ids, seen)
                     submit()
                     yield ids, records
             clean = True
@@ -358,7 +363,7 @@ class ChunkRunner:
         except Exception:  # noqa: BLE001 - a scheduler that cannot say: the requested workers
             return self.workers
 
-    def _run_dask(self, kind, cfg, plan, seeds):
+    def _run_dask(self, kind, cfg, plan, seeds, seen):
         from dask.distributed import as_completed
 
         client = self._ensure_client()
@@ -378,7 +383,7 @@ class ChunkRunner:
             queue = as_completed([f for f in (submit() for _ in range(self._dask_slots(client))) if f is not None])
             for fut in queue:
                 ids = owner[fut.key]
-                records = _checked(fut.result(), plan, ids)
+                records = _checked(fut.result(), plan, ids, seen)
                 nxt = submit()
                 if nxt is not None:
                     queue.add(nxt)

@@ -22,7 +22,7 @@ MAX_CHUNK = 50
 PROBE_CHUNK = 1
 #: a chunk has at most this many times the runs of the largest chunk measured so far (one fast, unrepresentative
 #: chunk must not produce a chunk of many minutes)
-GROWTH = 4
+GROWTH = 16
 
 
 def run_seeds(seed: int, n_runs: int) -> list[np.random.SeedSequence]:
@@ -31,11 +31,14 @@ def run_seeds(seed: int, n_runs: int) -> list[np.random.SeedSequence]:
 
 
 class ChunkPlan:
-    """Chunks sized by work: each worker's first chunk has :data:`PROBE_CHUNK` run(s); every later one about
-    ``target_s`` seconds of work at the per-run cost measured so far (the chunk of most runs finished: its fixed
-    costs, e.g. a first call's compilation, weigh least), between 1 and :data:`MAX_CHUNK` runs, at most
-    :data:`GROWTH` times the largest measured chunk, and no more than an even share of what is left per worker (the
-    last chunks end together). ``size`` fixes every chunk's size instead (``--chunk-size``).
+    """Chunks sized by work. A chunk of n runs costs about ``a + b n`` seconds (``a``: what a kind does once per
+    chunk, e.g. a batched kind's vectorised set-up; ``b``: each run). Each worker's first chunk has
+    :data:`PROBE_CHUNK` run(s); the cost of every finished chunk is recorded, and ``a``, ``b`` are fitted by least
+    squares over the chunks of different sizes (the workers' first chunks, which also pay one-off costs such as
+    compilation, only while no other chunk has ended; with one size only: ``a = 0``). A later chunk has the runs that
+    fill ``target_s`` seconds, or more where ``a`` would otherwise exceed a tenth of the chunk's time (batched kinds: the batching is what makes them fast), at most :data:`MAX_CHUNK` runs and :data:`GROWTH` times the largest chunk
+    measured, and no more than an even share of what is left per worker unless that share is too small to pay for
+    ``a`` (so the last chunks end together). ``size`` fixes every chunk's size instead (``--chunk-size``).
 
     Which runs form a chunk never changes a run's numbers (run i uses seed child i; kinds batch runs independently),
     so any plan gives bit-identical results. The executors ask :meth:`next_chunk` whenever a worker is free and
@@ -50,27 +53,41 @@ class ChunkPlan:
         self._pos = 0
         self.workers, self.size, self.target_s = max(1, int(workers)), size, float(target_s)
         self._probes = self.workers if size is None else 0
-        self._measured: tuple[int, float] | None = None  # (runs, seconds) of the largest chunk finished
+        self._warm: list[tuple[int, float]] = []  # (runs, seconds) of chunks a worker ran after its first
+        self._cold: list[tuple[int, float]] = []  # the same of each worker's first chunk
         self.sizes: list[int] = []  #: the sizes handed out, in order
 
     @property
     def remaining(self) -> int:
         return len(self._todo) - self._pos
 
-    def seconds_per_run(self) -> float | None:
-        """The per-run cost measured so far [s] (None before the first chunk ends)."""
-        return None if self._measured is None else self._measured[1] / self._measured[0]
+    def cost(self) -> tuple[float, float] | None:
+        """``(a, b)``: the fitted cost of a chunk of n runs, ``a + b n`` [s] (None before any chunk ended)."""
+        points = self._warm or self._cold
+        if not points:
+            return None
+        if len({n for n, _ in points}) < 2:
+            return 0.0, min(t / n for n, t in points)
+        n = np.array([p[0] for p in points], dtype=float)
+        t = np.array([p[1] for p in points], dtype=float)
+        b, a = np.polyfit(n, t, 1)
+        floor = 1e-3 * float(np.min(t / n))  # noisy timings of a kind whose runs cost nearly nothing
+        return max(float(a), 0.0), max(float(b), floor)
 
     def _next_size(self) -> int:
         if self.size is not None:
             return self.size
-        if self._probes > 0 or self._measured is None:
+        fit = self.cost()
+        if self._probes > 0 or fit is None:
             self._probes = max(0, self._probes - 1)
             return PROBE_CHUNK
-        runs, seconds = self._measured
-        n = int(self.target_s * runs / max(seconds, 1e-9))
+        a, b = fit
+        efficient = math.ceil(round(9.0 * a / b, 6))  # a is at most a tenth of such a chunk's time
+        n = max(int((self.target_s - a) / b), efficient, 1)
+        largest = max(m for m, _ in self._warm + self._cold)
+        n = min(n, MAX_CHUNK, GROWTH * largest)
         share = math.ceil(self.remaining / self.workers)
-        return max(1, min(n, MAX_CHUNK, GROWTH * runs, share))
+        return max(1, min(n, max(share, min(efficient, MAX_CHUNK))))
 
     def next_chunk(self) -> list[int] | None:
         """The run ids of the next chunk, or None when every run has been handed out."""
@@ -82,10 +99,10 @@ class ChunkPlan:
         self.sizes.append(len(ids))
         return ids
 
-    def finished(self, n_runs: int, seconds: float) -> None:
-        """A chunk of ``n_runs`` took ``seconds`` of compute."""
-        if n_runs > 0 and (self._measured is None or n_runs >= self._measured[0]):
-            self._measured = (int(n_runs), float(seconds))
+    def finished(self, n_runs: int, seconds: float, first_in_worker: bool = False) -> None:
+        """A chunk of ``n_runs`` took ``seconds`` of compute (``first_in_worker``: the worker's first chunk)."""
+        if n_runs > 0:
+            (self._cold if first_in_worker else self._warm).append((int(n_runs), max(float(seconds), 0.0)))
 
 
 class FixedChunks(ChunkPlan):
