@@ -67,6 +67,20 @@ def _import_engine() -> None:
     import sarnav.scenarios.config  # noqa: F401
 
 
+def _draw_figures(ds, out: Path, kind) -> None:
+    """The campaign's figures, listed in the folder's record of what sarnav wrote; a full disk is one line (the
+    results are complete: ``sarnav figures OUT`` draws them again)."""
+    from sarnav.errors import RunFault, disk_message
+    from sarnav.montecarlo.outdir import record_files
+    from sarnav.report.figures import write_campaign_figures
+
+    try:
+        record_files(out, write_campaign_figures(ds, out, kind=kind))
+    except OSError as err:
+        raise RunFault(str(out / "figures"), f"cannot draw the figures: {disk_message(err)}; the results are "
+                       f"complete: draw the figures again with `sarnav figures {out}`") from None
+
+
 def run(args) -> int:
     from sarnav.errors import ConfigError, deferred_signals
 
@@ -118,9 +132,7 @@ def run(args) -> int:
               file=sys.stderr)
         return 128 + exc.signum
     if not args.no_figures:
-        from sarnav.report.figures import write_campaign_figures
-
-        write_campaign_figures(res.dataset, out, kind=kind)
+        _draw_figures(res.dataset, out, kind)
     if not args.quiet:
         _print_summary(res.summary, out)
     if res.summary.get("consistent") is False:  # the run itself succeeded: exit 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
+import shutil
 import signal
 import sys
 import threading
@@ -26,10 +27,10 @@ from tqdm import tqdm
 
 import sarnav
 from sarnav.analysis.consistency import strict, summarize
-from sarnav.errors import ConfigError, Interrupted, raise_interrupted
+from sarnav.errors import ConfigError, Interrupted, RunFault, disk_message, raise_interrupted
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
-from sarnav.montecarlo.executors import ChunkRunner
+from sarnav.montecarlo.executors import RESUME_HINT, ChunkRunner
 from sarnav.montecarlo.seeding import ChunkPlan, run_seeds
 from sarnav.montecarlo.kind import ScenarioKind, validate_common
 from sarnav.montecarlo.outdir import OutputFolder, fingerprint, identity
@@ -165,7 +166,10 @@ def run_campaign(
     if resume and (out / store.MANIFEST).exists():
         _check_resumable(out, canonical)
     with OutputFolder(out, identity(canonical), resume=resume, overwrite=overwrite):
-        manifest, keep = _open_store(out, cfg, text, resume)
+        try:
+            manifest, keep = _open_store(out, cfg, text, resume)
+        except OSError as err:
+            raise RunFault(str(out), f"cannot write in the output folder: {disk_message(err)}") from None
         for i in redo:
             store.run_path(out, i).unlink(missing_ok=True)
         done = _verified_runs(out, n_runs, stamp) if keep else set()
@@ -176,7 +180,11 @@ def run_campaign(
                           cfg["scenario"]["name"], quiet, stamp)
         ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed, stamp)
         manifest.update(complete=True, finished=_now(), **{store.CHECKSUMS: store.product_checksums(out)})
-        store.write_manifest(out, manifest)
+        try:
+            store.write_manifest(out, manifest)
+        except OSError as err:
+            raise RunFault(str(out / store.MANIFEST), f"cannot write the manifest: {disk_message(err)}; "
+                           f"{RESUME_HINT}") from None
         (out / store.MARKER).unlink(missing_ok=True)
     return CampaignResult(out, out / store.RESULTS, out / store.SUMMARY, ds, summary, len(todo))
 
@@ -290,7 +298,11 @@ def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n
             if chunks.remaining:
                 for ids, records in runner.run(kind, canonical, chunks, seeds):
                     for rec in records:
-                        store.save_record(out, rec, stamp)
+                        try:
+                            store.save_record(out, rec, stamp)
+                        except OSError as err:  # a full disk, a folder made read-only
+                            raise RunFault(str(store.run_path(out, rec.run)), f"cannot store the run: "
+                                           f"{disk_message(err)}; {RESUME_HINT}") from None
                     progress.update(len(ids))
             clean = True
     finally:
@@ -319,6 +331,25 @@ def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed, stamp):
                           extra_attrs=kind.extra_attrs(canonical), extra_coords=kind.extra_coords(canonical))
     summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summarize(ds),
                **strict(kind.summary_extras(ds))}
-    write_results(ds, out / store.RESULTS)
-    store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    _write_products(out, ds, summary)
     return ds, summary
+
+
+def _write_products(out: Path, ds, summary: dict) -> None:
+    """``results.nc`` and ``summary.json``; a full disk (netCDF says only ``NetCDF: HDF error``) or another write
+    failure is one :class:`RunFault` line, with the temporary file removed."""
+    path = out / store.RESULTS
+    try:
+        write_results(ds, path)
+        store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    except (OSError, RuntimeError) as err:
+        for name in (store.RESULTS, store.SUMMARY):
+            (out / f".{name}.tmp-{os.getpid()}").unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            cause = disk_message(err)
+        else:  # the netCDF library's words; say what the disk has left
+            free = shutil.disk_usage(out).free
+            cause = (f"No space left on device (ENOSPC: {free} bytes free, the results need about {ds.nbytes})"
+                     if free < 2 * ds.nbytes + 2**20 else f"{type(err).__name__}: {err}")
+        raise RunFault(str(path), f"cannot write the results: {cause}; the runs are stored: write them with the "
+                       "same command and --resume") from None

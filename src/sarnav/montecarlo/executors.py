@@ -19,7 +19,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from sarnav.errors import ConfigError, InputDataError, SarnavError
+from sarnav.errors import ConfigError, InputDataError, RunFault, SarnavError
 from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.seeding import ChunkPlan, FixedChunks
@@ -89,6 +89,43 @@ def _chunk_task(kind, cfg, run_ids, seeds):
         cls = type(err)
         return WorkerInputError(cls.__module__, cls.__qualname__, getattr(err, "field", None),
                                 getattr(err, "message", str(err)))
+
+
+#: the end of every fault message of a campaign: what was kept and how to finish
+RESUME_HINT = "the runs stored so far are kept: finish with the same command and --resume"
+
+
+def _runs(ids) -> str:
+    return f"run {ids[0]}" if len(ids) == 1 else f"runs {ids[0]}-{ids[-1]}"
+
+
+def _dask_faults() -> tuple:
+    """The exceptions of a dask cluster that failed (not of a kind's code)."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed.comm.core import CommClosedError
+    from distributed.scheduler import KilledWorker
+
+    return (KilledWorker, CommClosedError, asyncio.CancelledError, concurrent.futures.CancelledError, TimeoutError,
+            OSError)
+
+
+def _result(fut, ids, executor: str):
+    """A finished future's result; a worker that died, or a dask scheduler or worker lost, becomes one
+    :class:`RunFault` line (issue 31: a ``BrokenProcessPool`` traceback)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        return fut.result()
+    except BrokenProcessPool:
+        raise RunFault("--workers", f"a worker process died (killed, or out of memory) while simulating {_runs(ids)}; "
+                       + RESUME_HINT) from None
+    except Exception as err:  # noqa: BLE001 - dask: KilledWorker, CommClosedError, CancelledError, timeouts
+        if executor != "dask" or not isinstance(err, _dask_faults()):
+            raise
+        raise RunFault("--executor dask", f"the dask cluster failed while simulating {_runs(ids)} "
+                       f"({type(err).__name__}: {str(err)[:200] or 'no detail'}); " + RESUME_HINT) from None
 
 
 def _checked(result, plan: ChunkPlan, ids, seen: set) -> list[RunRecord]:
@@ -348,7 +385,7 @@ class ChunkRunner:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
                     ids = pending.pop(fut)
-                    records = _checked(fut.result(), plan, ids, seen)
+                    records = _checked(_result(fut, ids, "processes"), plan, ids, seen)
                     submit()
                     yield ids, records
             clean = True
@@ -383,7 +420,7 @@ class ChunkRunner:
             queue = as_completed([f for f in (submit() for _ in range(self._dask_slots(client))) if f is not None])
             for fut in queue:
                 ids = owner[fut.key]
-                records = _checked(fut.result(), plan, ids, seen)
+                records = _checked(_result(fut, ids, "dask"), plan, ids, seen)
                 nxt = submit()
                 if nxt is not None:
                     queue.add(nxt)

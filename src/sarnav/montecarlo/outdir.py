@@ -305,8 +305,12 @@ class OutputFolder:
         from sarnav.montecarlo.store import atomic_write_text
 
         files = sorted(r for r in self._ledger if not _ours_by_name(r))
-        atomic_write_text(self.out / IDENTITY, json.dumps(dict(self.ident, written=_now(), **{FILES_KEY: files}),
-                                                          indent=2) + "\n")
+        try:
+            atomic_write_text(self.out / IDENTITY, json.dumps(dict(self.ident, written=_now(), **{FILES_KEY: files}),
+                                                              indent=2) + "\n")
+        except OSError as err:
+            (self.out / f".{IDENTITY}.tmp-{os.getpid()}").unlink(missing_ok=True)
+            raise self._unwritable(err) from None
 
     def _record_written(self) -> None:
         """Add the files written while the folder was claimed to its list of sarnav's files."""
