@@ -45,14 +45,14 @@ def _one_line(capsys, code: int, want_code: int, *parts: str) -> str:
 
 
 def _tree(root: Path) -> dict:
-    """Every path below ``root`` with its size and mtime (what 'nothing changed' compares)."""
+    """Every path below ``root`` with its size and mtime (files; what 'nothing changed' compares)."""
     out = {}
     for p in sorted(root.rglob("*")):
         try:
             st = p.lstat()
         except OSError:
             continue
-        out[str(p.relative_to(root))] = (st.st_size, st.st_mtime_ns)
+        out[str(p.relative_to(root))] = None if p.is_dir() else (st.st_size, st.st_mtime_ns)
     return out
 
 
