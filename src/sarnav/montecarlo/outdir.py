@@ -195,7 +195,10 @@ def _signature(p: Path):
 def _check_place(out: Path) -> None:
     """Refuse the filesystem root and the home folder, and a ``runs``/``figures`` that is a symbolic link."""
     resolved = out.resolve()
-    home = Path.home().resolve() if os.environ.get("HOME") or os.name != "nt" else None
+    try:
+        home = Path.home().resolve()
+    except (RuntimeError, KeyError):  # no home folder known
+        home = None
     if resolved == Path(resolved.anchor) or resolved == home:
         raise ConfigError("--out", f"{str(out)!r} is {'the filesystem root' if resolved == Path(resolved.anchor) else 'your home folder'}; "
                           "sarnav writes only into a folder of its own (e.g. --out sarnav-out/NAME)")
@@ -304,7 +307,9 @@ class OutputFolder:
     def _write_identity(self) -> None:
         from sarnav.montecarlo.store import atomic_write_text
 
-        files = sorted(r for r in self._ledger if not _ours_by_name(r))
+        files = sorted(r for r in self._ledger  # run files (also a study case's) are sarnav's by their names
+                       if not _ours_by_name(r) and not (r.count("/") >= 1 and r.split("/")[-2] == "runs"
+                                                         and _RUN_FILE.match(r.split("/")[-1])))
         try:
             atomic_write_text(self.out / IDENTITY, json.dumps(dict(self.ident, written=_now(), **{FILES_KEY: files}),
                                                               indent=2) + "\n")
