@@ -51,7 +51,8 @@ def test_chunk_plan_sizes_chunks_by_work(a, b):
     efficient = math.ceil(9 * a / b)
     want = min(MAX_CHUNK, max(int((20 - a) / b), efficient, 1))
     assert plan.cost() == pytest.approx((a, b), rel=1e-6, abs=1e-9)
-    assert max(sizes) == want and sizes.count(want) >= len(sizes) // 2, sizes
+    # the steady size; one run more once, while the chunks had one size (to tell a from b)
+    assert sizes.count(want) >= len(sizes) // 2 and max(sizes) <= want + 1 and sizes.count(want + 1) <= 2, sizes
     assert all(n >= min(efficient, MAX_CHUNK, want) for n in sizes[4:-1]), sizes  # the tail keeps the batching
     if a == 0:  # no fixed cost: the last chunks split what is left between the workers
         assert sizes[-1] <= max(1, want // 2 + 1)

@@ -37,7 +37,8 @@ class ChunkPlan:
     squares over the chunks of different sizes (the workers' first chunks, which also pay one-off costs such as
     compilation, only while no other chunk has ended; with one size only: ``a = 0``). A later chunk has the runs that
     fill ``target_s`` seconds, or more where ``a`` would otherwise exceed a tenth of the chunk's time (batched kinds: the batching is what makes them fast), at most :data:`MAX_CHUNK` runs and :data:`GROWTH` times the largest chunk
-    measured, and no more than an even share of what is left per worker unless that share is too small to pay for
+    measured (while the finished chunks have one size, the next has one run more if that stays within 1.5
+    ``target_s``, so that ``a`` can be told from ``b``), and no more than an even share of what is left per worker unless that share is too small to pay for
     ``a`` (so the last chunks end together). ``size`` fixes every chunk's size instead (``--chunk-size``).
 
     Which runs form a chunk never changes a run's numbers (run i uses seed child i; kinds batch runs independently),
@@ -86,6 +87,9 @@ class ChunkPlan:
         n = max(int((self.target_s - a) / b), efficient, 1)
         largest = max(m for m, _ in self._warm + self._cold)
         n = min(n, MAX_CHUNK, GROWTH * largest)
+        warm_sizes = {m for m, _ in self._warm}
+        if warm_sizes == {n} and n < MAX_CHUNK and a + b * (n + 1) <= 1.5 * self.target_s:
+            n += 1  # one size cannot tell a from b: one run more (if still a chunk of about target_s), to learn a
         share = math.ceil(self.remaining / self.workers)
         return max(1, min(n, max(share, min(efficient, MAX_CHUNK))))
 
