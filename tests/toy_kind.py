@@ -24,7 +24,8 @@ TOY_KIND = "toy_kind:ToyKind"
 
 
 class ToyKind(ScenarioKind):
-    """1-D random walk + scalar KF (see module docstring). Config table ``[toy] steps, q, r1, r2, p0, delay``."""
+    """1-D random walk + scalar KF (see module docstring). Config table ``[toy] steps, q, r1, r2, p0, delay``
+    (and ``chunk_log``: a file that gets one line of run ids per chunk simulated)."""
 
     kind = TOY_KIND
 
@@ -51,7 +52,11 @@ class ToyKind(ScenarioKind):
     def simulate(self, cfg, run_ids, seeds):
         toy = cfg["toy"]
         delay = float(toy.get("delay", 0.0))
-        return [self._one(toy, rid, ss, delay) for rid, ss in zip(run_ids, seeds)]
+        records = [self._one(toy, rid, ss, delay) for rid, ss in zip(run_ids, seeds)]
+        if toy.get("chunk_log"):  # one line per chunk simulated: its run ids (tests of what a kill loses)
+            with open(toy["chunk_log"], "a", encoding="utf-8") as fh:
+                fh.write(" ".join(str(r) for r in run_ids) + "\n")
+        return records
 
     @staticmethod
     def _one(toy, rid, ss, delay):

@@ -36,6 +36,29 @@ class InputDataError(SarnavError, ValueError):
         return (type(self), (self.field, self.message))
 
 
+class RunFault(Exception):
+    """A run stopped by a fault of the machine, not of its input: a dead worker process, a full disk, an unwritable
+    file, a lost dask scheduler. What was stored is kept and consistent; the message names the cause and the repair
+    (a campaign: the same command with ``--resume``). The CLI prints ``sarnav: error: <where>: <message>`` and exits
+    with status 3 (docs/cli.md)."""
+
+    def __init__(self, field: str, message: str):
+        self.field = field
+        self.message = message
+        super().__init__(f"{field}: {message}")
+
+    def __reduce__(self):
+        return (type(self), (self.field, self.message))
+
+
+def disk_message(err: OSError) -> str:
+    """An OSError in words for a one-line fault (``No space left on device (ENOSPC)``)."""
+    import errno as _errno
+
+    name = _errno.errorcode.get(err.errno or 0, "")
+    return f"{err.strerror or err}{f' ({name})' if name else ''}"
+
+
 def _is_bool(value) -> bool:
     """A TOML ``true`` or a string: float() would take them (``float(True) == 1.0``, ``float("3") == 3.0``), a scenario
     value must be a number."""

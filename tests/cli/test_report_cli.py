@@ -48,9 +48,9 @@ def _bad_dir(case, small_campaigns, tmp_path):
         return d, "an unfinished campaign (4 of 4 runs stored"
     if case == "summary":
         (d / "summary.json").write_text('{"runs": 4,')
-        return d, "summary.json cannot be read"
+        return d, "summary.json does not match the SHA-256 recorded in campaign.json"  # issue 31: checksummed
     (d / "results.nc").write_bytes(b"garbage" * 100)
-    return d, "results.nc cannot be read"
+    return d, "results.nc does not match the SHA-256 recorded in campaign.json"
 
 
 @pytest.mark.parametrize("command", ["report", "figures", "compare"])

@@ -21,7 +21,7 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import open_results
 from sarnav.montecarlo.campaign import run_campaign
-from sarnav.montecarlo.outdir import OutputFolder, identity
+from sarnav.montecarlo.outdir import OutputFolder, identity, record_files
 from sarnav.tomlio import dump_toml
 
 VARS = ("error", "sigma", "nees", "residual", "residual_sigma", "nis", "nis_dof")
@@ -176,15 +176,17 @@ def test_another_scenarios_results_are_refused_unless_overwrite_which_clears_the
         _run(toy_cfg(runs=3, seed=99), out)
     res = _run(toy_cfg(runs=3, seed=99), out, overwrite=True)
     assert res.dataset.attrs["seed"] == 99
-    assert not (out / "figures").exists() and (out / "notes.txt").read_text() == "mine"  # not ours: kept
-    # a rerun of the same scenario replaces its own results without --overwrite; stale figures go
-    (out / "figures").mkdir()
-    (out / "figures" / "old.png").write_bytes(b"x")
+    # not written by sarnav: kept (issue 31: --overwrite deleted a user's figures/mine.png)
+    assert (out / "notes.txt").read_text() == "mine" and (out / "figures" / "old.png").exists()
+    # a rerun of the same scenario replaces its own results without --overwrite; stale figures sarnav drew go
+    (out / "figures" / "drawn.png").write_bytes(b"x")
+    record_files(out, [out / "figures" / "drawn.png"])
     _run(toy_cfg(runs=4, seed=99), out)
-    assert not (out / "figures" / "old.png").exists()
+    assert not (out / "figures" / "drawn.png").exists() and (out / "figures" / "old.png").exists()
     # the CLI: one line naming --out
     f = tmp_path / "t.toml"
     f.write_text(dump_toml(toy_cfg(runs=2, seed=5)))
+    assert "kept 2 file(s)" in capsys.readouterr().err  # the notice of the --overwrite above
     assert main(["run", str(f), "--out", str(out), "--executor", "serial", "--quiet", "--no-figures"]) == 2
     assert capsys.readouterr().err.startswith("sarnav: error: --out: ")
 

@@ -19,12 +19,14 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
+    from sarnav.montecarlo.outdir import record_files
     from sarnav.report.redraw import redraw_figures
     from sarnav.scenarios.registry import get_kind
 
     done = redraw_figures(args.directory, resolve_kind=get_kind)
     for line in done.notices:
         print(f"sarnav: notice: {line}", file=sys.stderr)
+    record_files(args.directory, done.paths)  # --overwrite may remove them later
     for path in done.paths:
         print(path)
     return 0

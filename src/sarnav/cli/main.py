@@ -2,9 +2,10 @@
 ``run(args) -> int``; adding a subcommand is one line in :data:`COMMAND_MODULES`.
 
 Every :class:`sarnav.errors.SarnavError` (argument errors included) becomes one line on stderr,
-``sarnav: error: <field>: <message>``, and exit status 2 (no traceback). SIGINT and SIGTERM, at any moment after the
-interpreter has run the first line of ``sarnav/__init__.py``, end the command with one ``sarnav: interrupted by signal
-N ...`` line and exit status 128 + N (130, 143); the console script then leaves at once (``os._exit``), so no worker
+``sarnav: error: <field>: <message>``, and exit status 2 (no traceback); a fault of the machine
+(:class:`sarnav.errors.RunFault`: a dead worker, a full disk) is the same one line with exit status 3. SIGINT and
+SIGTERM, at any moment after the interpreter has run the first line of ``sarnav/__init__.py``, end the command with
+one ``sarnav: interrupted by signal N ...`` line and exit status 128 + N (130, 143); the console script then leaves at once (``os._exit``), so no worker
 pool or thread can keep it alive. Signals that arrive while the command is importing are deferred
 (``sarnav.PENDING_SIGNALS``); only one arriving in the interpreter's own start-up, before it runs any sarnav code
 (10-30 ms), gets the operating system's default.
@@ -99,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _main(argv) -> int:
     global _INTERRUPTED
-    from sarnav.errors import SarnavError, deferred_signals
+    from sarnav.errors import RunFault, SarnavError, deferred_signals
 
     try:
         with deferred_signals():  # the subcommands import numpy & co
@@ -114,6 +115,9 @@ def _main(argv) -> int:
     except SarnavError as err:
         print(f"sarnav: error: {err}", file=sys.stderr)
         return 2
+    except RunFault as err:  # a dead worker, a full disk...: what was stored is kept, the message says how to finish
+        print(f"sarnav: error: {err}", file=sys.stderr)
+        return 3
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1

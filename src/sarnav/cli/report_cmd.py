@@ -16,7 +16,10 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
+    from sarnav.montecarlo.outdir import record_files
     from sarnav.report.html import write_report
 
-    print(write_report(args.directory))
+    path = write_report(args.directory)
+    record_files(args.directory, [path])  # --overwrite may remove it later
+    print(path)
     return 0

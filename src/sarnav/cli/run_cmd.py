@@ -29,7 +29,7 @@ def add_parser(subparsers) -> None:
                    help="where runs execute (default: processes; dask when --scheduler is given)")
     p.add_argument("--workers", type=int, help="worker processes (default: number of cores)")
     p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--chunk-size", type=int, help="runs per task (default: about 2 tasks per worker, <= 50)")
+    p.add_argument("--chunk-size", type=int, help="runs per task (default: sized by work, about 20 s per task once the cost of a run is measured)")
     p.add_argument("--resume", action="store_true",
                    help="keep the runs already stored in --out and finish (or extend: a larger --runs)")
     p.add_argument("--redo-run", dest="redo_runs", type=int, action="append", default=[], metavar="K",
@@ -65,6 +65,20 @@ def _import_engine() -> None:
     import sarnav.montecarlo.campaign  # noqa: F401
     import sarnav.report.figures  # noqa: F401
     import sarnav.scenarios.config  # noqa: F401
+
+
+def _draw_figures(ds, out: Path, kind) -> None:
+    """The campaign's figures, listed in the folder's record of what sarnav wrote; a full disk is one line (the
+    results are complete: ``sarnav figures OUT`` draws them again)."""
+    from sarnav.errors import RunFault, disk_message
+    from sarnav.montecarlo.outdir import record_files
+    from sarnav.report.figures import write_campaign_figures
+
+    try:
+        record_files(out, write_campaign_figures(ds, out, kind=kind))
+    except OSError as err:
+        raise RunFault(str(out / "figures"), f"cannot draw the figures: {disk_message(err)}; the results are "
+                       f"complete: draw the figures again with `sarnav figures {out}`") from None
 
 
 def run(args) -> int:
@@ -118,9 +132,7 @@ def run(args) -> int:
               file=sys.stderr)
         return 128 + exc.signum
     if not args.no_figures:
-        from sarnav.report.figures import write_campaign_figures
-
-        write_campaign_figures(res.dataset, out, kind=kind)
+        _draw_figures(res.dataset, out, kind)
     if not args.quiet:
         _print_summary(res.summary, out)
     if res.summary.get("consistent") is False:  # the run itself succeeded: exit 0

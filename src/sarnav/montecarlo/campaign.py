@@ -14,9 +14,11 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
+import shutil
 import signal
 import sys
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,11 +27,11 @@ from tqdm import tqdm
 
 import sarnav
 from sarnav.analysis.consistency import strict, summarize
-from sarnav.errors import ConfigError, Interrupted, raise_interrupted
+from sarnav.errors import ConfigError, Interrupted, RunFault, disk_message, raise_interrupted
 from sarnav.montecarlo import store
 from sarnav.montecarlo.assemble import assemble_results, write_results
-from sarnav.montecarlo.executors import ChunkRunner
-from sarnav.montecarlo.seeding import default_chunk_size, make_chunks, run_seeds
+from sarnav.montecarlo.executors import RESUME_HINT, ChunkRunner
+from sarnav.montecarlo.seeding import ChunkPlan, run_seeds
 from sarnav.montecarlo.kind import ScenarioKind, validate_common
 from sarnav.montecarlo.outdir import OutputFolder, fingerprint, identity
 from sarnav.tomlio import dump_toml, parse_toml
@@ -133,8 +135,10 @@ def run_campaign(
     redo_runs : with ``resume``: run indices whose stored files are discarded and simulated again (the repair a
         damaged run file's error message names).
     overwrite : replace whatever another scenario left in ``out`` (otherwise refused, ``montecarlo.outdir``).
-    quiet : no progress bar (it is also off when stderr is not a terminal).
-    chunk_size : runs per task (default about two tasks per worker, at most 50).
+    quiet : no progress (a bar on stderr when it is a terminal, else one line per chunk at most every
+        :data:`PROGRESS_EVERY` seconds).
+    chunk_size : runs per task (default: sized by work, :class:`~sarnav.montecarlo.seeding.ChunkPlan`: each chunk
+        about 20 s once the per-run cost is measured on the first ones).
 
     Returns
     -------
@@ -162,18 +166,25 @@ def run_campaign(
     if resume and (out / store.MANIFEST).exists():
         _check_resumable(out, canonical)
     with OutputFolder(out, identity(canonical), resume=resume, overwrite=overwrite):
-        manifest, keep = _open_store(out, cfg, text, resume)
+        try:
+            manifest, keep = _open_store(out, cfg, text, resume)
+        except OSError as err:
+            raise RunFault(str(out), f"cannot write in the output folder: {disk_message(err)}") from None
         for i in redo:
             store.run_path(out, i).unlink(missing_ok=True)
         done = _verified_runs(out, n_runs, stamp) if keep else set()
         seeds = run_seeds(seed, n_runs)
         todo = [i for i in range(n_runs) if i not in done]
-        chunks = make_chunks(todo, chunk_size or default_chunk_size(len(todo), runner.workers))
+        chunks = ChunkPlan(todo, runner.workers, size=chunk_size)
         _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
                           cfg["scenario"]["name"], quiet, stamp)
         ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed, stamp)
-        manifest.update(complete=True, finished=_now())
-        store.write_manifest(out, manifest)
+        manifest.update(complete=True, finished=_now(), **{store.CHECKSUMS: store.product_checksums(out)})
+        try:
+            store.write_manifest(out, manifest)
+        except OSError as err:
+            raise RunFault(str(out / store.MANIFEST), f"cannot write the manifest: {disk_message(err)}; "
+                           f"{RESUME_HINT}") from None
         (out / store.MARKER).unlink(missing_ok=True)
     return CampaignResult(out, out / store.RESULTS, out / store.SUMMARY, ds, summary, len(todo))
 
@@ -240,22 +251,62 @@ def _open_store(out: Path, cfg: dict, text: str, resume: bool) -> tuple[dict, bo
     return manifest, keep
 
 
+#: a non-terminal stderr gets a progress line when a chunk ends and at least this many seconds passed since the last
+PROGRESS_EVERY = 5.0
+
+
+def _clock(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+class _Progress:
+    """Runs done, elapsed time and an estimate of the time left, per finished chunk: a tqdm bar when stderr is a
+    terminal, else a line at most every :data:`PROGRESS_EVERY` s (a log file shows a long campaign moving without
+    filling up); nothing when ``quiet``."""
+
+    def __init__(self, name: str, total: int, done: int, quiet: bool):
+        self.name, self.total, self.start_done, self.done = name, total, done, done
+        self.t0 = self.last = time.monotonic()
+        tty = sys.stderr.isatty()
+        self.lines = not quiet and not tty
+        self.bar = tqdm(total=total, initial=done, unit="run", desc=name, file=sys.stderr, disable=quiet or not tty)
+
+    def update(self, n: int) -> None:
+        self.done += n
+        self.bar.update(n)
+        now = time.monotonic()
+        if self.lines and now - self.last >= PROGRESS_EVERY:
+            self.last = now
+            elapsed = now - self.t0
+            rate = (self.done - self.start_done) / max(elapsed, 1e-9)
+            left = (self.total - self.done) / rate if rate > 0 else float("nan")
+            print(f"sarnav: {self.name}: {self.done}/{self.total} runs, {_clock(elapsed)} elapsed, about "
+                  f"{_clock(left)} left", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
 def _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, n_done, name, quiet,
                       stamp) -> None:
-    """Run the chunks, storing every record as it arrives; signals become :class:`CampaignInterrupted`."""
-    bar = tqdm(total=n_runs, initial=n_done, unit="run", desc=name, file=sys.stderr,
-               disable=quiet or not sys.stderr.isatty())
+    """Run the chunks, storing every record as its chunk ends; signals become :class:`CampaignInterrupted`."""
+    progress = _Progress(name, n_runs, n_done, quiet)
     clean = False
     try:
         with _SignalsToException():
-            if chunks:
+            if chunks.remaining:
                 for ids, records in runner.run(kind, canonical, chunks, seeds):
                     for rec in records:
-                        store.save_record(out, rec, stamp)
-                    bar.update(len(ids))
+                        try:
+                            store.save_record(out, rec, stamp)
+                        except OSError as err:  # a full disk, a folder made read-only
+                            raise RunFault(str(store.run_path(out, rec.run)), f"cannot store the run: "
+                                           f"{disk_message(err)}; {RESUME_HINT}") from None
+                    progress.update(len(ids))
             clean = True
     finally:
-        bar.close()
+        progress.close()
         if own_runner:
             runner.close(abort=not clean)
 
@@ -280,6 +331,25 @@ def _assemble(out: Path, kind, cfg, canonical, text, n_runs, seed, stamp):
                           extra_attrs=kind.extra_attrs(canonical), extra_coords=kind.extra_coords(canonical))
     summary = {"scenario": cfg["scenario"]["name"], "seed": seed, "complete": True, **summarize(ds),
                **strict(kind.summary_extras(ds))}
-    write_results(ds, out / store.RESULTS)
-    store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    _write_products(out, ds, summary)
     return ds, summary
+
+
+def _write_products(out: Path, ds, summary: dict) -> None:
+    """``results.nc`` and ``summary.json``; a full disk (netCDF says only ``NetCDF: HDF error``) or another write
+    failure is one :class:`RunFault` line, with the temporary file removed."""
+    path = out / store.RESULTS
+    try:
+        write_results(ds, path)
+        store.atomic_write_text(out / store.SUMMARY, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    except (OSError, RuntimeError) as err:
+        for name in (store.RESULTS, store.SUMMARY):
+            (out / f".{name}.tmp-{os.getpid()}").unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            cause = disk_message(err)
+        else:  # the netCDF library's words; say what the disk has left
+            free = shutil.disk_usage(out).free
+            cause = (f"No space left on device (ENOSPC: {free} bytes free, the results need about {ds.nbytes})"
+                     if free < 2 * ds.nbytes + 2**20 else f"{type(err).__name__}: {err}")
+        raise RunFault(str(path), f"cannot write the results: {cause}; the runs are stored: write them with the "
+                       "same command and --resume") from None

@@ -12,15 +12,17 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from typing import Iterator, Sequence
 
 import numpy as np
 
-from sarnav.errors import ConfigError, InputDataError, SarnavError, require_extra
+from sarnav.errors import ConfigError, InputDataError, RunFault, SarnavError, require_extra
 from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.montecarlo.seeding import ChunkPlan, FixedChunks
 
 __all__ = ["EXECUTORS", "simulate_chunk", "ChunkRunner", "WorkerInputError"]
 
@@ -77,27 +79,107 @@ def simulate_chunk(
 
 
 def _chunk_task(kind, cfg, run_ids, seeds):
-    """The work item sent to workers: records, or the input error as a picklable *value* (so that
-    neither pickling nor the workers' error logging gets in the way of a one-line message)."""
+    """The work item sent to workers: ``(records, seconds of compute, worker pid)``, or the input error as a picklable *value*
+    (so that neither pickling nor the workers' error logging gets in the way of a one-line message)."""
     try:
-        return simulate_chunk(kind, cfg, run_ids, seeds)
+        t0 = time.perf_counter()
+        records = simulate_chunk(kind, cfg, run_ids, seeds)
+        return records, time.perf_counter() - t0, os.getpid()
     except SarnavError as err:
         cls = type(err)
         return WorkerInputError(cls.__module__, cls.__qualname__, getattr(err, "field", None),
                                 getattr(err, "message", str(err)))
 
 
-def _checked(result):
+#: the end of every fault message of a campaign: what was kept and how to finish
+RESUME_HINT = "the runs stored so far are kept: finish with the same command and --resume"
+
+
+def _runs(ids) -> str:
+    return f"run {ids[0]}" if len(ids) == 1 else f"runs {ids[0]}-{ids[-1]}"
+
+
+def _dask_faults() -> tuple:
+    """The exceptions of a dask cluster that failed (not of a kind's code)."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed.comm.core import CommClosedError
+    from distributed.scheduler import KilledWorker
+
+    return (KilledWorker, CommClosedError, asyncio.CancelledError, concurrent.futures.CancelledError, TimeoutError,
+            OSError)
+
+
+def _result(fut, ids, executor: str):
+    """A finished future's result; a worker that died, or a dask scheduler or worker lost, becomes one
+    :class:`RunFault` line (issue 31: a ``BrokenProcessPool`` traceback)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        return fut.result()
+    except BrokenProcessPool:
+        raise RunFault("--workers", f"a worker process died (killed, or out of memory) while simulating {_runs(ids)}; "
+                       + RESUME_HINT) from None
+    except Exception as err:  # noqa: BLE001 - dask: KilledWorker, CommClosedError, CancelledError, timeouts
+        if executor != "dask" or not isinstance(err, _dask_faults()):
+            raise
+        raise RunFault("--executor dask", f"the dask cluster failed while simulating {_runs(ids)} "
+                       f"({type(err).__name__}: {str(err)[:200] or 'no detail'}); " + RESUME_HINT) from None
+
+
+def _checked(result, plan: ChunkPlan, ids, seen: set) -> list[RunRecord]:
+    """The records of a finished task (its compute time goes to the plan; ``seen``: the worker pids that finished a
+    chunk before), or its input error raised."""
     if isinstance(result, WorkerInputError):
         reraise_input_error(result)
-    return result
+    records, seconds, worker = result
+    plan.finished(len(ids), seconds, first_in_worker=worker not in seen)
+    seen.add(worker)
+    return records
 
 
-def _limit_worker_threads(threads: int) -> None:
+#: Linux prctl option: the signal a process gets when the thread that started it ends (prctl(2))
+_PR_SET_PDEATHSIG = 1
+
+
+def _watch_parent(parent: int, period: float = 0.5) -> None:
+    """Daemon thread of a worker: leave at once when ``parent`` is no longer this process's parent (it died and the
+    worker was re-parented), for systems without a parent-death signal."""
+    import threading
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(period)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="sarnav-parent-watch", daemon=True).start()
+
+
+def _die_with_parent(parent: int) -> None:
+    """A worker dies with the process that started it, whatever kills that one (``kill -9`` included): on Linux the
+    kernel's parent-death signal (SIGKILL, even in the middle of compiled code that holds the GIL), everywhere a
+    watchdog thread polling the parent (issue 31: orphaned workers of ~165 MB computed on for minutes)."""
+    if parent <= 1:
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+    _watch_parent(parent)
+    if os.getppid() != parent:  # the parent died before the signal was armed
+        os._exit(1)
+
+
+def _limit_worker_threads(threads: int, parent: int = 0) -> None:
     """Worker-process initializer: ``threads`` BLAS and numba threads per worker, so that K worker
     processes on K cores do not oversubscribe them (each would otherwise start one thread per core;
     small complex matrix products then ran ~50x slower on a loaded 2-core machine). Thread counts
-    do not change any run's numbers: kinds never reduce across threads."""
+    do not change any run's numbers: kinds never reduce across threads. The worker dies with ``parent``, the main
+    process (:func:`_die_with_parent`)."""
     import signal
 
     from threadpoolctl import threadpool_limits
@@ -105,6 +187,7 @@ def _limit_worker_threads(threads: int) -> None:
     # the main process decides what a SIGINT means (it terminates the workers): a ^C to the process group must
     # not print a KeyboardInterrupt traceback from every worker
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
     threadpool_limits(threads)
     try:
         import numba
@@ -239,7 +322,7 @@ class ChunkRunner:
         if self._pool is None:
             threads = max(1, (os.cpu_count() or 1) // self.workers)
             self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                             initializer=_limit_worker_threads, initargs=(threads,))
+                                             initializer=_limit_worker_threads, initargs=(threads, os.getpid()))
         return self._pool
 
     def _ensure_client(self):
@@ -267,45 +350,83 @@ class ChunkRunner:
 
     # -- work
     def run(self, kind, cfg, chunks, seeds) -> Iterator[tuple[list[int], list[RunRecord]]]:
-        """Yield ``(run_ids, records)`` for each chunk as it finishes."""
+        """Yield ``(run_ids, records)`` for each chunk as it finishes. ``chunks``: a list of run-id lists, or a
+        :class:`~sarnav.montecarlo.seeding.ChunkPlan` asked for the next chunk whenever a worker is free (one chunk
+        in flight per worker, so a chunk's runs are stored as soon as it ends and the plan sizes the next one from
+        the compute times measured so far)."""
+        plan = chunks if isinstance(chunks, ChunkPlan) else FixedChunks(chunks)
+        seen: set = set()
         if self.executor == "serial":
-            for ids in chunks:
-                yield ids, simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
+            plan_first = None
+            while (ids := plan.next_chunk()) is not None:
+                plan_first = ids if plan_first is None else plan_first
+                t0 = time.perf_counter()
+                records = simulate_chunk(kind, cfg, ids, [seeds[i] for i in ids])
+                plan.finished(len(ids), time.perf_counter() - t0, first_in_worker=ids is plan_first)
+                yield ids, records
         elif self.executor == "processes":
-            yield from self._run_processes(kind, cfg, chunks, seeds)
+            yield from self._run_processes(kind, cfg, plan, seeds, seen)
         else:
-            yield from self._run_dask(kind, cfg, chunks, seeds)
+            yield from self._run_dask(kind, cfg, plan, seeds, seen)
 
-    def _run_processes(self, kind, cfg, chunks, seeds):
+    def _run_processes(self, kind, cfg, plan, seeds, seen):
         pool = self._ensure_pool()
         clean = False
         pending = {}
+
+        def submit():
+            ids = plan.next_chunk()
+            if ids is not None:
+                with _children_start_with_sigint_blocked():
+                    pending[pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids])] = ids
+
         try:
-            with _children_start_with_sigint_blocked():
-                pending = {pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids]): ids for ids in chunks}
+            for _ in range(self.workers):
+                submit()
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
                     ids = pending.pop(fut)
-                    yield ids, _checked(fut.result())
+                    records = _checked(_result(fut, ids, "processes"), plan, ids, seen)
+                    submit()
+                    yield ids, records
             clean = True
         finally:
             if not clean:  # interrupted or failed: do not leave workers computing
                 self.close(abort=True)
 
-    def _run_dask(self, kind, cfg, chunks, seeds):
+    def _dask_slots(self, client) -> int:
+        """Chunks kept in flight on dask: one per worker thread of the cluster (at least ``workers``)."""
+        try:
+            return max(self.workers, sum(client.nthreads().values()))
+        except Exception:  # noqa: BLE001 - a scheduler that cannot say: the requested workers
+            return self.workers
+
+    def _run_dask(self, kind, cfg, plan, seeds, seen):
         from dask.distributed import as_completed
 
         client = self._ensure_client()
         futures, owner = [], {}
         clean = False
+
+        def submit():
+            ids = plan.next_chunk()
+            if ids is None:
+                return None
+            f = client.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
+            futures.append(f)
+            owner[f.key] = ids
+            return f
+
         try:
-            for ids in chunks:
-                f = client.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids], pure=False)
-                futures.append(f)
-                owner[f.key] = ids
-            for fut in as_completed(futures):
-                yield owner[fut.key], _checked(fut.result())
+            queue = as_completed([f for f in (submit() for _ in range(self._dask_slots(client))) if f is not None])
+            for fut in queue:
+                ids = owner[fut.key]
+                records = _checked(_result(fut, ids, "dask"), plan, ids, seen)
+                nxt = submit()
+                if nxt is not None:
+                    queue.add(nxt)
+                yield ids, records
             clean = True
         finally:
             if not clean:

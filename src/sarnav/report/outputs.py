@@ -142,6 +142,7 @@ def read_campaign(path: str | os.PathLike) -> CampaignDir:
     if not complete or (p / store.MARKER).exists() or not (p / store.RESULTS).is_file() \
             or not (p / store.SUMMARY).is_file():
         raise _unfinished(p, given, manifest)
+    store.verify_products(p, given)
     summary = read_json(p / store.SUMMARY, given)
     try:
         results = open_results(p / store.RESULTS)

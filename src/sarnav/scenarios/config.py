@@ -14,13 +14,12 @@ from __future__ import annotations
 
 import copy
 import os
-import tomllib
 from typing import Any, Iterable, Sequence
 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign, validate_common  # noqa: F401  (re-exported)
 from sarnav.scenarios.aliases import rename_key, rename_keys
-from sarnav.tomlio import check_finite, dump_toml, load_toml_file, parse_toml
+from sarnav.tomlio import check_finite, dump_toml, load_toml_file, parse_toml, parse_value
 
 __all__ = [
     "parse_toml",
@@ -77,13 +76,14 @@ def parse_override(item: str) -> tuple[str, str]:
 
 
 def _parse_value(field: str, text: str, old: Any) -> Any:
-    """A ``--set`` value is a TOML value; a bare word is accepted as a string where one is expected."""
+    """A ``--set`` value is exactly one TOML value (``tomlio.parse_value``); a bare word is accepted as a string where
+    one is expected."""
     try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        if isinstance(old, str) or old is None:
-            return text
-        raise ConfigError(field, f"cannot parse {text!r} as a TOML value (expected like {old!r})") from None
+        return parse_value(text, field, bare_string=isinstance(old, str) or old is None)
+    except ConfigError as err:
+        if "cannot parse" in err.message:
+            raise ConfigError(field, f"{err.message} (expected like {old!r})") from None
+        raise
 
 
 def _split(field: str) -> list[str]:

@@ -95,7 +95,7 @@ def set_track(traj, start, speed, heading, duration) -> None:
     if start.shape != (3,) or not np.all(np.isfinite(start)):
         raise ConfigError("trajectory.start_ned", f"must be 3 finite numbers [m], got {start.tolist()}")
     traj.start = start
-    traj.speed = require_positive("trajectory.speed", speed, "m/s")
+    traj.speed = require_finite("trajectory.speed", speed, lo=1e-3, hi=1e5, unit="m/s")  # 1e-300 gave NaN rates
     traj.heading = require_finite("trajectory.heading", heading, lo=-2 * np.pi, hi=2 * np.pi, unit="rad")
     traj.duration = require_positive("trajectory.duration", duration, "s")
 
