@@ -32,14 +32,15 @@ from pathlib import Path
 
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
-from sarnav.measurements.focus_search import DIAGNOSTIC_COLUMNS, ROW_COLUMNS, TABLE41_BIAS
+from sarnav.measurements.focus_search import DIAGNOSTIC_COLUMNS, ROW_COLUMNS
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
 from sarnav.scenarios.kind_base import FileKind
-from sarnav.scenarios.quality_tables import default_scene, default_tables, read_geometry, read_scene
+from sarnav.scenarios.quality_tables import read_geometry, read_scene
+from sarnav.scenarios.registry import packaged
 from sarnav.simulation.gpsd_search import SEARCH_CONTROLS, SEARCH_METHODS, SOURCE_RHO, GpsdSearchParams, run
 
-__all__ = ["GpsdSearchKind", "default_config", "table41_config", "parse", "run_search_scenario", "SEARCH_METHODS",
+__all__ = ["GpsdSearchKind", "default_config", "parse", "run_search_scenario", "SEARCH_METHODS",
            "SEARCH_CONTROLS", "GpsdSearchParams", "SOURCE_RHO"]
 
 #: search runs that form images (controls need none): about 1 s each for S_i = 500 at 200 x 200 on 2 cores
@@ -47,26 +48,10 @@ MAX_IMAGE_RUNS = 20_000
 
 
 def default_config() -> dict:
-    """``gpsd-search``: the reduced sweep (S_i = 500, L = 11, 10 sigma x 5 spacings, one realisation)."""
-    return {
-        "scenario": {"name": "gpsd-search", "kind": "gpsd-search",
-                     "description": "Hathaway 2023 Alg. 3.3 reduced Table 4.1 sweep, controls and searches that work"},
-        "campaign": {"runs": 1, "seed": 0},
-        **default_tables(),
-        "scene": default_scene("point-clutter"),
-        "image": {"size": 200},
-        "search": {"method": ["source", "grid", "brent"], "controls": ["one", "oracle", "random"],
-                   "candidates": [11], "block_pulses": [500], "initial_pulses": 1000, "sigmas": 10, "spacings": 5,
-                   "bias": TABLE41_BIAS, "span_sigmas": 3.0, "measure": "kurtosis"},
-    }
-
-
-def table41_config() -> dict:
-    """``gpsd-search-table41``: every (S_i, L) of Table 4.1, 10 sigma x 30 spacings (L656-666)."""
-    cfg = default_config()
-    cfg["scenario"]["description"] = "Hathaway 2023 Table 4.1: the full sweep (S_i 100/500/1000, L 11/22, 10 x 30)"
-    cfg["search"].update(candidates=[11, 22], block_pulses=[100, 500, 1000], spacings=30)
-    return cfg
+    """``gpsd-search``: the reduced sweep (S_i = 500, L = 11, 10 sigma x 5 spacings, one realisation):
+    ``defaults/gpsd-search.toml`` (``gpsd-search-table41.toml``: every (S_i, L) of Table 4.1, 10 sigma x 30
+    spacings, L656-666)."""
+    return packaged("gpsd-search")
 
 
 def _parse_search(cfg: dict, geo) -> dict:

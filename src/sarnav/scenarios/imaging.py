@@ -34,15 +34,14 @@ the scene centre, and the back-projected image as SICD ``image.nitf``, through `
 
 from __future__ import annotations
 
-import copy
 import math
 from pathlib import Path
 
-
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
-from sarnav.scenarios.kind_base import FileKind
 from sarnav.radar.params import RadarParams
+from sarnav.scenarios.kind_base import FileKind
+from sarnav.scenarios.registry import packaged
 from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
 from sarnav.simulation.image_scene import ImageSceneParams, run
 
@@ -53,52 +52,15 @@ SCENE_TYPES = ("point", "random")
 #: snr_db at or above this value means "no receiver noise" (TOML has no None; inf is rejected)
 NO_NOISE_SNR_DB = 200.0
 
-_BASE = {
-    "scenario": {"name": "", "kind": "image", "description": ""},
-    "radar": {
-        "carrier_ghz": 9.75, "bandwidth_mhz": 500.0, "sample_rate_mhz": 1000.0, "pulse_length_us": 1.0,
-        "prf_hz": 250.0, "antenna_length_m": 0.5, "look_side": "right", "range_window": "none",
-        "antenna_pattern": False, "snr_db": NO_NOISE_SNR_DB, "range_margin_m": 10.0,
-    },
-    "trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 60.0, "duration": 1.0},
-    "scene": {
-        "type": "point", "seed": 0,
-        "target_along_track_m": 0.0, "target_slant_range_m": 2000.0,
-        "along_track_extent_m": 40.0, "slant_range_min_m": 1985.0, "slant_range_max_m": 2020.0,
-        "density_per_m2": 0.01, "amplitude_law": "rayleigh", "origin_llh": [58.4, 15.6, 100.0],
-    },
-    "image": {
-        "algorithm": "rda", "window": "none", "rcmc_kernel": "sinc8", "azimuth_model": "parabolic",
-        "speed_error_mps": 0.0, "autofocus": "none", "bpa_interpolation": "upsample",
-    },
-}
-
-
-def point_target_config() -> dict:
-    cfg = copy.deepcopy(_BASE)
-    cfg["scenario"].update(name="point-target", description="One point target, 1-s X-band aperture at 60 m/s, "
-                           "RDA point-target metrics against theory (IRW, PSLR, ISLR)")
-    return cfg
-
-
-def scatterers_config() -> dict:
-    cfg = copy.deepcopy(_BASE)
-    cfg["scenario"].update(name="scatterers", description="Random field of point scatterers (Poisson, Rayleigh "
-                           "amplitudes, seeded) over a 40 m x 35 m slant patch")
-    cfg["scene"]["type"] = "random"
-    cfg["radar"]["antenna_pattern"] = True
-    return cfg
-
-
-#: name -> factory of the default configuration
-IMAGE_SCENARIOS = {"point-target": point_target_config, "scatterers": scatterers_config}
+#: the registered scenarios of the kind (``defaults/<name>.toml``)
+IMAGE_SCENARIOS = ("point-target", "scatterers")
 
 
 def default_config(name: str = "point-target") -> dict:
     """A fresh copy of the named image scenario's configuration (the reference file of the kind: point-target)."""
     if name not in IMAGE_SCENARIOS:
         raise ConfigError("scenario.name", f"unknown image scenario {name!r}; known: {', '.join(IMAGE_SCENARIOS)}")
-    return IMAGE_SCENARIOS[name]()
+    return packaged(name)
 
 
 def _num(cfg, table, key, lo=None, hi=None, lo_open=False, integer=False):
@@ -123,13 +85,14 @@ def _choice(cfg, table, key, options):
 
 
 def _tables(cfg: dict) -> None:
-    for table in _BASE:
+    base = packaged("point-target")
+    for table in base:
         if not isinstance(cfg.get(table), dict):
             raise ConfigError(table, f"missing table [{table}]")
-        unknown = set(cfg[table]) - set(_BASE[table])
+        unknown = set(cfg[table]) - set(base[table])
         if unknown:
-            raise ConfigError(f"{table}.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(_BASE[table]))})")
-        missing = set(_BASE[table]) - set(cfg[table])
+            raise ConfigError(f"{table}.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(base[table]))})")
+        missing = set(base[table]) - set(cfg[table])
         if missing:
             raise ConfigError(f"{table}.{sorted(missing)[0]}", "missing")
     if cfg["scenario"]["kind"] != "image":
@@ -291,6 +254,6 @@ class ImageKind(FileKind):
 
     kind = "image"
     needs_campaign = False
-    config, check, write = staticmethod(point_target_config), staticmethod(validate), staticmethod(run_image)
+    config, check, write = staticmethod(default_config), staticmethod(validate), staticmethod(run_image)
     options = ("overwrite",)
     what = "a single-image kind (sarnav image NAME)"

@@ -28,9 +28,10 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number, number_list
 from sarnav.scenarios.kind_base import one_seed_per_run
+from sarnav.scenarios.registry import packaged
 from sarnav.simulation.fusion_records import AXES, SOURCE_ATTRS
 from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
-from sarnav.simulation.multi_imu import (PATH1_SIGMAS, UPF_ATTRS, MultiImuParams, Path1Params, UpfParams,
+from sarnav.simulation.multi_imu import (UPF_ATTRS, MultiImuParams, Path1Params, UpfParams,
                                          run_multi_imu_records, run_path1_records, run_upf_flight_records)
 
 __all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "Path1Params", "MultiImuParams",
@@ -109,30 +110,13 @@ class SourceKind(ScenarioKind):
 
 # --- multi-imu-path1 ------------------------------------------------------------------------------------------
 
-def path1_config() -> dict:
-    """Path 1 (eq. 5.21) with Table 5.1's sensors; gap decisions G19 (docs/particles.md)."""
-    return {
-        "scenario": {"name": "multi-imu-path1", "kind": "multi-imu-path1",
-                     "description": "Sun 2022 path 1 (eq. 5.21): three position sensors of Table 5.1, one PF each, mean vs SIR"},
-        "campaign": {"runs": 20, "seed": 51},
-        "path": {"duration": 100.0},  # t in [0, 100] s (G19: not given)
-        "sensors": {"sigma_m": list(PATH1_SIGMAS), "rate_hz": 20.0},  # Table 5.1; 20 Hz like the GPS (G19)
-        "filter": {"n_particles": 1000,  # L908
-                   "accel_psd": 1.0,  # m^2/s^3 (G19: the "IMU" is the path's exact acceleration at 10 x the rate)
-                   "settle_s": 5.0},
-        "fusion": {"fix_sigma_m": 0.05,  # the weighting fix (G19): the best sensor's filtered error, 0.055 m/axis
-                   "n_draws": 50,  # L908
-                   "per_axis": True},  # G13
-    }
-
-
 class MultiImuPath1Kind(SourceKind):
     """Sun (2022) simulated path 1 (module docstring)."""
 
     kind = "multi-imu-path1"
 
     def default_config(self) -> dict:
-        return path1_config()
+        return packaged("multi-imu-path1")  # Path 1 (eq. 5.21) with Table 5.1's sensors; gap decisions G19
 
     def parse(self, cfg: dict) -> Path1Params:
         runs, _ = validate_campaign(cfg)
@@ -160,32 +144,13 @@ class MultiImuPath1Kind(SourceKind):
 
 # --- multi-imu (multi-imu-adis) -------------------------------------------------------------------------------
 
-def adis_config() -> dict:
-    """3 x ADIS16465 vs one NovAtel (Tables 5.2, 5.4 with the G23 unit decisions); docs/particles.md."""
-    return {
-        "scenario": {"name": "multi-imu-adis", "kind": "multi-imu",
-                     "description": "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C"},
-        "campaign": {"runs": 10, "seed": 165},
-        "flight": {"duration": 300.0, "speed": 50.0},  # climb-and-turn S-turn (G20: re-authored)
-        "imu": {"n_adis": 3},  # L1131; lever arms ADIS_LEVER_ARMS
-        "fix": {"sigma_m": [0.3, 0.3, 0.5],  # extraction §8 default (G8/G20)
-                "bias_m": [0.0, 0.0, 0.0],
-                "shared": False},  # False: one fix realisation per IMU (separate gnss-ins-sim runs, G20)
-        "filter": {"n_particles": 1000,  # L908
-                   "accel_psd_scale": 1.0,  # x the PSD derived from each IMU's specs (G16, spec_accel_psd)
-                   "settle_s": 10.0},
-        "fusion": {"n_draws": 50, "per_axis": True, "virtual_imu": True},
-        "output": {"record_rate_hz": 5.0},  # results.nc epochs (the RMS uses every 20 Hz fix epoch)
-    }
-
-
 class MultiImuKind(SourceKind):
     """3 x ADIS16465 against one NovAtel (module docstring)."""
 
     kind = "multi-imu"
 
     def default_config(self) -> dict:
-        return adis_config()
+        return packaged("multi-imu-adis")  # Tables 5.2, 5.4 with the G23 unit decisions
 
     def parse(self, cfg: dict) -> MultiImuParams:
         runs, _ = validate_campaign(cfg)
@@ -222,33 +187,13 @@ class MultiImuKind(SourceKind):
 IMU_PRESETS = ("novatel-isa-100c", "adis16465")
 
 
-def upf_config() -> dict:
-    """The one-hour flight of L1273-1288 (Figs 5.25-5.28) with the NovAtel model of Table 5.2 (Fig 5.8)."""
-    return {
-        "scenario": {"name": "upf-flight", "kind": "upf-flight",
-                     "description": "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz"},
-        "campaign": {"runs": 2, "seed": 3591},  # ~6 min of one core per run (docs/particles.md)
-        "flight": {"duration": 3600.0,  # 3591 s flight (L1273)
-                   "speed": 50.0, "climb_rate": 3.0},  # G20: re-authored survey flight
-        "imu": {"preset": "novatel-isa-100c", "rate_hz": 200.0},  # Table 5.2, L1188
-        "fix": {"sigma_m": [0.3, 0.3, 0.5], "rate_hz": 20.0},  # L735; sigma: extraction §8
-        "filter": {"n_particles": 2000,  # L766, L1283
-                   "accel_psd_scale": 1.0,  # x spec_accel_psd of the IMU (G16)
-                   "noise_at": "fix",  # process noise once per fix interval (same law at the fixes)
-                   "settle_s": 75.0,  # T13: the UPF converges within 75 s (L1285)
-                   "kf_coriolis": False},  # the source's KF (eq. 3.10: no Coriolis / transport rate); true: consistent
-        "output": {"rate_hz": 3000.0,  # PRF (L1313): 15 x the IMU rate
-                   "record_rate_hz": 1.0},  # results.nc epochs (the RMS uses every 3 kHz epoch)
-    }
-
-
 class UpfFlightKind(SourceKind):
     """The UPF against the interpolated KF on a one-hour flight (module docstring)."""
 
     kind = "upf-flight"
 
     def default_config(self) -> dict:
-        return upf_config()
+        return packaged("upf-flight")  # the one-hour flight of L1273-1288 (Figs 5.25-5.28), Table 5.2
 
     def parse(self, cfg: dict) -> UpfParams:
         runs, _ = validate_campaign(cfg)

@@ -21,6 +21,7 @@ from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number
 from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
+from sarnav.scenarios.registry import packaged
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
 from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_FIX_ATTRS, SAR_UPDATES, SarFixSetup, run_sar_fix_records
@@ -32,27 +33,9 @@ SEARCH_HALF_RANGE = 12.0
 
 
 def default_config() -> dict:
-    """rda-nav's flight and scene (Tables 1-3 of the NAVIGATION paper) with the rig of multi-imu-adis."""
-    return {
-        "scenario": {"name": "multi-imu-sar-fix", "kind": "multi-imu-sar",
-                     "description": "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes"},
-        "campaign": {"runs": 10, "seed": 29},
-        "flight": {"duration": 50.0, "speed": 10.0, "altitude": 1000.0},  # rda-nav (paper Table 3, 50 apertures)
-        "imu": {"n_adis": 3},
-        "fix": {"source": "sar",  # "sar" | "oracle" | "gps"
-                "gps_sigma_m": [0.3, 0.3, 0.5], "gps_rate_hz": 20.0},  # fix.source = "gps" only
-        "sar": {"registration_sigma_m": [0.00125, 0.0315],  # R: rda-nav's measured registration 1-sigma
-                "altimeter_sigma_m": 4.0 / 3.0},  # paper Table 2: 4 m 3-sigma
-        "radar": {"preset": "nav-paper-sim", "snr_db": -10.0},  # as rda-nav
-        "scene": {"seed": 7, "ground_range_min": 1760.0, "ground_range_max": 1940.0, "toc_jitter_s": 0.25,
-                  "clutter_per_image": 4, "clutter_per_run": True, "reflector_amplitude": 3.16},
-        "initial": {"p_3sigma": [1.9, 1.9, 4.4], "v_3sigma": [0.3, 0.3, 0.5]},  # paper Table 1
-        "filter": {"n_particles": 1000,  # L908
-                   "accel_psd_scale": 1.0,  # x spec_accel_psd of each IMU (G16)
-                   "sar_update": "gaussian",  # "gaussian" (GPF update) | "tempered" (bootstrap SIR, progressive)
-                   "settle_s": 5.0},
-        "fusion": {"n_draws": 50, "per_axis": True},
-    }
+    """rda-nav's flight and scene (Tables 1-3 of the NAVIGATION paper) with the rig of multi-imu-adis:
+    ``defaults/multi-imu-sar-fix.toml``."""
+    return packaged("multi-imu-sar-fix")
 
 
 def _scene(cfg, altitude, radar):

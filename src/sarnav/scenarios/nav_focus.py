@@ -27,6 +27,7 @@ from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import bounded_vector, integer, number, number_list
 from sarnav.scenarios.fields import get as _get
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
+from sarnav.scenarios.registry import packaged
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES
 from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRICS, FocusGeometry, FocusParams, \
@@ -41,26 +42,8 @@ RANGE_MARGIN = 3.0
 
 def default_config() -> dict:
     """§6.2 (L1313-1332): 16.6 GHz, 300 MHz, PRF 3 kHz, three reflectors at 20 m, 2000 pulses at 1 m/s, no window;
-    gap fills (G25) commented."""
-    return {
-        "scenario": {"name": "nav-source-focus", "kind": "nav-source-focus",
-                     "description": "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions"},
-        "campaign": {"runs": 10, "seed": 1332},
-        "radar": {"preset": "sun-ku-cart", "carrier_ghz": 16.6, "bandwidth_mhz": 300.0, "prf_hz": 3000.0},  # L1313-1318
-        "cart": {"speed": 1.0,  # 10 m in 10 s (L1322)
-                 "run_in_s": 30.0,  # navigation before the aperture (filters start from the first fix at t = 0)
-                 "antenna_height_m": 1.5},  # G25: not given
-        "aperture": {"n_pulses": 2000},  # L1322: ~0.67 s, ~0.67 m
-        "scene": {"along_track_m": [-2.5, 0.0, 2.5],  # three reflectors (L1322); spacing G25
-                  "ground_range_m": [19.5, 20.0, 20.5]},  # "20 m from the radar"
-        "image": {"chip_half_m": 1.2, "spacing_m": 0.04},  # ground chip per reflector (about 6 px per IRW)
-        "navigation": {"sources": list(NAV_SOURCES),
-                       "n_particles": 2000,  # UPF (L766)
-                       "adis_particles": 1000,  # per ADIS PF and the NovAtel PF of the multi-IMU comparison (L908)
-                       "fix_sigma_m": [0.3, 0.3, 0.5],  # white, per fix: extraction §8 default (G8)
-                       "fix_correlated_sigma_m": [0.0, 0.0, 0.0],  # + Gauss-Markov part (0: none; docs/particles.md)
-                       "fix_correlation_time_s": 300.0},
-    }
+    gap fills (G25) commented in ``defaults/nav-source-focus.toml``."""
+    return packaged("nav-source-focus")
 
 
 def _reflectors(cfg):

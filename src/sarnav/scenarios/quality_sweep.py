@@ -23,31 +23,19 @@ from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
 from sarnav.scenarios.kind_base import FileKind
-from sarnav.scenarios.quality_tables import default_scene, default_tables, read_geometry, read_scene
+from sarnav.scenarios.quality_tables import read_geometry, read_scene
+from sarnav.scenarios.registry import packaged
 
 __all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep", "QualitySweepParams"]
 
-MEASURES = ("kurtosis", "kurtosis_mean_removed", "normalised_kurtosis", "entropy_magnitude", "entropy_sum",
-            "intensity_entropy")
 PIVOTS = ("first", "centre")
 #: BPA work of a sweep (pixels x pulses over every image), about 3 min on 2 cores
 MAX_BPA_WORK = 3e11
 
 
 def default_config() -> dict:
-    """Figs. 4.1-4.8 on the USU-like picture, and T16 over 20 point/clutter scenes."""
-    return {
-        "scenario": {"name": "quality-sweep", "kind": "quality-sweep",
-                     "description": "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs velocity error"},
-        **default_tables(),
-        "scene": default_scene("usu"),
-        "sweep": {"directions": ["along", "cross"], "sizes": [10, 50, 100, 200], "bins": [10, 100, 1000],
-                  "measures": list(MEASURES), "steps": 10, "span_depths": 6.0, "pivot": "first",
-                  "figure_size": 100},
-        "reliability": {"scenes": 20, "size": 100, "bins": 100, "seed": 16, "clutter_density": 0.5,
-                        "measures": ["kurtosis", "normalised_kurtosis", "entropy_magnitude", "entropy_sum",
-                                     "intensity_entropy"]},
-    }
+    """Figs. 4.1-4.8 on the USU-like picture, and T16 over 20 point/clutter scenes: ``defaults/quality-sweep.toml``."""
+    return packaged("quality-sweep")
 
 
 def _parse_sweep(cfg: dict) -> dict:

@@ -26,7 +26,7 @@ from sarnav.scenarios.fields import boolean, choice, integer, number, table
 from sarnav.scenarios.vocabulary import read_altitude
 from sarnav.simulation.quality_scene import SCENE_TYPES, QualitySceneSpec
 
-__all__ = ["SCENE_TYPES", "RADAR_KEYS", "default_tables", "default_scene", "read_geometry", "read_scene",
+__all__ = ["SCENE_TYPES", "RADAR_KEYS", "read_geometry", "read_scene",
            "MAX_ECHO_SAMPLES", "MAX_ECHO_WORK"]
 
 #: the ``[radar]`` keys of the quality kinds (the radar itself is the thesis' FlexSAR, docs/quality.md §2)
@@ -35,21 +35,6 @@ RADAR_KEYS = ("preset", "pulse_length_us", "range_margin_m", "snr_db", "receiver
 MAX_ECHO_SAMPLES = 2**24
 #: echo work (scatterers x pulses): about 1 s per 2e7 on 2 cores
 MAX_ECHO_WORK = 1e8
-
-
-def default_tables() -> dict:
-    """The thesis' flight and radar as sarnav fills them (docs/quality.md §2): 60 m/s north at 1000 m, 4000 pulses of
-    FlexSAR with a 0.2 us chirp, no receiver noise (gap 18)."""
-    return {"trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 60.0},
-            "aperture": {"n_pulses": 4000},
-            "radar": {"preset": "flexsar", "pulse_length_us": 0.2, "range_margin_m": 10.0, "receiver_noise": False,
-                      "snr_db": 10.0}}
-
-
-def default_scene(kind: str = "usu") -> dict:
-    """``[scene]``: the USU-like picture (quality sweep) or points over clutter (the search), 25 m square 1760 m east."""
-    return {"type": kind, "seed": 5, "ground_range": 1760.0, "extent": 25.0, "points": 12, "point_to_clutter_db": 20.0,
-            "clutter_density": 0.5, "usu_cells": 24}
 
 
 def _check_radar_keys(cfg: dict) -> None:

@@ -24,40 +24,16 @@ from sarnav.scenarios import spacecraft as sc
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.kind_base import one_seed_per_run
+from sarnav.scenarios.registry import packaged
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
 from sarnav.simulation.spacecraft_closed_loop import CLOSED_LOOP_ATTRS as EXTRA_ATTRS
 from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop_records
 
 
 def default_config() -> dict:
-    """TC-2 filter on a simulated 41-s pass with three image updates (the paper's closed loop: L514, L531)."""
-    cfg = sc.default_config("tc2")
-    cfg["scenario"] = {"name": "spacecraft-closed-loop", "kind": "spacecraft-closed-loop",
-                       "description": "Pogorelsky et al. 2022 closed loop, simulated: L-band echoes, autofocus v_ic, "
-                                      "registration r_f, 3 updates"}
-    cfg["campaign"] = {"runs": 20, "seed": 20220902}
-    cfg.pop("truth")
-    cfg["antenna"]["steering"] = "zero-doppler"  # G3/G9: the beam centre at zero Doppler (docs/spacecraft.md)
-    cfg["simulation"].update(duration=41.0, n_updates=3)  # ~41 s of data, first three updates (L514, L531)
-    cfg["measurement"] = {"mode": "image",
-                          "sigma_range": 1.0,  # the paper's added range noise (L476, Table 3)
-                          # measured: Monte Carlo of the first measurement, 40 runs: rms of v_ic - V_r (mean -0.114,
-                          # std 0.012 m/s) and the second moment of r_f - truth (docs/spacecraft.md)
-                          "sigma_vic": 0.12,
-                          "D": [[126.0, 0.0, 18.0], [0.0, 0.2, 0.3], [18.0, 0.3, 3.1]]}
-    cfg["radar"] = {"carrier_ghz": 1.27, "bandwidth_mhz": 28.0,  # ALOS PALSAR FBS
-                    "pulse_length_us": 1.0,  # shorter than ALOS's 27 us to keep the echo simulation cheap (same B)
-                    "sample_rate_mhz": 32.0, "prf_hz": 2200.0, "n_range_samples": 384, "antenna_length_m": 8.9,
-                    "snr_db": -15.0}  # per-sample SNR of a unit-power clutter scatterer
-    cfg["aperture"] = {"duration": 2.0}  # processed aperture (of the ~3 s beam)
-    cfg["terrain"] = {"seed": 11, "relief_m": 60.0, "clutter_spacing_m": 40.0, "bright_scatterers": 15,
-                      "bright_amplitude": 8.0, "coherence": 0.7, "half_along_m": 900.0, "half_range_m": 650.0,
-                      "map_spacing_m": 7.5}
-    cfg["autofocus"] = {"step": 1.0, "max_iter": 60, "refine": [0.5, 0.25]}  # eq. 3 / Algorithm 1 (L510)
-    # min_inliers: the paper's 3 (L193) is the minimum (an affine has 6 unknowns); 3 points always fit an affine exactly,
-    # so a noise image would "match": 6 inliers make a random match improbable (docs/spacecraft.md, departure)
-    cfg["registration"] = {"method": "orb", "min_inliers": 6, "smoothing_px": 1.0, "residual_px": 2.0}
-    return cfg
+    """TC-2 filter on a simulated 41-s pass with three image updates (the paper's closed loop: L514, L531):
+    ``defaults/spacecraft-closed-loop.toml``."""
+    return packaged("spacecraft-closed-loop")
 
 
 def read_imaging(cfg: dict) -> ImagingConfig:
