@@ -1,35 +1,12 @@
-"""Image-formation scenarios (``kind = "image"``): one block of echoes focused into one image.
+"""Image-formation scenarios (``kind = "image"``): one block of echoes focused into one image (docs/imaging.md
+"Scenarios": the tables ``[radar]``, ``[trajectory]``, ``[scene]``, ``[image]`` and their keys).
 
-Two named scenarios, each a nested dict that round-trips through TOML:
-
-* ``point-target`` — one point target in the middle of the block (the point-target checks of the thesis ch. 5 /
-  anchors-sar §3: IRW, PSLR, ISLR against theory);
-* ``scatterers`` — a random field of point scatterers (Poisson, seeded) over the imaged patch.
-
-Tables (shared vocabulary, docs/scenarios/vocabulary.md)::
-
-    [scenario]   name, kind = "image", description
-    [radar]      carrier_ghz, bandwidth_mhz, sample_rate_mhz, pulse_length_us, prf_hz, antenna_length_m,
-                 look_side, range_window, antenna_pattern (bool), snr_db (<= 200; 200 = no noise),
-                 range_margin_m (receive window beyond the imaged slant ranges)
-    [trajectory] start_ned [m] (the aperture centre, at t = 0), speed [m/s], duration [s] (straight, level, north)
-    [scene]      type ("point" | "random"), seed,
-                 target_along_track_m, target_slant_range_m          (point)
-                 along_track_extent_m, slant_range_min_m, slant_range_max_m,
-                 density_per_m2 (per m^2 of flat ground), amplitude_law  (random)
-                 origin_llh = [lat deg, lon deg, height m]: where the NED origin is on the WGS-84
-                 ellipsoid (used only by the CPHD / SICD files, ``sarnav image --cphd / --sicd``)
-    [image]      algorithm ("rda" | "bpa"), window, rcmc_kernel, azimuth_model, speed_error_mps,
-                 autofocus ("none" | "mapdrift" | "contrast"), bpa_interpolation
-
-The antenna flies north through ``start_ned`` at t = 0, looking right (east) by default; pulse times are centred on
-0, so the aperture centre is at north = start_ned[0] and the image's along-track axis is measured from it.
-``image.speed_error_mps`` is added to the true speed for focusing (a navigation speed error, to exercise autofocus).
-The receive window spans the imaged slant ranges plus the pulse half-extent cT/4 and ``radar.range_margin_m``.
-Configuration and wiring only: the defaults, ``parse`` (TOML -> :class:`~sarnav.simulation.image_scene.
-ImageSceneParams`) and the kind; the experiment (echoes, focusing, metrics) is ``simulation.image_scene.run``, the
-files ``report.image_files.write_scene_image`` (with the collect as CPHD ``collect.cphd``, scene reference point at
-the scene centre, and the back-projected image as SICD ``image.nitf``, through ``sarnav.io``).
+``point-target`` (one point target: IRW, PSLR, ISLR against theory) and ``scatterers`` (a Poisson field of point
+scatterers, seeded). The antenna flies north through ``trajectory.start_ned`` at t = 0 (pulse times centred on 0),
+looking right by default; ``image.speed_error_mps`` is added to the true speed for focusing; the receive window spans
+the imaged slant ranges plus cT/4 and ``radar.range_margin_m``. Configuration and wiring only: the defaults,
+``parse`` (TOML -> :class:`~sarnav.simulation.image_scene.ImageSceneParams`) and the kind; the experiment is
+``simulation.image_scene.run``, the files ``report.image_files.write_scene_image`` (CPHD, SICD through ``sarnav.io``).
 """
 
 from __future__ import annotations

@@ -1,20 +1,11 @@
 """Scenario kinds of Sun (2022) (extraction seed-003; docs/particles.md "Scenarios"): configuration and wiring of the
-library experiments of ``sarnav.simulation.multi_imu`` into Monte Carlo campaigns.
+library experiments of ``sarnav.simulation.multi_imu`` into Monte Carlo campaigns: ``multi-imu-path1`` (path 1, eq.
+5.21, three position sensors of Table 5.1), ``multi-imu`` (scenario ``multi-imu-adis``: 3 x ADIS16465 against one
+NovAtel IMU-ISA-100C) and ``upf-flight`` (the one-hour flight, the UPF and the interpolated KF on the 3 kHz grid).
 
-* ``multi-imu-path1`` (scenario ``multi-imu-path1``): simulated path 1 (eq. 5.21) with the three position sensors
-  of Table 5.1, one PF per sensor, fused by the mean and by SIR (Figs. 5.5, 5.11; T17-T19);
-* ``multi-imu`` (scenario ``multi-imu-adis``): 3 x ADIS16465 against one NovAtel IMU-ISA-100C on a climb-and-turn
-  flight over the rotating Earth, one 1000-particle aided PF per IMU, SIR / mean / virtual IMU (Figs. 5.10,
-  5.12, 5.13; T20-T23);
-* ``upf-flight`` (scenario ``upf-flight``): the one-hour flight (climb, figure-eights, racetracks), 200 Hz IMU +
-  20 Hz fix, the 2000-particle UPF and the interpolated KF on the 3 kHz grid (Figs. 5.8, 5.26; T10-T13).
-
-Every run is a pure function of the scenario and its seed (one ``SeedSequence`` per run, named child streams
-per sensor, fix and filter). Parameters and runs to records: ``sarnav.simulation.multi_imu`` (``Path1Params`` ->
-``run_path1_records``, ...). Records (``sarnav.simulation.fusion_records``): the states are the position errors
-of the filters that have a covariance (``sensor1_pN`` ...), against the 1-sigma of that covariance, with the
-stacked NEES; ``source_error (time, source, axis)`` and ``source_ms (source)`` hold every navigation source
-(fused outputs included); ``summary.json`` -> ``rmse`` per source.
+Every run is a pure function of the scenario and its seed. Records (``sarnav.simulation.fusion_records``): the states
+are the position errors of the filters that have a covariance, ``source_error`` and ``source_ms`` every navigation
+source; ``summary.json`` -> ``rmse`` per source.
 """
 
 from __future__ import annotations
@@ -48,7 +39,12 @@ class SourceKind(ScenarioKind):
     """Common part of the kinds that compare navigation sources (module docstring). Subclasses set ``kind``,
     ``parse(cfg)`` and ``run_batch(prm, seeds, run_ids) -> list[RunRecord]`` (a ``run_*_records`` of
     ``simulation``); ``filters(prm)`` and ``sources(prm)`` (names) are the parameters' own by default;
-    ``gains(rmse)`` adds ratios to summary.json."""
+    ``gains(rmse)`` adds ratios to summary.json; ``scenario``: the registered scenario whose file is the default."""
+
+    scenario = ""
+
+    def default_config(self) -> dict:
+        return packaged(self.scenario)
 
     def parse(self, cfg: dict):  # pragma: no cover - replaced by subclasses
         raise NotImplementedError
@@ -113,10 +109,7 @@ class SourceKind(ScenarioKind):
 class MultiImuPath1Kind(SourceKind):
     """Sun (2022) simulated path 1 (module docstring)."""
 
-    kind = "multi-imu-path1"
-
-    def default_config(self) -> dict:
-        return packaged("multi-imu-path1")  # Path 1 (eq. 5.21) with Table 5.1's sensors; gap decisions G19
+    kind, scenario = "multi-imu-path1", "multi-imu-path1"
 
     def parse(self, cfg: dict) -> Path1Params:
         runs, _ = validate_campaign(cfg)
@@ -147,10 +140,7 @@ class MultiImuPath1Kind(SourceKind):
 class MultiImuKind(SourceKind):
     """3 x ADIS16465 against one NovAtel (module docstring)."""
 
-    kind = "multi-imu"
-
-    def default_config(self) -> dict:
-        return packaged("multi-imu-adis")  # Tables 5.2, 5.4 with the G23 unit decisions
+    kind, scenario = "multi-imu", "multi-imu-adis"
 
     def parse(self, cfg: dict) -> MultiImuParams:
         runs, _ = validate_campaign(cfg)
@@ -190,10 +180,7 @@ IMU_PRESETS = ("novatel-isa-100c", "adis16465")
 class UpfFlightKind(SourceKind):
     """The UPF against the interpolated KF on a one-hour flight (module docstring)."""
 
-    kind = "upf-flight"
-
-    def default_config(self) -> dict:
-        return packaged("upf-flight")  # the one-hour flight of L1273-1288 (Figs 5.25-5.28), Table 5.2
+    kind, scenario = "upf-flight", "upf-flight"
 
     def parse(self, cfg: dict) -> UpfParams:
         runs, _ = validate_campaign(cfg)

@@ -99,13 +99,7 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
 class MultiImuSarKind(SourceKind):
     """GPS-denied multi-IMU fusion with SAR fixes (module docstring)."""
 
-    kind = "multi-imu-sar"
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def optional_keys(self) -> list[str]:
-        return []
+    kind, scenario = "multi-imu-sar", "multi-imu-sar-fix"
 
     def parse(self, cfg: dict):
         return parse(cfg)

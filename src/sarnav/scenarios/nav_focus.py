@@ -1,17 +1,7 @@
 """The ``nav-source-focus`` kind: which navigation source focuses a back-projected Ku-band image (Sun 2022 §6.2-6.3,
-Figs. 6.5-6.9; extraction seed-003 §3.7, E9; claims T27-T32). Configuration and wiring of
-``sarnav.simulation.nav_focus`` (``FocusParams`` -> ``run_focus_records``); docs/particles.md "nav-source-focus".
-
-Per run: the cart's navigation sources (truth, UPF, interpolated KF, splines of the fix / of the 200 Hz KF and PF
-output, 3-ADIS SIR, one NovAtel PF) at every pulse; echoes along the true track; one BPA chip per reflector and
-source; IRW and PSLR along track, peak offset, entropy and kurtosis. Records: the states are the position errors of
-the UPF and the KF at their fix epochs (run-in and aperture) against their covariances; the kind's variables are
-``focus (source, reflector, metric)``, ``focus_censored``, ``los_error_rms (source, reflector)``, ``nav_error
-(pulse, source, axis)`` and ``source_ms (source)`` (3-D position error over the aperture).
-
-``sarnav run nav-source-focus`` writes the campaign (results.nc, summary.json), ``focus.csv`` (one row per source,
-columns ``source, irw_along_m, pslr_along_db, peak_offset_m, entropy, kurtosis``: means over reflectors and runs)
-and, with figures, ``figures/images.png`` (run 0's images side by side, re-simulated from its seed).
+Figs. 6.5-6.9; claims T27-T32). Configuration and wiring of ``sarnav.simulation.nav_focus`` (``FocusParams`` ->
+``run_focus_records``); the records, ``focus.csv`` and ``figures/images.png`` in docs/particles.md
+"nav-source-focus".
 """
 
 from __future__ import annotations
@@ -106,10 +96,7 @@ def parse(cfg: dict) -> FocusParams:
 class NavFocusKind(SourceKind):
     """Which navigation source focuses a BPA image (module docstring)."""
 
-    kind = "nav-source-focus"
-
-    def default_config(self) -> dict:
-        return default_config()
+    kind = scenario = "nav-source-focus"
 
     def parse(self, cfg: dict) -> FocusParams:
         return parse(cfg)

@@ -1,20 +1,11 @@
 """The tables the image-quality kinds share (``quality-sweep``, ``gpsd-search``), in the shared vocabulary
-(docs/scenarios/vocabulary.md): ``[trajectory]``, ``[aperture]``, ``[radar]`` and ``[scene]``.
+(docs/scenarios/vocabulary.md, docs/quality.md §2): ``[trajectory]`` (``start_ned`` = [0, 0, -altitude], the
+aperture centre over the NED origin, flying north; ``speed``), ``[aperture] n_pulses``, ``[radar]`` (the thesis'
+FlexSAR, the only radar ``QualityGeometry`` forms) and ``[scene]``.
 
-* ``[trajectory]`` ``start_ned`` [m] = [0, 0, -altitude] (the aperture centre: the middle pulse, over the NED origin,
-  flying north), ``speed`` [m/s];
-* ``[aperture]`` ``n_pulses`` (the middle one abeam the scene centre);
-* ``[radar]`` ``preset = "flexsar"`` (the thesis' radar at PRF 1667 Hz, the only one ``QualityGeometry`` forms),
-  ``pulse_length_us``, ``range_margin_m``, ``snr_db`` and ``receiver_noise``;
-* ``[scene]`` ``type``, ``seed``, ``ground_range`` and ``extent`` [m] (centre east of the track, side of the square),
-  ``points``, ``point_to_clutter_db``, ``clutter_density``, ``usu_cells``.
-
-Until sarnav 0.3 the ``[geometry]`` table of 0.2 is read with a notice per key (``scenarios.aliases``).
-
-Configuration only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry` (docs/quality.md §2), the
-scene :class:`sarnav.simulation.quality_scene.QualitySceneSpec` (drawn by ``simulation.quality_scene.make_scene``).
-Every value is checked here with its range, so that a scenario of any size is refused before anything is allocated
-(echo data pulses x range samples, scatterers x pulses of echo work).
+Configuration only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry`, the scene
+:class:`sarnav.simulation.quality_scene.QualitySceneSpec`. Every value is checked here with its range, so that a
+scenario of any size is refused before anything is allocated.
 """
 
 from __future__ import annotations

@@ -145,15 +145,17 @@ def parse(cfg: dict) -> OpenLoopParams:
 
 
 class SpacecraftKind(ScenarioKind):
-    """Open-loop spacecraft SAR navigation Monte Carlo (module docstring)."""
+    """Open-loop spacecraft SAR navigation Monte Carlo (module docstring); the closed loop's kind changes its
+    ``kind``, ``parse``, ``run_records`` and ``attrs``."""
 
-    kind = "spacecraft"
+    kind, scenario = "spacecraft", "spacecraft-tc2"
+    parse, run_records, attrs = staticmethod(parse), staticmethod(run_open_loop_records), EXTRA_ATTRS
 
     def default_config(self) -> dict:
-        return default_config("tc2")
+        return packaged(self.scenario)
 
     def validate(self, cfg: dict) -> None:
-        parse(cfg)
+        self.parse(cfg)
 
     def state_names(self, cfg: dict) -> list[str]:
         return list(STATE_NAMES)
@@ -168,7 +170,7 @@ class SpacecraftKind(ScenarioKind):
         return list(MEAS_UNITS)
 
     def extra_attrs(self, cfg: dict) -> dict:
-        return EXTRA_ATTRS
+        return self.attrs
 
     def extra_coords(self, cfg: dict) -> dict:
         return {"ric": (list(RIC_NAMES), {"units": list(RIC_UNITS), "description": "radial, in-track, cross-track "
@@ -179,7 +181,7 @@ class SpacecraftKind(ScenarioKind):
         one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
-        return run_open_loop_records(parse(cfg), list(seeds), run_ids)
+        return self.run_records(self.parse(cfg), list(seeds), run_ids)
 
     def figures(self, results, outdir) -> list[str]:
         from sarnav.report.spacecraft_figures import write_spacecraft_figures

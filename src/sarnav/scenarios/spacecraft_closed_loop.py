@@ -15,15 +15,11 @@ from __future__ import annotations
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_finite
-from sarnav.filters.mekf import STATE_NAMES
-from sarnav.measurements.spacecraft import MEASUREMENT_NAMES
 from sarnav.measurements.spacecraft_image import REGISTRATIONS, STAGES, ImagingConfig
-from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
-from sarnav.montecarlo.record import RunRecord
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios import spacecraft as sc
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
-from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.scenarios.registry import packaged
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
 from sarnav.simulation.spacecraft_closed_loop import CLOSED_LOOP_ATTRS as EXTRA_ATTRS
@@ -104,43 +100,14 @@ def parse(cfg: dict) -> ClosedLoopParams:
     return ClosedLoopParams(base=base, imaging=img, mode=mode)
 
 
-class ClosedLoopKind(ScenarioKind):
+class ClosedLoopKind(sc.SpacecraftKind):
     """Simulated closed loop of the spacecraft SAR navigation (module docstring)."""
 
-    kind = "spacecraft-closed-loop"
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def validate(self, cfg: dict) -> None:
-        parse(cfg)
-
-    def state_names(self, cfg):
-        return list(STATE_NAMES)
-
-    def state_units(self, cfg):
-        return list(sc.STATE_UNITS)
-
-    def meas_names(self, cfg):
-        return list(MEASUREMENT_NAMES)
-
-    def meas_units(self, cfg):
-        return list(sc.MEAS_UNITS)
-
-    def extra_attrs(self, cfg):
-        return EXTRA_ATTRS
+    kind = scenario = "spacecraft-closed-loop"
+    parse, run_records, attrs = staticmethod(parse), staticmethod(run_closed_loop_records), EXTRA_ATTRS
 
     def extra_coords(self, cfg):
-        out = sc.SpacecraftKind().extra_coords(cfg)
+        out = super().extra_coords(cfg)
         out["stage"] = (list(STAGES), {"units": "", "description": "stages of the image chain"})
         out["xyz"] = (["x", "y", "z"], {"units": "", "description": "ECEF axes"})
         return out
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        one_seed_per_run(run_ids, seeds)
-        return run_closed_loop_records(parse(cfg), list(seeds), run_ids)
-
-    def figures(self, results, outdir) -> list[str]:
-        from sarnav.report.spacecraft_figures import write_spacecraft_figures
-
-        return write_spacecraft_figures(results, outdir)

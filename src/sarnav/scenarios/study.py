@@ -1,21 +1,10 @@
-"""Studies: one base scenario run as several Monte Carlo campaigns that differ in a few values.
+"""Studies: one base scenario run as several Monte Carlo campaigns that differ in a few values (docs/scenarios/studies.md).
 
-A study scenario (kind ``"study"``)::
-
-    [scenario]  name, kind = "study", description
-    [campaign]  runs, seed          # used by every case (same seed: common random numbers)
-    [study]     states = ["pN", "pE", "pD"]    # states compared in the default figure
-    [base]      a complete scenario of another kind (its own [base.scenario], [base.imu], ...)
-    [[cases]]   label = "consumer", style = "--", set = { "imu.grade" = "consumer" }
-    [[figures]] name, title, cases = [labels], states = [...]   # optional; default one with all
-    [[sweeps]]  name, title, x_label, x = [values], cases = [labels]   # optional: statistics against a swept value
-
-Running it (:func:`run_study`) runs each case as a campaign into ``OUT/<label>/`` (resumable like any campaign;
-``montecarlo.study.run`` with the cases of :func:`parse`), draws the 3σ comparison figure(s) ``OUT/study_<name>.png``
-(thesis Figs 3.8-3.11: filter 3σ of each case, mean over runs) and writes ``OUT/study.json`` with each case's final
-1σ/3σ and time-averaged 3σ per state. A ``[[sweeps]]`` entry draws ``OUT/sweep_<name>.png``: the registration sigma
-(predicted and measured), mean NEES, NIS/dof and final position 3σ of its cases against ``x``, and adds them to
-``study.json``. The three chapter 3 studies of Lindstrom (2020) and the rda-nav robustness study are registered
+A study scenario (kind ``"study"``) has ``[campaign]`` (used by every case: the same seed, common random numbers),
+``[study] states``, ``[base]`` (a complete scenario of another kind), ``[[cases]]`` (``label``, ``style``, ``set`` of
+dotted keys), optional ``[[figures]]`` and ``[[sweeps]]`` (statistics against a swept value). :func:`run_study` runs
+each case as a campaign into ``OUT/<label>/`` (``montecarlo.study.run``) and writes the comparison and sweep figures
+and ``OUT/study.json``. The chapter 3 studies of Lindstrom (2020) and the rda-nav robustness study are registered
 scenarios (``defaults/telemetry-imu-grade.toml`` ...). Configuration and wiring only: :func:`parse`, the kind, the
 figures and ``study.json``.
 """
@@ -186,13 +175,6 @@ def case_config_shallow(cfg: dict) -> dict:
     return out
 
 
-def _figure_specs(cfg: dict) -> list[dict]:
-    labels = [c["label"] for c in cfg["cases"]]
-    states = cfg.get("study", {}).get("states", ["pN", "pE", "pD"])
-    figs = cfg.get("figures") or [{"name": "3sigma", "title": cfg["scenario"].get("description", ""), "cases": labels, "states": states}]
-    return [{"name": f["name"], "title": f.get("title", ""), "cases": f.get("cases", labels), "states": f.get("states", states)} for f in figs]
-
-
 def parse(cfg: dict) -> StudyParams:
     """The checked study (``StudyKind.validate``): each case's complete scenario (:func:`case_config`) and the base
     kind; ConfigError names the first bad key."""
@@ -209,6 +191,7 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     ``study.json`` content.
     """
     from sarnav.montecarlo.outdir import OutputFolder, identity
+    from sarnav.report.study_figure import write_study_files
 
     prm = parse(cfg)
     out = Path(out)
@@ -216,44 +199,4 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
                       overwrite=campaign_options.get("overwrite", False)):
         (out / "study.json").unlink(missing_ok=True)
         outcomes = run(prm, out, **campaign_options)
-        return _write(cfg, prm, outcomes, out, figures)
-
-
-def _write(cfg: dict, prm: StudyParams, outcomes, out: Path, figures: bool) -> dict:
-    """The case figures, the comparison and sweep figures, and ``study.json``."""
-    from sarnav.report.figures import write_campaign_figures
-    from sarnav.report.study_figure import plot_study_comparison, plot_sweep, sweep_points, write_study_json
-    from sarnav.tomlio import dump_toml
-
-    by_label = {o.label: o for o in outcomes}
-    cases_out = [{"label": case["label"], "set": case.get("set", {}), "dir": case["label"],
-                  "states": by_label[case["label"]].states} for case in cfg["cases"]]
-    if figures:
-        for o in outcomes:
-            write_campaign_figures(o.result.dataset, out / o.label, kind=prm.kind)
-    fig_paths = []
-    if figures:
-        style = {c["label"]: c.get("style", STYLES[k % len(STYLES)]) for k, c in enumerate(cfg["cases"])}
-        for spec in _figure_specs(cfg):
-            sel = [(lab, *by_label[lab].curves[:2], style[lab]) for lab in spec["cases"]]
-            path = out / f"study_{spec['name']}.png"
-            fig_paths.append(plot_study_comparison(sel, by_label[spec["cases"][0]].curves[2], spec["states"],
-                                                   spec["title"], path))
-    sweeps = {}
-    for sw in cfg.get("sweeps", []):
-        sweeps[sw["name"]] = sweep_points([by_label[lab].result.summary for lab in sw["cases"]], sw["x"])
-        if figures:
-            fig_paths.append(plot_sweep(sweeps[sw["name"]], sw.get("x_label", ""), sw.get("title", ""),
-                                        out / f"sweep_{sw['name']}.png"))
-    result = {
-        "study": cfg["scenario"]["name"],
-        "runs": cfg["campaign"]["runs"],
-        "seed": cfg["campaign"]["seed"],
-        "complete": True,
-        "cases": cases_out,
-        "figures": [Path(p).name for p in fig_paths],
-        **({"sweeps": sweeps} if sweeps else {}),
-        "scenario_toml": dump_toml(cfg),
-    }
-    write_study_json(out / "study.json", result)
-    return result
+        return write_study_files(cfg, prm.kind, outcomes, out, figures)

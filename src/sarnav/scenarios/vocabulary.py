@@ -1,34 +1,10 @@
-"""One configuration vocabulary: the tables every kind shares, read in one place (docs/scenarios/vocabulary.md).
+"""One configuration vocabulary: the tables every kind shares, read in one place.
 
-========================= ==================================================================================
-``[trajectory]``          ``type`` ("straight" | "maneuver"; where the kind offers both), ``start_ned`` [m]
-                          (position at t = 0), ``speed`` [m/s], ``heading_deg``, ``duration`` [s]
-``[imu]``                 the truth sensor: ``grade`` (a preset of ``sensors.imu.GRADE_THREE_SIGMA`` or
-                          "custom"), ``rate_hz``, ``tau_accel``, ``tau_gyro`` [s]; optional 3-sigma overrides
-                          ``vrw_3sigma`` [m/s/sqrt(hr)], ``accel_bias_3sigma`` [g], ``arw_3sigma`` [deg/sqrt(hr)],
-                          ``gyro_bias_3sigma`` [deg/hr] (required with "custom")
-``[filter.imu]``          the filter's model of that sensor: the same keys (no ``rate_hz``), each defaulting to
-                          ``[imu]``'s; a ``grade`` given here drops ``[imu]``'s 3-sigma overrides
-``[earth]``               ``rotation`` (false: the sources' non-rotating Earth; true: the Earth-fixed NED frame turns
-                          with the Earth, ``frames.ned``), ``latitude_deg`` (of the NED origin, [-90, 90]; used when
-                          ``rotation`` is true), ``modelled`` (true: the INS and the filter model the turn; false:
-                          they keep the flat-Earth model while the truth IMU senses it) — telemetry, rda-nav,
-                          quality-nav
-``[initial]``             3-sigma initial uncertainty: ``p_3sigma`` [m], ``v_3sigma`` [m/s], ``theta_3sigma``
-                          [rad] (each 3 numbers); optional ``accel_bias_3sigma`` [g], ``gyro_bias_3sigma``
-                          [deg/hr] (default: the filter's IMU figures)
-``[radar]``               ``preset`` ("nav-paper-sim" | "flexsar" | "sun-ku-cart") and/or the fields with their
-                          units in the key:
-                          ``carrier_ghz``, ``bandwidth_mhz``, ``sample_rate_mhz``, ``pulse_length_us``,
-                          ``prf_hz``, ``antenna_length_m``, ``look_side``, ``range_window``, ``azimuth_window``;
-                          ``snr_db`` (receiver noise), ``receiver_noise`` (bool), ``range_margin_m`` (receive-window
-                          margin), ``near_range_m`` and ``n_range_samples`` (a fixed window) where used
-``[aperture]``            the pulses of one image: ``n_pulses``, or ``duration`` [s] (spacecraft-closed-loop)
-========================= ==================================================================================
-
-Values are validated where they are used (``RadarParams`` validates the radar, ``StraightLevel`` the track); a
-:class:`~sarnav.errors.ConfigError` always names the user's key. Every key, shared or a kind's own, is read through
-the typed readers of :mod:`sarnav.scenarios.fields`.
+``[trajectory]``, ``[imu]``, ``[filter.imu]`` (the filter's model of the IMU, each key defaulting to ``[imu]``'s),
+``[earth]``, ``[initial]``, ``[radar]`` (a preset and/or fields with their units in the key) and ``[aperture]``: every
+key, its unit and range, in docs/scenarios/vocabulary.md. Values are validated where they are used (``RadarParams``
+validates the radar, ``StraightLevel`` the track); a :class:`~sarnav.errors.ConfigError` always names the user's key.
+Every key, shared or a kind's own, is read through the typed readers of :mod:`sarnav.scenarios.fields`.
 """
 
 from __future__ import annotations
