@@ -1,13 +1,9 @@
 """Study ``bpa-sensitivity``: image shift and blur of a BPA image formed with an erroneous trajectory (thesis ch. 4).
 
-Configuration and wiring only: the defaults, ``parse`` (TOML ->
-:class:`~sarnav.analysis.bpa_sensitivity.BpaSensitivityParams`) and the kind; the study itself is
-``sarnav.analysis.bpa_sensitivity.run``, its table and figure ``sarnav.report.sensitivity``
-(docs/scenarios/bpa-sensitivity.md).
-
-Geometry (the thesis gives none for ch. 4): 10 m/s north at 1000 m, target on the ground 1800 m east of the track
-at mid-aperture, 6-s aperture, nav-paper radar (9.75 GHz, 500 MHz, 1 GHz sampling) at PRF 100 Hz with a 0.2 us
-chirp and a receive window R0 +- ``radar.range_margin_m`` (plus the pulse half-extent).
+Configuration and wiring only: the defaults (the geometry, which the thesis does not give for ch. 4:
+docs/scenarios/bpa-sensitivity.md), ``parse`` (TOML -> :class:`~sarnav.analysis.bpa_sensitivity.BpaSensitivityParams`)
+and the kind; the study itself is ``sarnav.analysis.bpa_sensitivity.run``, its table and figure
+``sarnav.report.sensitivity``.
 """
 
 from __future__ import annotations

@@ -17,9 +17,10 @@ from pathlib import Path
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.radar.params import RadarParams
+from sarnav.scenarios.fields import known_keys
 from sarnav.scenarios.kind_base import FileKind
 from sarnav.scenarios.registry import packaged
-from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
+from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields, radar_key
 from sarnav.simulation.image_scene import ImageSceneParams, run
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "parse", "run_image", "origin_llh",
@@ -66,9 +67,7 @@ def _tables(cfg: dict) -> None:
     for table in base:
         if not isinstance(cfg.get(table), dict):
             raise ConfigError(table, f"missing table [{table}]")
-        unknown = set(cfg[table]) - set(base[table])
-        if unknown:
-            raise ConfigError(f"{table}.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(base[table]))})")
+        known_keys(cfg[table], base[table], table)
         missing = set(base[table]) - set(cfg[table])
         if missing:
             raise ConfigError(f"{table}.{sorted(missing)[0]}", "missing")
@@ -81,7 +80,11 @@ def altitude(cfg: dict) -> float:
 
 
 def validate(cfg: dict) -> None:
-    """Raise :class:`ConfigError` naming the first bad field and its valid range."""
+    """Raise :class:`ConfigError` naming the first bad field and its valid range (:func:`parse`)."""
+    parse(cfg)
+
+
+def _check(cfg: dict) -> None:
     from sarnav.imaging.rda import RCMC_KERNELS
     from sarnav.signal.windows import Window
 
@@ -118,7 +121,6 @@ def validate(cfg: dict) -> None:
     origin_llh(cfg)
     params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
     echo_block_check(n_pulses, params.n_range_samples)
-    _check_doppler_band(cfg, params)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
     Window.from_spec(cfg["image"]["window"], "image.window")
     _choice(cfg, "image", "rcmc_kernel", tuple(RCMC_KERNELS))
@@ -140,27 +142,6 @@ def origin_llh(cfg: dict) -> list[float]:
         raise ConfigError("scene.origin_llh", "must be [latitude deg in [-90, 90], longitude deg in [-180, 360], "
                           f"height m in [-1e4, 1e5]], got {v!r}")
     return [float(x) for x in v]
-
-
-def _check_doppler_band(cfg: dict, params) -> None:
-    """The scene's azimuth band must fit in the PRF (the RDA azimuth FFT is circular).
-
-    A scatterer at along-track y seen by pulses t in [-T/2, T/2] has Doppler -K_a (t - y/V) (paper
-    eq. 8), so the scene occupies K_a (T + 2 max|y| / V) Hz at its nearest range (largest K_a); with
-    the antenna pattern the band is at most the beam's Doppler bandwidth ``params.doppler_bandwidth(V)`` (about
-    0.886 * 2V / L_a).
-    """
-    v = float(cfg["trajectory"]["speed"])
-    lam = params.wavelength
-    r_min = imaged_slant_ranges(cfg)[0]
-    s = cfg["scene"]
-    half = abs(s["target_along_track_m"]) if s["type"] == "point" else 0.5 * s["along_track_extent_m"]
-    band = 2.0 * v**2 / (lam * r_min) * (cfg["trajectory"]["duration"] + 2.0 * half / v)
-    if cfg["radar"]["antenna_pattern"]:
-        band = min(band, params.doppler_bandwidth(v))
-    if band > cfg["radar"]["prf_hz"]:
-        raise ConfigError("radar.prf_hz", f"must be >= the scene's azimuth bandwidth {band:.4g} Hz "
-                          f"(K_a (T + 2 max|y|/V) at the nearest range), got {cfg['radar']['prf_hz']}")
 
 
 def imaged_slant_ranges(cfg: dict) -> tuple[float, float]:
@@ -193,19 +174,25 @@ _SCENE_KEYS = {"point": {"target_along_track": "target_along_track_m", "target_s
 
 
 def parse(cfg: dict) -> ImageSceneParams:
-    """Validate ``cfg`` (:func:`validate`) and convert it to the :class:`ImageSceneParams` of the experiment."""
-    validate(cfg)
+    """Validate ``cfg`` and convert it to the :class:`ImageSceneParams` of the experiment; the scene's azimuth band
+    against the PRF is ``ImageSceneParams.check_doppler_band``."""
+    _check(cfg)
     tr, s, im, snr = cfg["trajectory"], cfg["scene"], cfg["image"], float(cfg["radar"]["snr_db"])
     scene = {field: float(s[key]) for field, key in _SCENE_KEYS[s["type"]].items()}
     if s["type"] == "random":
         scene["amplitude_law"] = s["amplitude_law"]
-    return ImageSceneParams(
+    prm = ImageSceneParams(
         radar=radar_params(cfg), start_ned=tuple(float(v) for v in tr["start_ned"]), speed=float(tr["speed"]),
         duration=float(tr["duration"]), scene=s["type"], seed=int(s["seed"]), **scene,
         snr_db=snr if snr < NO_NOISE_SNR_DB else None, antenna_pattern=cfg["radar"]["antenna_pattern"],
         algorithm=im["algorithm"], window=im["window"], rcmc_kernel=im["rcmc_kernel"],
         azimuth_model=im["azimuth_model"], autofocus=im["autofocus"], bpa_interpolation=im["bpa_interpolation"],
         speed_error=float(im["speed_error_mps"]), origin_llh=tuple(origin_llh(cfg)), name=cfg["scenario"]["name"])
+    try:
+        prm.check_doppler_band()
+    except ConfigError as err:
+        raise ConfigError(radar_key(err.field), err.message) from None
+    return prm
 
 
 def run_image(cfg: dict, out, overwrite: bool = False, *, cphd: bool = False, sicd: bool = False) -> dict:

@@ -25,7 +25,7 @@ from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
 from sarnav.simulation.multi_imu import (UPF_ATTRS, MultiImuParams, Path1Params, UpfParams,
                                          run_multi_imu_records, run_path1_records, run_upf_flight_records)
 
-__all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "Path1Params", "MultiImuParams",
+__all__ = ["SourceKind", "settle_time", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "Path1Params", "MultiImuParams",
            "UpfParams"]
 
 #: largest particle count of any filter (memory: runs x particles x 6 floats per filter)
@@ -33,6 +33,16 @@ MAX_PARTICLES = 100_000
 #: smallest particle count: the filters use the cloud's covariance (the Gaussian-PF update and the NEES of the
 #: 6-D [p, v] cloud), which is singular below d + 1 = 7 particles
 MIN_PARTICLES = 7
+
+
+def settle_time(cfg: dict, hi: float, duration: float, epoch: float, duration_key: str) -> float:
+    """``filter.settle_s`` in [0, ``hi``] s (the filters' settling time, left out of the statistics), leaving at least
+    one ``epoch`` [s] of the flight (``duration_key`` = ``duration`` [s]) after it."""
+    settle = number(cfg, "filter", "settle_s", 0.0, hi, "s")
+    if settle > duration - epoch:
+        raise ConfigError("filter.settle_s", f"must leave at least one epoch ({epoch:g} s) before {duration_key} = "
+                          f"{duration} s, got {settle}")
+    return settle
 
 
 class SourceKind(ScenarioKind):
@@ -58,8 +68,14 @@ class SourceKind(ScenarioKind):
     def sources(self, prm) -> list[str]:
         return prm.sources()
 
+    #: summary.json ``gains``: name -> (numerator, denominator) of ``analysis.sources.rmse_ratio``; "sensors": the
+    #: mean RMS of every single-sensor source
+    gain_pairs: dict = {}
+
     def gains(self, rmse: dict) -> dict:
-        return {}
+        sensors = [k for k in rmse if k.startswith("sensor")]
+        pick = lambda name: sensors if name == "sensors" else name  # noqa: E731
+        return {key: rmse_ratio(rmse, pick(a), pick(b)) for key, (a, b) in self.gain_pairs.items()}
 
     def validate(self, cfg: dict) -> None:
         self.parse(cfg)
@@ -116,10 +132,7 @@ class MultiImuPath1Kind(SourceKind):
         duration = number(cfg, "path", "duration", 1.0, 600.0, "s")
         rate = number(cfg, "sensors", "rate_hz", 1.0, 100.0, "Hz")
         sig = number_list(cfg, "sensors", "sigma_m", 1e-4, 100.0, "m")
-        settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
-        if settle > duration - 1.0 / rate:
-            raise ConfigError("filter.settle_s", f"must leave at least one epoch before path.duration = {duration} s, "
-                              f"got {settle}")
+        settle = settle_time(cfg, 600.0, duration, 1.0 / rate, "path.duration")
         return Path1Params(runs, duration, sig, rate, integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                            number(cfg, "filter", "accel_psd", 1e-8, 1e4, "m^2/s^3"), settle,
                            number(cfg, "fusion", "fix_sigma_m", 1e-4, 100.0, "m"),
@@ -128,11 +141,9 @@ class MultiImuPath1Kind(SourceKind):
     def run_batch(self, prm: Path1Params, seeds, run_ids) -> list[RunRecord]:
         return run_path1_records(prm, seeds, run_ids)
 
-    def gains(self, rmse: dict) -> dict:
-        sensors = [k for k in rmse if k.startswith("sensor")]
-        return {"mean_over_sir": rmse_ratio(rmse, "mean", "sir"),  # T18 (source: ~3)
-                "sir_over_fix": rmse_ratio(rmse, "sir", "fix"),  # T16/T25: bounded by the weighting fix
-                "single_over_mean": rmse_ratio(rmse, sensors, "mean")}
+    gain_pairs = {"mean_over_sir": ("mean", "sir"),  # T18 (source: ~3)
+                  "sir_over_fix": ("sir", "fix"),  # T16/T25: bounded by the weighting fix
+                  "single_over_mean": ("sensors", "mean")}
 
 
 # --- multi-imu (multi-imu-adis) -------------------------------------------------------------------------------
@@ -145,9 +156,7 @@ class MultiImuKind(SourceKind):
     def parse(self, cfg: dict) -> MultiImuParams:
         runs, _ = validate_campaign(cfg)
         duration = number(cfg, "flight", "duration", 10.0, 1800.0, "s")
-        settle = number(cfg, "filter", "settle_s", 0.0, 1800.0, "s")
-        if settle > duration - 0.05:
-            raise ConfigError("filter.settle_s", f"must be < flight.duration = {duration} s, got {settle}")
+        settle = settle_time(cfg, 1800.0, duration, 0.05, "flight.duration")
         rec = number(cfg, "output", "record_rate_hz", 0.1, 20.0, "Hz")
         stride = round(20.0 / rec)
         if abs(20.0 / rec - stride) > 1e-9:
@@ -164,12 +173,10 @@ class MultiImuKind(SourceKind):
     def run_batch(self, prm: MultiImuParams, seeds, run_ids) -> list[RunRecord]:
         return run_multi_imu_records(prm, seeds, run_ids)
 
-    def gains(self, rmse: dict) -> dict:
-        sensors = [k for k in rmse if k.startswith("sensor")]
-        return {"single_over_mean": rmse_ratio(rmse, sensors, "mean"),  # T21 (source ~5; i.i.d. theory sqrt(S))
-                "mean_over_sir": rmse_ratio(rmse, "mean", "sir"),  # T22 (source ~2)
-                "sir_over_novatel": rmse_ratio(rmse, "sir", "novatel"),  # T23 (source ~1)
-                "single_over_novatel": rmse_ratio(rmse, sensors, "novatel")}  # T23: > 1
+    gain_pairs = {"single_over_mean": ("sensors", "mean"),  # T21 (source ~5; i.i.d. theory sqrt(S))
+                  "mean_over_sir": ("mean", "sir"),  # T22 (source ~2)
+                  "sir_over_novatel": ("sir", "novatel"),  # T23 (source ~1)
+                  "single_over_novatel": ("sensors", "novatel")}  # T23: > 1
 
 
 # --- upf-flight -----------------------------------------------------------------------------------------------
@@ -185,10 +192,8 @@ class UpfFlightKind(SourceKind):
     def parse(self, cfg: dict) -> UpfParams:
         runs, _ = validate_campaign(cfg)
         duration = number(cfg, "flight", "duration", 120.0, 7200.0, "s")  # the climb / pattern / descent phases
-        settle = number(cfg, "filter", "settle_s", 0.0, 7200.0, "s")
         fix_rate = number(cfg, "fix", "rate_hz", 1.0, 100.0, "Hz")
-        if settle > duration - 1.0 / fix_rate:
-            raise ConfigError("filter.settle_s", f"must be < flight.duration = {duration} s, got {settle}")
+        settle = settle_time(cfg, 7200.0, duration, 1.0 / fix_rate, "flight.duration")
         imu_rate = number(cfg, "imu", "rate_hz", 10.0, 2000.0, "Hz")
         out_rate = number(cfg, "output", "rate_hz", 1.0, 20_000.0, "Hz")
         rec = number(cfg, "output", "record_rate_hz", 0.01, fix_rate, "Hz")
@@ -210,10 +215,9 @@ class UpfFlightKind(SourceKind):
     def run_batch(self, prm: UpfParams, seeds, run_ids) -> list[RunRecord]:
         return run_upf_flight_records(prm, seeds, run_ids)
 
-    def gains(self, rmse: dict) -> dict:
-        return {"upf_over_pf": rmse_ratio(rmse, "upf", "pf"),  # T10: 3 kHz output no worse than at the fixes
-                "pf_over_kf": rmse_ratio(rmse, "pf", "kf"),  # T11: < 1
-                "upf_over_kf_interp": rmse_ratio(rmse, "upf", "kf-interp")}
+    gain_pairs = {"upf_over_pf": ("upf", "pf"),  # T10: 3 kHz output no worse than at the fixes
+                  "pf_over_kf": ("pf", "kf"),  # T11: < 1
+                  "upf_over_kf_interp": ("upf", "kf-interp")}
 
     def summary_extras(self, results) -> dict:
         from sarnav.tomlio import parse_toml

@@ -14,26 +14,18 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
-from sarnav.scenarios.fields import bounded_vector, integer, number, number_list
-from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.fields import bounded_vector, integer, name_list, number, number_list
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
-from sarnav.scenarios.registry import packaged
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES
 from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRICS, FocusGeometry, FocusParams, \
     run_focus_records
 from sarnav.simulation.nav_sources import NAV_SOURCES
 
-__all__ = ["NavFocusKind", "default_config", "FOCUS_FILTERS", "FocusParams"]
+__all__ = ["NavFocusKind", "FOCUS_FILTERS", "FocusParams"]
 
 #: receive-window margin beyond the reflectors' slant ranges over the aperture [m]
 RANGE_MARGIN = 3.0
-
-
-def default_config() -> dict:
-    """§6.2 (L1313-1332): 16.6 GHz, 300 MHz, PRF 3 kHz, three reflectors at 20 m, 2000 pulses at 1 m/s, no window;
-    gap fills (G25) commented in ``defaults/nav-source-focus.toml``."""
-    return packaged("nav-source-focus")
 
 
 def _reflectors(cfg):
@@ -46,9 +38,7 @@ def _reflectors(cfg):
 
 
 def _sources(cfg):
-    src = _get(cfg, "navigation", "sources")
-    if not isinstance(src, list) or not src or any(s not in NAV_SOURCES for s in src) or len(set(src)) != len(src):
-        raise ConfigError("navigation.sources", f"must be a list of distinct names from {list(NAV_SOURCES)}, got {src!r}")
+    src = name_list(cfg, "navigation", "sources", NAV_SOURCES)
     if "truth" not in src:
         raise ConfigError("navigation.sources", "must include 'truth' (the reference image)")
     if not any(s in src for pair in FOCUS_FILTERS.values() for s in pair):

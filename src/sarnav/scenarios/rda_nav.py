@@ -13,14 +13,14 @@ import numpy as np
 
 from sarnav import units
 from sarnav.analysis.covariance import rda_nav_covariance_study as covariance_study
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import ConfigError
 from sarnav.measurements.sar import CROSS_RANGE_MODELS
 from sarnav.measurements.sar_image import ALGORITHMS, FOCUS, ImagingSettings
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import boolean as _bool
-from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.fields import bounded_vector, choice, integer, number
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import table as _table
 from sarnav.scenarios.fields import vector as _vector
@@ -78,63 +78,35 @@ def _parse_sar(cfg: dict) -> dict:
 
 
 def _parse_imaging(cfg: dict) -> dict:
-    algorithm = _get(cfg, "sar", "algorithm")
-    if algorithm not in ALGORITHMS:
-        raise ConfigError("sar.algorithm", f"must be one of {ALGORITHMS}, got {algorithm!r}")
-    focus = _get(cfg, "sar", "focus")
-    if focus not in FOCUS:
-        raise ConfigError("sar.focus", f"must be one of {FOCUS}, got {focus!r}")
-    gate = require_finite("sar.gate_probability", _get(cfg, "sar", "gate_probability"), 0.0, 0.5)
-    corr = require_finite("sar.min_correlation", _get(cfg, "sar", "min_correlation"), 0.0, 1.0)
-    amb = require_finite("sar.max_ambiguity", _get(cfg, "sar", "max_ambiguity"), 0.0, 1.0)
-    return dict(gate_probability=gate,
-                imaging=ImagingSettings(algorithm=algorithm, focus=focus, autofocus=_bool(cfg, "sar", "autofocus"),
-                                        min_correlation=corr, max_ambiguity=amb))
-
-
-def _count(cfg, key, lo, hi) -> int:
-    v = _get(cfg, "scene", key)
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise ConfigError(f"scene.{key}", f"must be an integer in [{lo}, {hi}], got {v!r}")
-    return v
+    return dict(gate_probability=number(cfg, "sar", "gate_probability", 0.0, 0.5),
+                imaging=ImagingSettings(algorithm=choice(cfg, "sar", "algorithm", ALGORITHMS),
+                                        focus=choice(cfg, "sar", "focus", FOCUS), autofocus=_bool(cfg, "sar", "autofocus"),
+                                        min_correlation=number(cfg, "sar", "min_correlation", 0.0, 1.0),
+                                        max_ambiguity=number(cfg, "sar", "max_ambiguity", 0.0, 1.0)))
 
 
 def _parse_scene(cfg: dict) -> dict:
-    sc = _table(cfg, "scene")
-    stype = sc.get("type")
-    if stype not in SCENE_TYPES:
-        raise ConfigError("scene.type", f"must be one of {SCENE_TYPES}, got {stype!r}")
-    seed_s = sc.get("seed")
-    if isinstance(seed_s, bool) or not isinstance(seed_s, int) or not 0 <= seed_s < 2**63:
-        raise ConfigError("scene.seed", f"must be an integer in [0, 2^63), got {seed_s!r}")
     gmin = _pos(cfg, "scene", "ground_range_min", "m", hi=1.0e6)
     gmax = _pos(cfg, "scene", "ground_range_max", "m", hi=1.0e6)
     if not gmax > gmin:
         raise ConfigError("scene.ground_range_max", f"must be > scene.ground_range_min = {gmin} m, got {gmax}")
     scale = _vector(cfg, "scene", "terrain_scale_m", n=2, positive=True, unit="m")
-    geo = _vector(cfg, "scene", "geolocation_sigma_m", n=3, unit="m")
-    if np.any(geo < 0) or np.any(geo > 100.0):
-        raise ConfigError("scene.geolocation_sigma_m", f"must be three 1-sigma values in [0, 100] m, got {geo.tolist()}")
-    offset = _vector(cfg, "scene", "reference_offset_m", n=2, unit="m")
-    if np.any(np.abs(offset) > 1.0e4):
-        raise ConfigError("scene.reference_offset_m", f"must be within +-1e4 m, got {offset.tolist()}")
-    return {"type": stype, "seed": seed_s, "ground_range": (gmin, gmax),
-            "toc_jitter": require_finite("scene.toc_jitter_s", _get(cfg, "scene", "toc_jitter_s"), 0.0, 0.4, "s"),
-            "targets_per_image": _count(cfg, "targets_per_image", 1, 8),
-            "clutter": _count(cfg, "clutter_per_image", 0, 1000),
+    geo = np.array(bounded_vector(cfg, "scene", "geolocation_sigma_m", 0.0, 100.0, unit="m"))
+    offset = bounded_vector(cfg, "scene", "reference_offset_m", -1.0e4, 1.0e4, n=2, unit="m")
+    return {"type": choice(cfg, "scene", "type", SCENE_TYPES), "seed": integer(cfg, "scene", "seed", 0, 2**63 - 1),
+            "ground_range": (gmin, gmax), "toc_jitter": number(cfg, "scene", "toc_jitter_s", 0.0, 0.4, "s"),
+            "targets_per_image": integer(cfg, "scene", "targets_per_image", 1, 8),
+            "clutter": integer(cfg, "scene", "clutter_per_image", 0, 1000),
             "reflector_amplitude": _pos(cfg, "scene", "reflector_amplitude", hi=1.0e6),
             "clutter_per_run": _bool(cfg, "scene", "clutter_per_run"),
-            "reference_offset": (float(offset[0]), float(offset[1])), "geolocation_sigma": geo,
-            "terrain_relief": require_finite("scene.terrain_relief_m", _get(cfg, "scene", "terrain_relief_m"), 0.0,
-                                             1000.0, "m"),
+            "reference_offset": offset, "geolocation_sigma": geo,
+            "terrain_relief": number(cfg, "scene", "terrain_relief_m", 0.0, 1000.0, "m"),
             "terrain_scale": (float(scale[0]), float(scale[1])),
             "clutter_density": _pos(cfg, "scene", "clutter_density_m2", "1/m^2", hi=1.0e3),
-            "clutter_power": require_finite("scene.clutter_power_m2", _get(cfg, "scene", "clutter_power_m2"), 0.0,
-                                            1.0e6),
-            "bright_features": _count(cfg, "bright_features", 0, 100),
+            "clutter_power": number(cfg, "scene", "clutter_power_m2", 0.0, 1.0e6),
+            "bright_features": integer(cfg, "scene", "bright_features", 0, 100),
             "bright_amplitude": _pos(cfg, "scene", "bright_amplitude", hi=1.0e6),
-            "reference_coherence": require_finite("scene.reference_coherence",
-                                                  _get(cfg, "scene", "reference_coherence"), 0.0, 1.0)}
+            "reference_coherence": number(cfg, "scene", "reference_coherence", 0.0, 1.0)}
 
 
 def _parse_radar(cfg: dict, trajectory, scene: dict, side: str) -> RadarParams:
@@ -148,12 +120,10 @@ def _parse_radar(cfg: dict, trajectory, scene: dict, side: str) -> RadarParams:
         raise ConfigError("radar.near_range_m", "give both radar.near_range_m and radar.n_range_samples, or neither "
                           "(the receive window then follows the geometry)")
     if "near_range_m" in r:
-        n = r["n_range_samples"]
-        if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 10**6:
-            raise ConfigError("radar.n_range_samples", f"must be an integer in [2, 1e6], got {n!r}")
-        window = {"near_range": _pos(cfg, "radar", "near_range_m", "m", hi=1.0e7), "n_range_samples": n}
+        window = {"near_range": _pos(cfg, "radar", "near_range_m", "m", hi=1.0e7),
+                  "n_range_samples": integer(cfg, "radar", "n_range_samples", 2, 10**6)}
     else:
-        margin = require_finite("radar.range_margin_m", _get(cfg, "radar", "range_margin_m"), 0.0, 1.0e4, "m")
+        margin = number(cfg, "radar", "range_margin_m", 0.0, 1.0e4, "m")
         window = RdaNavParams.receive_window(trajectory, scene, side, base.pulse_length, base.sample_rate, margin)
     radar = make_radar(preset, fields, **window)
     size = round(radar.prf) * radar.n_range_samples
@@ -187,7 +157,7 @@ def parse(cfg: dict) -> RdaNavParams:
     scene = _parse_scene(cfg)
     side = _table(cfg, "radar").get("look_side", "right")
     radar = _parse_radar(cfg, traj, scene, side)
-    snr = require_finite("radar.snr_db", _get(cfg, "radar", "snr_db"), -60.0, 100.0, "dB")
+    snr = number(cfg, "radar", "snr_db", -60.0, 100.0, "dB")
     ini = read_initial(cfg, filt)
     p0 = np.concatenate([ini["p"], ini["v"], ini["th"], ini["ba"], ini["bg"], three(bias3)])
     return RdaNavParams(runs=runs, trajectory=traj, altitude=float(-traj.start[2]), imu=imu, imu_filter=filt,

@@ -20,20 +20,8 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.tomlio import parse_toml
 
-__all__ = [
-    "ScenarioEntry",
-    "SCENARIOS",
-    "KINDS",
-    "list_scenarios",
-    "get_scenario",
-    "get_kind",
-    "template_for_kind",
-    "template_for",
-    "optional_keys",
-    "packaged",
-    "DEFAULT_SCENARIO",
-    "DEFAULT_RUNS",
-]
+__all__ = ["ScenarioEntry", "SCENARIOS", "KINDS", "list_scenarios", "get_scenario", "get_kind", "template_for_kind",
+           "template_for", "optional_keys", "packaged", "DEFAULT_SCENARIO", "DEFAULT_RUNS"]
 
 
 @dataclass(frozen=True)

@@ -1,16 +1,10 @@
 """The ``spacecraft`` scenario kind: the open-loop Monte Carlo of Pogorelsky et al. 2022 §VI.B-VII (scenarios
 ``spacecraft-tc1``, ``spacecraft-tc2``; docs/spacecraft.md).
 
-Configuration and wiring only; the physics is ``simulation.spacecraft.run_open_loop`` (as records
-``run_open_loop_records``: truth orbit RK4 + J2, the MEKF of ``filters.mekf`` at 100 Hz, the centre-pixel
-measurement of ``measurements.spacecraft``, Lear underweighting of ``filters.underweighting``). The measurements are
-synthesised from the truth as the paper's open loop does (r_f = boresight ∩ WGS-84 + N(0, D), range + N(0, 1 m^2),
-speed + N(0, 0.54^2)): the kind's only measurement mode, named ``oracle`` (``[measurement] mode``) as the project's
-rule for truth-made measurements asks.
-The closed loop from raw echoes is the ``spacecraft-closed-loop`` kind (``scenarios.spacecraft_closed_loop``).
-
-Random draws: run i uses only ``Generator(PCG64(seeds[i]))`` in the order of ``run_open_loop`` (9 initial-error
-normals, then 5 per update), so a run does not depend on the batch, the executor or the number of workers.
+Configuration and wiring only; the experiment is ``simulation.spacecraft.run_open_loop_records`` (truth orbit RK4 + J2,
+the MEKF of ``filters.mekf``, the centre-pixel measurement of ``measurements.spacecraft``, Lear underweighting). The
+measurements are synthesised from the truth as the paper's open loop does: the kind's only measurement mode, named
+``oracle`` (``[measurement] mode``). The closed loop from raw echoes is ``scenarios.spacecraft_closed_loop``.
 """
 
 from __future__ import annotations
@@ -39,12 +33,6 @@ from sarnav.frames.earth import WGS84_A
 
 #: longest simulated flight [s] (one day: the truth orbit and the records are allocated up front)
 MAX_DURATION = 86400.0
-
-
-def default_config(case: str = "tc2") -> dict:
-    """TC-2 (misalignment 0.01 deg, no underweighting) or TC-1 (0.1 deg, beta 0.2 on 10 updates): Table 4, L514;
-    ``defaults/spacecraft-tc2.toml``, ``defaults/spacecraft-tc1.toml``."""
-    return packaged(f"spacecraft-{case}")
 
 
 def read_elements(cfg: dict):

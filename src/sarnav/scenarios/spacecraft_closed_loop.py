@@ -1,14 +1,10 @@
 """The ``spacecraft-closed-loop`` scenario kind: the spacecraft SAR navigation closed on images formed from simulated
-ALOS-like L-band raw echoes (issue 11 Build 5; Pogorelsky et al. 2022 §VI.A with a simulated pass instead of the real
-PALSAR data; docs/spacecraft.md).
+ALOS-like L-band raw echoes (issue 11 Build 5; Pogorelsky et al. 2022 §VI.A with a simulated pass; docs/spacecraft.md).
 
-Configuration and wiring only: the world and the image chain are ``measurements.spacecraft_image`` (terrain, echoes
-along the true orbit, RDA with the estimated effective velocity, hill-climbing autofocus -> v_ic, registration against
-a geocoded reference -> r_f), the filter loop ``simulation.spacecraft_closed_loop`` (as records:
-``run_closed_loop_records``). ``[measurement] mode = "oracle"`` runs the paper's open loop (§VI.B: r_f + N(0, D),
-V_r + N(0, sigma_vic^2)) on the same updates and world (claim T19).
-R and B use ``[measurement] sigma_vic`` and ``D``, set from the Monte Carlo of the first measurement
-(``first_measurement_statistics``; docs/spacecraft.md gives the command and the numbers), as the paper does.
+Configuration and wiring only: the world and the image chain are ``measurements.spacecraft_image``, the filter loop
+``simulation.spacecraft_closed_loop`` (``run_closed_loop_records``). ``[measurement] mode = "oracle"`` runs the
+paper's open loop on the same updates and world (claim T19). R and B use ``[measurement] sigma_vic`` and ``D``, set
+from the Monte Carlo of the first measurement (docs/spacecraft.md gives the command and the numbers).
 """
 
 from __future__ import annotations
@@ -20,16 +16,9 @@ from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios import spacecraft as sc
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
-from sarnav.scenarios.registry import packaged
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
 from sarnav.simulation.spacecraft_closed_loop import CLOSED_LOOP_ATTRS as EXTRA_ATTRS
 from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop_records
-
-
-def default_config() -> dict:
-    """TC-2 filter on a simulated 41-s pass with three image updates (the paper's closed loop: L514, L531):
-    ``defaults/spacecraft-closed-loop.toml``."""
-    return packaged("spacecraft-closed-loop")
 
 
 def read_imaging(cfg: dict) -> ImagingConfig:

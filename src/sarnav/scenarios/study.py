@@ -20,14 +20,9 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.study import StudyCase, StudyParams, run
 from sarnav.scenarios.config import set_value, validate_scenario
+from sarnav.scenarios.fields import known_keys
 
-__all__ = [
-    "StudyKind",
-    "case_config",
-    "parse",
-    "run_study",
-    "STYLES",
-]
+__all__ = ["StudyKind", "case_config", "parse", "run_study", "STYLES"]
 
 STYLES = ("-", "--", "-.", ":")
 _LABEL_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
@@ -53,8 +48,7 @@ def case_config(cfg: dict, index: int) -> dict:
     from sarnav.scenarios.registry import optional_keys
 
     case = cfg["cases"][index]
-    out = copy.deepcopy(cfg["base"])
-    out["campaign"] = copy.deepcopy(cfg["campaign"])
+    out = case_config_shallow(cfg)
     out["scenario"]["name"] = f"{cfg['scenario']['name']}.{case['label']}"
     opt = optional_keys(out["scenario"]["kind"])
     for key, value in case.get("set", {}).items():
@@ -97,9 +91,7 @@ class StudyKind(ScenarioKind):
         for i, case in enumerate(cases):
             if not isinstance(case, dict):
                 raise ConfigError(f"cases[{i}]", "must be a table with label and set")
-            unknown = set(case) - {"label", "set", "style"}
-            if unknown:
-                raise ConfigError(f"cases[{i}].{sorted(unknown)[0]}", "unknown key (known: label, set, style)")
+            known_keys(case, ("label", "set", "style"), f"cases[{i}]")
             label = case.get("label")
             if not isinstance(label, str) or not _LABEL_RE.match(label):
                 raise ConfigError(f"cases[{i}].label", f"must be a name of letters, digits, '_.-', got {label!r}")

@@ -13,7 +13,7 @@ from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.error_state import ErrorStateKind
-from sarnav.scenarios.fields import bounded_positive, get
+from sarnav.scenarios.fields import bounded_positive, choice, get, integer
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import vector as _vector
 from sarnav.scenarios.registry import packaged
@@ -72,16 +72,11 @@ def parse(cfg: dict) -> TelemetryParams:
 
 def _read_update(cfg: dict) -> dict:
     """The ``[update]`` table: strategy, split_threshold, max_components (ConfigError naming the key)."""
-    strategy = get(cfg, "update", "strategy")
-    if strategy not in STRATEGIES:
-        raise ConfigError("update.strategy", f"must be one of {', '.join(STRATEGIES)}, got {strategy!r}")
     lo, hi = SPLIT_THRESHOLD_RANGE
-    threshold = bounded_positive("update.split_threshold", get(cfg, "update", "split_threshold"), lo=lo, hi=hi)
-    k = get(cfg, "update", "max_components")
-    klo, khi = MAX_COMPONENTS_RANGE
-    if isinstance(k, bool) or not isinstance(k, int) or not klo <= k <= khi:
-        raise ConfigError("update.max_components", f"must be an integer in [{klo}, {khi}], got {k!r}")
-    return {"strategy": strategy, "split_threshold": threshold, "max_components": int(k)}
+    return {"strategy": choice(cfg, "update", "strategy", STRATEGIES),
+            "split_threshold": bounded_positive("update.split_threshold", get(cfg, "update", "split_threshold"), lo=lo,
+                                                hi=hi),
+            "max_components": integer(cfg, "update", "max_components", *MAX_COMPONENTS_RANGE)}
 
 
 class TelemetryKind(ErrorStateKind):

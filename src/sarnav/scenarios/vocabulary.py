@@ -17,7 +17,7 @@ from sarnav import units
 from sarnav.errors import ConfigError, require_finite
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import PRESETS
-from sarnav.scenarios.fields import bounded_positive, get, positive, table, vector
+from sarnav.scenarios.fields import boolean, bounded_positive, get, known_keys, positive, table, vector
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
 from sarnav.simulation.flight import FlightSpec, ImuSpec
 from sarnav.trajectory import Maneuvering, StraightLevel
@@ -112,13 +112,9 @@ EARTH_DEFAULT = {"rotation": False, "latitude_deg": 40.0, "modelled": True}
 def read_earth(cfg: dict) -> dict:
     """``[earth]`` as FlightSpec fields: ``earth_rate`` (omega_ie^t (3,) [rad/s] when ``rotation`` is true, else None)
     and ``filter_earth_rate`` (the same when ``modelled``, else None: a flat-Earth filter)."""
-    flags = {}
-    for key in ("rotation", "modelled"):
-        flags[key] = get(cfg, "earth", key)
-        if not isinstance(flags[key], bool):
-            raise ConfigError(f"earth.{key}", f"must be a boolean (true or false), got {flags[key]!r}")
+    rotation, modelled = boolean(cfg, "earth", "rotation"), boolean(cfg, "earth", "modelled")
     lat = require_finite("earth.latitude_deg", get(cfg, "earth", "latitude_deg"), lo=-90.0, hi=90.0, unit="deg")
-    return FlightSpec.earth_fields(units.deg_to_rad(lat), flags["rotation"], flags["modelled"])
+    return FlightSpec.earth_fields(units.deg_to_rad(lat), rotation, modelled)
 
 
 # ----------------------------------------------------------------------------- IMU
@@ -159,14 +155,10 @@ def read_filter_imu(cfg: dict, truth: ImuSpec) -> ImuSpec:
         return truth
     if not isinstance(f, dict) or not isinstance(f.get("imu", {}), dict):
         raise ConfigError("filter", "must be a table with an [filter.imu] table")
-    unknown = set(f) - {"imu"}
-    if unknown:
-        raise ConfigError(f"filter.{sorted(unknown)[0]}", "unknown key (known: imu)")
+    known_keys(f, ("imu",), "filter")
     fi = f.get("imu", {})
     known = {"grade", "tau_accel", "tau_gyro", *IMU_OVERRIDES}
-    unknown = set(fi) - known
-    if unknown:
-        raise ConfigError(f"filter.imu.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(known))})")
+    known_keys(fi, known, "filter.imu")
     if not fi:
         return truth
     imu = cfg["imu"]
