@@ -412,12 +412,11 @@ def _property(max_examples):
                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
-def _runs_alike(kind: str, examples: int, capsys) -> None:
-    """``examples`` generated files of ``kind``: each one ``show`` accepts runs, each one it refuses ``run`` refuses
-    alike; enough of them run (:data:`MIN_RAN`)."""
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_a_file_show_accepts_runs_to_a_finite_campaign_and_one_it_refuses_run_refuses_alike(kind, capsys):
     stats = collections.Counter()
 
-    @_property(examples)
+    @_property(RUN_EXAMPLES[kind])
     @given(data=st.data())
     def prop(data):
         _run_property(kind, data, capsys, stats)
@@ -425,18 +424,23 @@ def _runs_alike(kind: str, examples: int, capsys) -> None:
     prop()
     with capsys.disabled():
         print(f"\n{kind}: {dict(stats)}")
-    assert stats[kind, "ran"] >= MIN_RAN * examples, f"{examples} files: {dict(stats)}"
-
-
-@pytest.mark.parametrize("kind", sorted(KINDS))
-def test_a_file_show_accepts_runs_to_a_finite_campaign_and_one_it_refuses_run_refuses_alike(kind, capsys):
-    _runs_alike(kind, RUN_EXAMPLES[kind], capsys)
+    assert stats[kind, "ran"] >= MIN_RAN * RUN_EXAMPLES[kind], f"{RUN_EXAMPLES[kind]} files: {dict(stats)}"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", sorted(KINDS))
 def test_200_files_per_kind_show_and_run_alike(kind, capsys):
-    _runs_alike(kind, 200, capsys)
+    stats = collections.Counter()
+
+    @_property(200)
+    @given(data=st.data())
+    def prop(data):
+        _run_property(kind, data, capsys, stats)
+
+    prop()
+    with capsys.disabled():
+        print(f"\n{kind}: {dict(stats)}")
+    assert stats[kind, "ran"] >= MIN_RAN * 200, f"200 files: {dict(stats)}"
 
 
 def test_the_key_check_refuses_internal_names():
