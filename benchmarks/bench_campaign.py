@@ -26,6 +26,7 @@ from sarnav.rotations import quat_normalize, quat_to_dcm
 from sarnav.scenarios.telemetry import STATE_LAYOUT, TelemetryKind
 from sarnav.sensors import IMU_GRADES
 from sarnav.trajectory import Maneuvering
+from timing import best_time
 
 RATE, COV_SAMPLES = 100.0, 10
 
@@ -59,15 +60,6 @@ def propagate(t, nu, om, nav, model):
     return nav, P
 
 
-def _best(fn, repeat):
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=200)
@@ -78,14 +70,14 @@ def main(argv=None):
 
     t, nu, om, nav, model = _setup(args.runs, args.seconds)
     samples = t.size - 1
-    tb = _best(lambda: propagate(t, nu, om, nav, model), args.repeat)
+    tb = best_time(lambda: propagate(t, nu, om, nav, model), args.repeat)
 
     def loop():
         for i in range(args.loop_runs):
             one = NavState(nav.p[i:i + 1], nav.v[i:i + 1], nav.q[i:i + 1], nav.ba[i:i + 1], nav.bg[i:i + 1], nav.bm[i:i + 1])
             propagate(t, nu[i:i + 1], om[i:i + 1], one, model)
 
-    tl = _best(loop, args.repeat)
+    tl = best_time(loop, args.repeat)
     rate_b = args.runs * samples / tb
     rate_l = args.loop_runs * samples / tl
     print(f"INS + covariance propagation, {samples} IMU samples at {RATE:g} Hz, covariance every {COV_SAMPLES} samples")

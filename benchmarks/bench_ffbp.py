@@ -23,7 +23,9 @@ the same phase history when installed (``pip install -e '.[bench]'``).
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -34,6 +36,9 @@ from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
 from sarnav.signal.data import PulseData
 from sarnav.signal.phase_history import pulses_to_phase_history
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from helpers import random_point_scene  # noqa: E402  (the FFBP tests' scene, larger)
+
 C = 299792458.0
 FC, BW = 9.75e9, 150e6
 LAM = C / FC
@@ -41,18 +46,8 @@ SLANT, PX = 5000.0, 0.5
 
 
 def scene(npx: int, n_targets: int = 300, seed: int = 0):
-    alt, east = 0.5 * SLANT, SLANT * np.sqrt(0.75)
-    p = npx
-    aperture = LAM * SLANT / (2 * PX)
-    pos = np.zeros((p, 3))
-    pos[:, 0] = (np.arange(p) - p / 2) * aperture / p
-    pos[:, 2] = -alt
-    rng = np.random.default_rng(np.random.SeedSequence(seed))
-    w = npx * PX
-    tg = np.column_stack([rng.uniform(-w / 2, w / 2, n_targets), east + rng.uniform(-w / 2, w / 2, n_targets),
-                          np.zeros(n_targets)])
-    amp = rng.standard_normal(n_targets) + 1j * rng.standard_normal(n_targets)
-    rt = np.linalg.norm(tg[None] - pos[:, None], axis=2)
+    p, w = npx, npx * PX
+    pos, tg, amp, rt, east = random_point_scene(npx, p, SLANT, PX, n_targets, seed, LAM)
     dr = C / (4 * BW)
     # the receive window covers every pixel (not only the targets): pixels outside it see no data at all
     corners = np.array([[a, east + b, 0.0] for a in (-w / 2, w / 2) for b in (-w / 2, w / 2)] + [[0.0, east - w / 2, 0.0]])

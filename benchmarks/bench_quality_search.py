@@ -24,7 +24,6 @@ image). Numba uses every core it is given (``NUMBA_NUM_THREADS``).
 from __future__ import annotations
 
 import argparse
-import time
 from dataclasses import replace
 
 import numba
@@ -34,15 +33,7 @@ from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.offset_bpa import offset_moments
 from sarnav.measurements import focus_search as fs
 from sarnav.radar.quality_scenes import QualityGeometry, point_clutter_scene
-
-
-def _best_of(fun, repeat: int) -> float:
-    best = np.inf
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fun()
-        best = min(best, time.perf_counter() - t)
-    return best
+from timing import best_time
 
 
 def main(argv=None) -> None:
@@ -85,9 +76,9 @@ def main(argv=None) -> None:
             return acc[None] + mom.images(deltas)
 
         scratch_one()
-        t_scr = _best_of(scratch_one, args.repeat)                      # one candidate; L of them cost L x
-        t_inc = _best_of(incremental, args.repeat)
-        t_exp = _best_of(expansion, args.repeat)
+        t_scr = best_time(scratch_one, args.repeat)                      # one candidate; L of them cost L x
+        t_inc = best_time(incremental, args.repeat)
+        t_exp = best_time(expansion, args.repeat)
         exact, fast = np.array(incremental()), expansion()
         err = 10 * np.log10(np.sum(np.abs(fast - exact) ** 2) / np.sum(np.abs(exact - acc) ** 2))
         print(f"L={L:2d}  scratch {1 / t_scr:8.2f} cand/s   incremental {L / t_inc:8.2f} cand/s "
@@ -99,9 +90,9 @@ def main(argv=None) -> None:
 def _sweep_projection(prob, noisy, si, sigma, runs) -> None:
     spacing = fs.table41_spacings(sigma)[15]
     fs.run_search(prob, noisy, si, "source", 11, spacing=spacing)
-    t = _best_of(lambda: fs.run_search(prob, noisy, si, "source", 11, spacing=spacing), runs)
+    t = best_time(lambda: fs.run_search(prob, noisy, si, "source", 11, spacing=spacing), runs)
     span = fs.TABLE41_BIAS + 3 * sigma / np.sqrt(si)
-    t_imp = _best_of(lambda: (fs.run_search(prob, noisy, si, "grid", 11, span=span),
+    t_imp = best_time(lambda: (fs.run_search(prob, noisy, si, "grid", 11, span=span),
                               fs.run_search(prob, noisy, si, "brent", 11, span=span)), runs)
     total = 300 * t + 10 * t_imp
     print(f"one search run (S_i={si}, L=11, kurtosis): {t:.2f} s; grid + brent: {t_imp:.2f} s; "

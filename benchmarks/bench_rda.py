@@ -24,7 +24,6 @@ block (100 x 1401, thesis Table 5.1), a FlexSAR-like block (1667 x 547, Table 5.
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 import scipy.fft as sfft
@@ -32,6 +31,7 @@ import scipy.fft as sfft
 from sarnav.signal.data import PulseData
 from sarnav.imaging.rda import range_doppler
 from sarnav.units import C
+from timing import best_time
 
 FC, FS, SPEED, R_NEAR = 9.75e9, 1e9, 60.0, 1950.0
 
@@ -49,16 +49,6 @@ def make_pulses(p: int, n: int, seed: int = 0) -> PulseData:
     return PulseData(data, r, t, pos, compressed=True, wavelength=C / FC, bandwidth=500e6)
 
 
-def best_time(fn, repeat: int) -> float:
-    fn()
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["100x1401", "1667x547", "2048x2048"])
@@ -74,10 +64,11 @@ def main(argv=None) -> None:
         def ffts():
             sfft.ifft(sfft.fft(x, axis=0), axis=0)
 
-        t_fft = best_time(ffts, args.repeat)
-        t_rda = best_time(lambda: range_doppler(rc, SPEED, window="none"), args.repeat)
-        t_full = best_time(lambda: range_doppler(rc, SPEED, window="none", band_limit=0.0), args.repeat)
-        t_nor = best_time(lambda: range_doppler(rc, SPEED, window="none", rcmc_kernel="none"), args.repeat)
+        t_fft = best_time(ffts, args.repeat, warm_up=True)
+        t_rda = best_time(lambda: range_doppler(rc, SPEED, window="none"), args.repeat, warm_up=True)
+        t_full = best_time(lambda: range_doppler(rc, SPEED, window="none", band_limit=0.0), args.repeat,
+                           warm_up=True)
+        t_nor = best_time(lambda: range_doppler(rc, SPEED, window="none", rcmc_kernel="none"), args.repeat, warm_up=True)
         print(f"{size:>11} {1e3 * t_fft:10.2f} {1e3 * t_rda:9.2f} {t_rda / t_fft:6.2f} {1e3 * t_full:15.2f} "
               f"{t_full / t_fft:6.2f} {1e3 * t_nor:13.2f} {t_nor / t_fft:6.2f}")
 

@@ -34,10 +34,11 @@ import numpy as np
 
 from sarnav.montecarlo.seeding import default_chunk_size
 from sarnav.scenarios import rda_nav as rn
+from sarnav.scenarios.registry import get_scenario
 
 
 def _cfg(scenario: str, duration: float, mode: str) -> dict:
-    cfg = {"flexsar": rn.flexsar_config, "terrain": rn.terrain_config}.get(scenario, rn.default_config)()
+    cfg = get_scenario({"flexsar": "rda-nav-flexsar", "terrain": "rda-nav-terrain"}.get(scenario, "rda-nav"))
     cfg["trajectory"]["duration"] = float(duration)
     cfg["sar"]["measurement"] = mode
     return cfg

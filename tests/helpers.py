@@ -5,6 +5,8 @@ spawn_seeds : the children themselves.
 nav_at : a NavState starting R runs exactly on one epoch of a truth state (zero IMU biases).
 level_nav : a NavState at given positions and velocities with level attitude and zero IMU biases.
 child_pids : process ids whose parent is a given pid (Linux /proc).
+straight_pulse_track : pulse times centred on 0 and antenna positions of a straight level flight north.
+random_point_scene : an aperture north and random point targets at 30 deg depression (FFBP tests, bench_ffbp.py).
 """
 
 from __future__ import annotations
@@ -54,3 +56,30 @@ def child_pids(pid: int) -> list[int]:
         if int(fields[1]) == pid:
             out.append(int(stat.parent.name))
     return out
+
+
+def straight_pulse_track(n_pulses: int, prf: float, speed: float, altitude: float):
+    """(pulse times [s] centred on 0, antenna positions (n_pulses, 3) NED [m]) of a flight north at ``speed`` [m/s]
+    and ``altitude`` [m] through the NED origin's vertical at t = 0."""
+    times = (np.arange(n_pulses) - 0.5 * (n_pulses - 1)) / prf
+    pos = np.zeros((n_pulses, 3))
+    pos[:, 0] = speed * times
+    pos[:, 2] = -altitude
+    return times, pos
+
+
+def random_point_scene(npx: int, p: int, slant: float, px: float, n_targets: int, seed: int, wavelength: float):
+    """A track north and a square of ``npx`` x ``px`` m at ``slant`` [m] and 30 deg depression holding ``n_targets``
+    random point targets (seeded): (antenna positions (p, 3) over the aperture for ``px`` azimuth resolution, target
+    positions (n, 3), complex amplitudes (n,), ranges (p, n), the scene centre's east [m])."""
+    alt, east = 0.5 * slant, slant * np.sqrt(0.75)
+    aperture = wavelength * slant / (2 * px)
+    pos = np.zeros((p, 3))
+    pos[:, 0] = (np.arange(p) - p / 2) * aperture / p
+    pos[:, 2] = -alt
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    w = npx * px
+    tg = np.column_stack([rng.uniform(-w / 2, w / 2, n_targets), east + rng.uniform(-w / 2, w / 2, n_targets),
+                          np.zeros(n_targets)])
+    amp = rng.standard_normal(n_targets) + 1j * rng.standard_normal(n_targets)
+    return pos, tg, amp, np.linalg.norm(tg[None] - pos[:, None], axis=2), east

@@ -47,17 +47,21 @@ def _modules():
         yield f, ".".join(("sarnav",) + parts), f.relative_to(SRC).parts[0].removesuffix(".py")
 
 
+def _from_module(node: ast.ImportFrom, module: str, is_package: bool) -> str:
+    """The absolute module of ``from ... import`` in ``module`` (relative imports resolved)."""
+    if not node.level:
+        return node.module or ""
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    base = base[: len(base) - node.level + 1]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports(tree: ast.AST, module: str, is_package: bool):
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             yield from (a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = module.split(".") if is_package else module.split(".")[:-1]
-                base = base[: len(base) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
+            mod = _from_module(node, module, is_package)
             yield mod
             for a in node.names:  # "from sarnav.filters import update" imports the module sarnav.filters.update
                 yield f"{mod}.{a.name}"
@@ -183,12 +187,7 @@ def _private_imports(f, mod):
     bound = {}                                     # local name -> sarnav module it is bound to
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = mod.split(".") if is_package else mod.split(".")[:-1]
-                base = base[: len(base) - node.level + 1]
-                src = ".".join(base + ([node.module] if node.module else []))
-            else:
-                src = node.module or ""
+            src = _from_module(node, mod, is_package)
             if not (src == "sarnav" or src.startswith("sarnav.")) or src == mod:
                 continue
             for a in node.names:

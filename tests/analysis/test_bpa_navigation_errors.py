@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import straight_pulse_track
 
 from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.grid import GroundGrid
@@ -50,11 +51,7 @@ INTERP = dict(interpolation="upsample", upsample=8)  # low-order interpolation b
 
 
 def true_track(n_pulses: int):
-    eta = (np.arange(n_pulses) - 0.5 * (n_pulses - 1)) / PRF
-    pos = np.zeros((n_pulses, 3))
-    pos[:, 0] = V * eta
-    pos[:, 2] = -H
-    return eta, pos
+    return straight_pulse_track(n_pulses, PRF, V, H)
 
 
 def compressed(n_pulses: int):
@@ -141,14 +138,19 @@ def azimuth_response_model(n_pulses: int, dv_along: float, x: np.ndarray, error=
     return np.abs(np.exp(4j * np.pi * (r_hat - r_true[None, :]) / LAM).sum(axis=1))
 
 
+def reference_image(n_pulses: int, shape):
+    """(pulses, their times, the azimuth cell, a grid of ``shape`` pixels around the target, the true track's image)."""
+    rc, eta = compressed(n_pulses)
+    cell = azimuth_cell(n_pulses)
+    grid = GroundGrid.centered(0.0, YT, cell / 6, shape, spacing_east=0.25)
+    return rc, eta, cell, grid, backproject(rc, grid, **INTERP)
+
+
 def test_along_track_velocity_error_blurs_more_with_longer_aperture():
     dv = 0.2                                                  # m/s along track
     results = {}
     for n_pulses in (256, 1024):
-        rc, eta = compressed(n_pulses)
-        cell = azimuth_cell(n_pulses)
-        grid = GroundGrid.centered(0.0, YT, cell / 6, (160, 48), spacing_east=0.25)
-        ref = backproject(rc, grid, **INTERP)
+        rc, eta, cell, grid, ref = reference_image(n_pulses, (160, 48))
         img = backproject(rc, grid, positions=rc.positions + np.outer(eta, [dv, 0, 0]), **INTERP)
         (pn, _), amp = peak(img)
         _, amp_ref = peak(ref)
@@ -192,10 +194,7 @@ def test_roll_error_blurs_and_yaw_error_does_nothing():
     roll = attitude_position_error([0.001, 0.0, 0.0])
     losses = {}
     for n_pulses in (256, 1024):
-        rc, eta = compressed(n_pulses)
-        cell = azimuth_cell(n_pulses)
-        grid = GroundGrid.centered(0.0, YT, cell / 6, (96, 32), spacing_east=0.25)
-        ref = backproject(rc, grid, **INTERP)
+        rc, eta, cell, grid, ref = reference_image(n_pulses, (96, 32))
         img = backproject(rc, grid, positions=rc.positions + roll(eta), **INTERP)
         _, amp = peak(img)
         _, amp_ref = peak(ref)

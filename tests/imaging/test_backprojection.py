@@ -13,6 +13,7 @@ from dataclasses import replace
 import numba
 import numpy as np
 import pytest
+from helpers import straight_pulse_track
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.backprojection import (INTERPOLATIONS, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, backproject,
@@ -35,11 +36,7 @@ PSLR_RECT, ISLR_RECT_10 = -13.26, -10.11            # anchors-sar §3.1 (ISLR: 1
 
 
 def track(n_pulses: int):
-    times = (np.arange(n_pulses) - 0.5 * (n_pulses - 1)) / PRF
-    pos = np.zeros((n_pulses, 3))
-    pos[:, 0] = SPEED * times
-    pos[:, 2] = -ALT
-    return times, pos
+    return straight_pulse_track(n_pulses, PRF, SPEED, ALT)
 
 
 def radar(near: float, n: int = 320) -> RadarParams:

@@ -7,6 +7,7 @@ Slow test (2048^2 pixels, 2048 pulses): ``python -m pytest -q -m slow tests/imag
 from __future__ import annotations
 
 import numpy as np
+from helpers import random_point_scene
 import pytest
 
 from sarnav.errors import ConfigError
@@ -24,17 +25,7 @@ LAM = C / FC
 def scene(npx, p, slant, px=0.5, n_targets=200, seed=1):
     """Track north, scene at 30 deg depression; aperture for px azimuth resolution; pulses spaced at the
     azimuth Nyquist of the scene width (the hardest case for FFBP: the scene fills the PRF band)."""
-    alt, east = 0.5 * slant, slant * np.sqrt(0.75)
-    aperture = LAM * slant / (2 * px)
-    pos = np.zeros((p, 3))
-    pos[:, 0] = (np.arange(p) - p / 2) * aperture / p
-    pos[:, 2] = -alt
-    rng = np.random.default_rng(np.random.SeedSequence(seed))
-    w = npx * px
-    tg = np.column_stack([rng.uniform(-w / 2, w / 2, n_targets), east + rng.uniform(-w / 2, w / 2, n_targets),
-                          np.zeros(n_targets)])
-    amp = rng.standard_normal(n_targets) + 1j * rng.standard_normal(n_targets)
-    rt = np.linalg.norm(tg[None] - pos[:, None], axis=2)
+    pos, tg, amp, rt, east = random_point_scene(npx, p, slant, px, n_targets, seed, LAM)
     dr = C / (4 * BW)                                   # fs = 2 B
     r = rt.min() - 30 * dr + np.arange(int((rt.max() - rt.min()) / dr) + 60) * dr
     data = np.zeros((p, r.size), complex)

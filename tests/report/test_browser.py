@@ -29,9 +29,8 @@ def _check_loads(page, tmp_path) -> None:
     assert console == []
 
 
-def test_report_page_loads_and_shows_its_figures(small_campaigns, tmp_path, capsys):
-    assert main(["report", str(small_campaigns["tactical"])]) == 0
-    page = small_campaigns["tactical"] / "report.html"
+def _shows_figures(page, tmp_path):
+    """The page loads with every image and no console message, and its screenshot shows plots; its pixel stats."""
     _check_loads(page, tmp_path)
     shot = screenshot(CHROMIUM, page, tmp_path)
     assert shot.console == []
@@ -39,17 +38,19 @@ def test_report_page_loads_and_shows_its_figures(small_campaigns, tmp_path, caps
     # text and tables alone give a few hundred grey levels at most; plots add thousands of anti-aliased colours
     assert stats.distinct_colours > 1000, stats
     assert stats.non_white_fraction > 0.05, stats
+    return stats
+
+
+def test_report_page_loads_and_shows_its_figures(small_campaigns, tmp_path, capsys):
+    assert main(["report", str(small_campaigns["tactical"])]) == 0
+    page = small_campaigns["tactical"] / "report.html"
+    stats = _shows_figures(page, tmp_path)
     assert stats.red_pixels > 500, stats  # the figures' red ±3σ curves are on screen
 
 
 def test_compare_page_loads_and_shows_its_overlays(compared_campaigns, tmp_path):
     page = compared_campaigns[0] / "compare.html"
-    _check_loads(page, tmp_path)
-    shot = screenshot(CHROMIUM, page, tmp_path)
-    assert shot.console == []
-    stats = pixel_stats(shot.png)
-    assert stats.distinct_colours > 1000, stats
-    assert stats.non_white_fraction > 0.05, stats
+    stats = _shows_figures(page, tmp_path)
     assert stats.orange_pixels > 500, stats  # the second campaign's curves (matplotlib C1) are on screen
 
 

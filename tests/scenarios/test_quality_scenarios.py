@@ -94,49 +94,39 @@ def test_show_prints_a_file_that_runs_as_the_same_scenario(name, tmp_path, capsy
     assert load_scenario(str(f)) == get_scenario(name)
 
 
-@pytest.mark.parametrize("key,value,field", [
-    ("search.candidates", [0], "search.candidates[0]"),
-    ("search.block_pulses", [5000], "search.block_pulses[0]"),
-    ("search.method", ["viterbi"], "search.method[0]"),
-    ("search.controls", ["truth"], "search.controls[0]"),
-    ("search.measure", "sharpness", "search.measure"),
-    ("search.initial_pulses", 4000, "search.initial_pulses"),
-    ("image.size", 1, "image.size"),
-    ("aperture.n_pulses", 10**6, "aperture.n_pulses"),
-    ("trajectory.start_ned", [0.0, 5.0, -1000.0], "trajectory.start_ned[1]"),
-    ("trajectory.start_ned", [0.0, 0.0, -5.0], "trajectory.start_ned[2]"),
-    ("trajectory.speed", 200.0, "trajectory.speed"),  # the source's PRF no longer covers the Doppler band
-    ("scene.extent", 900.0, "scene.ground_range"),
-    ("radar.preset", "nav-paper-sim", "radar.preset"),
-    ("radar.prf_hz", 1000.0, "radar.prf_hz"),  # the radar is the thesis' own
-    ("radar.snr_db", 200.0, "radar.snr_db"),
-    ("scene.type", "city", "scene.type"),
-    ("scene.clutter_density", 1e3, "scene.clutter_density"),
+@pytest.mark.parametrize("module,key,value,field", [
+    (gpsd_search, "search.candidates", [0], "search.candidates[0]"),
+    (gpsd_search, "search.block_pulses", [5000], "search.block_pulses[0]"),
+    (gpsd_search, "search.method", ["viterbi"], "search.method[0]"),
+    (gpsd_search, "search.controls", ["truth"], "search.controls[0]"),
+    (gpsd_search, "search.measure", "sharpness", "search.measure"),
+    (gpsd_search, "search.initial_pulses", 4000, "search.initial_pulses"),
+    (gpsd_search, "image.size", 1, "image.size"),
+    (gpsd_search, "aperture.n_pulses", 10**6, "aperture.n_pulses"),
+    (gpsd_search, "trajectory.start_ned", [0.0, 5.0, -1000.0], "trajectory.start_ned[1]"),
+    (gpsd_search, "trajectory.start_ned", [0.0, 0.0, -5.0], "trajectory.start_ned[2]"),
+    (gpsd_search, "trajectory.speed", 200.0, "trajectory.speed"),  # the source's PRF no longer covers the Doppler band
+    (gpsd_search, "scene.extent", 900.0, "scene.ground_range"),
+    (gpsd_search, "radar.preset", "nav-paper-sim", "radar.preset"),
+    (gpsd_search, "radar.prf_hz", 1000.0, "radar.prf_hz"),  # the radar is the thesis' own
+    (gpsd_search, "radar.snr_db", 200.0, "radar.snr_db"),
+    (gpsd_search, "scene.type", "city", "scene.type"),
+    (gpsd_search, "scene.clutter_density", 1e3, "scene.clutter_density"),
+    (quality_sweep, "sweep.sizes", [1], "sweep.sizes[0]"),
+    (quality_sweep, "sweep.bins", [1], "sweep.bins[0]"),
+    (quality_sweep, "sweep.measures", ["sharpness"], "sweep.measures[0]"),
+    (quality_sweep, "sweep.directions", ["up"], "sweep.directions[0]"),
+    (quality_sweep, "sweep.pivot", "last", "sweep.pivot"),
+    (quality_sweep, "sweep.sizes", list(range(400, 388, -1)), "sweep.sizes"),
+    (quality_sweep, "reliability.scenes", 201, "reliability.scenes"),
 ])
-def test_search_errors_name_the_key(key, value, field):
-    cfg = gpsd_search.default_config()
+def test_errors_name_the_key(module, key, value, field):
+    """The field of the ConfigError of ``module.parse`` on its default configuration with ``key`` set to ``value``."""
+    cfg = module.default_config()
     sec, k = key.split(".")
     cfg[sec][k] = value
     with pytest.raises(ConfigError) as err:
-        gpsd_search.parse(cfg)
-    assert err.value.field == field
-
-
-@pytest.mark.parametrize("key,value,field", [
-    ("sweep.sizes", [1], "sweep.sizes[0]"),
-    ("sweep.bins", [1], "sweep.bins[0]"),
-    ("sweep.measures", ["sharpness"], "sweep.measures[0]"),
-    ("sweep.directions", ["up"], "sweep.directions[0]"),
-    ("sweep.pivot", "last", "sweep.pivot"),
-    ("sweep.sizes", list(range(400, 388, -1)), "sweep.sizes"),
-    ("reliability.scenes", 201, "reliability.scenes"),
-])
-def test_sweep_errors_name_the_key(key, value, field):
-    cfg = quality_sweep.default_config()
-    sec, k = key.split(".")
-    cfg[sec][k] = value
-    with pytest.raises(ConfigError) as err:
-        quality_sweep.parse(cfg)
+        module.parse(cfg)
     assert err.value.field == field
 
 

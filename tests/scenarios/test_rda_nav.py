@@ -12,6 +12,7 @@ from scipy.stats import chi2
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.filters import correlated_update
 from sarnav.scenarios import rda_nav as rn
+from sarnav.scenarios.registry import get_scenario
 from sarnav.simulation.rda_nav import measurement_sigma, reference_targets
 
 KIND = rn.RdaNavKind()
@@ -435,7 +436,7 @@ def test_campaign_flexsar_image_mode_is_consistent(tmp_path_factory):
     from sarnav.analysis.consistency import sigma_containment
     from sarnav.montecarlo.campaign import run_campaign
 
-    cfg = rn.flexsar_config()
+    cfg = get_scenario("rda-nav-flexsar")
     cfg["campaign"]["runs"] = 20
     ds = run_campaign(cfg, tmp_path_factory.mktemp("flexsar"), executor="processes", workers=2, quiet=True,
                       kind=KIND).dataset

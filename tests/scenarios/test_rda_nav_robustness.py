@@ -13,7 +13,8 @@ import pytest
 from sarnav.montecarlo.campaign import run_campaign
 from sarnav.scenarios import rda_nav as rn
 from sarnav.scenarios.config import load_scenario
-from sarnav.scenarios.study import robustness_study, run_study
+from sarnav.scenarios.registry import get_scenario
+from sarnav.scenarios.study import run_study
 
 KIND = rn.RdaNavKind()
 
@@ -43,7 +44,7 @@ NOT_MET = {
 
 
 def test_the_robustness_study_draws_its_sweeps(tmp_path):
-    cfg = robustness_study()
+    cfg = get_scenario("rda-nav-robustness")
     assert [sw["name"] for sw in cfg["sweeps"]] == ["snr", "clutter", "reference-offset"]
     cfg["campaign"]["runs"] = 1
     cfg["base"]["trajectory"]["duration"] = 2.0
@@ -69,7 +70,7 @@ def test_a_bad_sweep_names_the_field():
     from sarnav.errors import ConfigError
     from sarnav.scenarios.config import validate_scenario
 
-    cfg = robustness_study()
+    cfg = get_scenario("rda-nav-robustness")
     cfg["sweeps"][0]["x"] = cfg["sweeps"][0]["x"][:-1]
     with pytest.raises(ConfigError, match=r"^sweeps\[0\]\.x"):
         validate_scenario(cfg)
@@ -102,7 +103,7 @@ def test_variant_is_consistent_with_r_from_each_image(name, tmp_path):
 def test_position_sigma_grows_smoothly_as_the_snr_drops(tmp_path):
     """The SNR sweep of the robustness study (10 runs per case): the final position 3-sigma grows monotonically and
     the filter stays consistent, so the growth is not a cliff hidden by an inconsistent filter."""
-    cfg = robustness_study()
+    cfg = get_scenario("rda-nav-robustness")
     snr = [c for c in cfg["cases"] if c["label"].startswith("snr-")]
     cfg["cases"] = snr
     cfg["sweeps"] = [sw for sw in cfg["sweeps"] if sw["name"] == "snr"]

@@ -162,16 +162,15 @@ class NavFrame:
         pos = np.asarray(pos, dtype=float)
         if not self.geodetic:
             return pos.copy()
-        sn, se = self.scales()
-        lat0, lon0, h0 = self.origin
+        (sn, se), (lat0, lon0, h0) = self.scales(), self.origin
         return np.stack([(pos[..., 0] - lat0) * sn, (pos[..., 1] - lon0) * se, -(pos[..., 2] - h0)], -1)
 
     def to_native(self, local) -> np.ndarray:
+        """Local metres (..., 3) -> native positions (..., 3) (the inverse of :meth:`to_local`)."""
         local = np.asarray(local, dtype=float)
         if not self.geodetic:
             return local.copy()
-        sn, se = self.scales()
-        lat0, lon0, h0 = self.origin
+        (sn, se), (lat0, lon0, h0) = self.scales(), self.origin
         return np.stack([lat0 + local[..., 0] / sn, lon0 + local[..., 1] / se, h0 - local[..., 2]], -1)
 
     def error_ned(self, estimate, truth) -> np.ndarray:

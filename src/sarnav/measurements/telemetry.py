@@ -61,15 +61,21 @@ class AltimeterMeasurement(ScalarBiasedMeasurement):
         return _zeros3(p), _zeros3(p), _zeros3(p)
 
 
-class RangeMeasurement(ScalarBiasedMeasurement):
+class _ToTarget(ScalarBiasedMeasurement):
+    """A measurement to the known ground target ``target`` (NED [m]); ``bias``: its bias state (default the class's
+    ``bias_state``)."""
+
+    bias_state = ""
+
+    def __init__(self, target, sigma: float, layout: ErrorStateLayout, bias: str | None = None):
+        self.target = _target(target)
+        super().__init__(sigma, layout, self.bias_state if bias is None else bias)
+
+
+class RangeMeasurement(_ToTarget):
     """Slant range to the known target ``|r - p|`` [m] (eq. 3.13, second row)."""
 
-    names = ("range",)
-    units = ("m",)
-
-    def __init__(self, target, sigma: float, layout: ErrorStateLayout, bias: str = "b_range"):
-        self.target = _target(target)
-        super().__init__(sigma, layout, bias)
+    names, units, bias_state = ("range",), ("m",), "b_range"
 
     def model(self, p, v):
         d = self.target - np.asarray(p, dtype=float)
@@ -81,15 +87,10 @@ class RangeMeasurement(ScalarBiasedMeasurement):
         return proj / rho[:, None, None], _zeros3(p), _zeros3(p)
 
 
-class RangeRateMeasurement(ScalarBiasedMeasurement):
+class RangeRateMeasurement(_ToTarget):
     """Range rate to the known target ``-v^T (r - p)/|r - p|`` [m/s] (eq. 3.13, third row)."""
 
-    names = ("rate",)
-    units = ("m/s",)
-
-    def __init__(self, target, sigma: float, layout: ErrorStateLayout, bias: str = "b_rate"):
-        self.target = _target(target)
-        super().__init__(sigma, layout, bias)
+    names, units, bias_state = ("rate",), ("m/s",), "b_rate"
 
     def model(self, p, v):
         v = np.asarray(v, dtype=float)

@@ -31,7 +31,6 @@ import pymap3d
 import sarnav
 from sarnav.cf import apply_cf
 from sarnav.analysis.consistency import nees_statistics, nis_statistics, sigma_containment
-from sarnav.errors import ConfigError
 from sarnav.filters import error_state
 from sarnav.ins import NavState
 from sarnav.recording.navigate import REJECTIONS, SKIPPED, NavigateSettings, Navigation, navigate
@@ -354,19 +353,12 @@ def _status(out: Path, doc: dict) -> None:
 
 def prepare_output(out, overwrite: bool = False) -> Path:
     """The output folder, created; one holding other files is refused (ConfigError ``--out``) unless
-    ``overwrite``, which removes navigate's own files (OUTPUT_FILES, their .partial forms, navigate.json)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ConfigError("--out", f"{str(out)!r} is a file, not a folder")
-    if out.is_dir() and any(out.iterdir()):
-        if not overwrite:
-            raise ConfigError("--out", f"{str(out)!r} is not empty (--overwrite replaces navigate's outputs there)")
-        for name in OUTPUT_FILES + (STATUS_FILE,):
-            for f in (out / name, out / f"{name}.partial"):
-                if f.is_file():
-                    f.unlink()
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+    ``overwrite``, which removes navigate's own files (OUTPUT_FILES, their .partial forms, navigate.json;
+    ``simulation.export.prepare_folder``)."""
+    from sarnav.simulation.export import prepare_folder
+
+    own = [f for name in OUTPUT_FILES + (STATUS_FILE,) for f in (name, f"{name}.partial")]
+    return prepare_folder(out, overwrite, own, "navigate's outputs")
 
 
 def run_navigate(rec, out, settings: NavigateSettings | None = None, progress=None, overwrite: bool = False,

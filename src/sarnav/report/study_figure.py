@@ -1,8 +1,9 @@
 """Study outputs: the comparison figure of the filter 3σ of each case on one set of panels (thesis Figs 3.8-3.11,
-where line styles tell the cases apart) and ``study.json``."""
+where line styles tell the cases apart), the sweep figures and ``study.json`` (:func:`write_study_files`)."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -10,7 +11,8 @@ from matplotlib.figure import Figure
 
 from sarnav.report.figures import save_png
 
-__all__ = ["plot_study_comparison", "write_study_json", "default_state_unit", "study_figure_specs", "LINE_STYLES"]
+__all__ = ["plot_study_comparison", "write_study_json", "write_study_files", "default_state_unit", "study_figure_specs",
+           "LINE_STYLES"]
 
 #: line styles of the cases, in order, where a case names none (== sarnav.scenarios.study.STYLES)
 LINE_STYLES = ("-", "--", "-.", ":")
@@ -130,3 +132,44 @@ def plot_sweep(points: dict, x_label: str, title: str, path) -> str:
         a.grid(True, alpha=0.3)
     fig.suptitle(title)
     return save_png(fig, path)
+
+
+def write_study_files(cfg: dict, kind, outcomes, out: Path, figures: bool) -> dict:
+    """A finished study's files in ``out``: each case's campaign figures (``figures``, drawn with ``kind``, the base
+    scenario's kind), the comparison and sweep figures and ``study.json``, whose content it returns; ``outcomes``:
+    ``montecarlo.study.CaseOutcome`` per case."""
+    from sarnav.report.figures import write_campaign_figures
+    from sarnav.tomlio import dump_toml
+
+    by_label = {o.label: o for o in outcomes}
+    cases_out = [{"label": case["label"], "set": case.get("set", {}), "dir": case["label"],
+                  "states": by_label[case["label"]].states} for case in cfg["cases"]]
+    if figures:
+        for o in outcomes:
+            write_campaign_figures(o.result.dataset, out / o.label, kind=kind)
+    fig_paths = []
+    if figures:
+        style = {c["label"]: c.get("style", LINE_STYLES[k % len(LINE_STYLES)]) for k, c in enumerate(cfg["cases"])}
+        for spec in study_figure_specs(cfg):
+            sel = [(lab, *by_label[lab].curves[:2], style[lab]) for lab in spec["cases"]]
+            path = out / f"study_{spec['name']}.png"
+            fig_paths.append(plot_study_comparison(sel, by_label[spec["cases"][0]].curves[2], spec["states"],
+                                                   spec["title"], path))
+    sweeps = {}
+    for sw in cfg.get("sweeps", []):
+        sweeps[sw["name"]] = sweep_points([by_label[lab].result.summary for lab in sw["cases"]], sw["x"])
+        if figures:
+            fig_paths.append(plot_sweep(sweeps[sw["name"]], sw.get("x_label", ""), sw.get("title", ""),
+                                        out / f"sweep_{sw['name']}.png"))
+    result = {
+        "study": cfg["scenario"]["name"],
+        "runs": cfg["campaign"]["runs"],
+        "seed": cfg["campaign"]["seed"],
+        "complete": True,
+        "cases": cases_out,
+        "figures": [Path(p).name for p in fig_paths],
+        **({"sweeps": sweeps} if sweeps else {}),
+        "scenario_toml": dump_toml(cfg),
+    }
+    write_study_json(out / "study.json", result)
+    return result

@@ -1,13 +1,9 @@
 """Study ``bpa-sensitivity``: image shift and blur of a BPA image formed with an erroneous trajectory (thesis ch. 4).
 
-Configuration and wiring only: the defaults, ``parse`` (TOML ->
-:class:`~sarnav.analysis.bpa_sensitivity.BpaSensitivityParams`) and the kind; the study itself is
-``sarnav.analysis.bpa_sensitivity.run``, its table and figure ``sarnav.report.sensitivity``
-(docs/scenarios/bpa-sensitivity.md).
-
-Geometry (the thesis gives none for ch. 4): 10 m/s north at 1000 m, target on the ground 1800 m east of the track
-at mid-aperture, 6-s aperture, nav-paper radar (9.75 GHz, 500 MHz, 1 GHz sampling) at PRF 100 Hz with a 0.2 us
-chirp and a receive window R0 +- ``radar.range_margin_m`` (plus the pulse half-extent).
+Configuration and wiring only: the defaults (the geometry, which the thesis does not give for ch. 4:
+docs/scenarios/bpa-sensitivity.md), ``parse`` (TOML -> :class:`~sarnav.analysis.bpa_sensitivity.BpaSensitivityParams`)
+and the kind; the study itself is ``sarnav.analysis.bpa_sensitivity.run``, its table and figure
+``sarnav.report.sensitivity``.
 """
 
 from __future__ import annotations
@@ -19,6 +15,7 @@ from sarnav.analysis.bpa_sensitivity import (MAX_PIXEL_PULSES, THESIS_SIM_ERRORS
 from sarnav.errors import ConfigError, require_finite
 from sarnav.scenarios.fields import choice, get, number, positive, table
 from sarnav.scenarios.kind_base import FileKind
+from sarnav.scenarios.registry import packaged
 from sarnav.scenarios.vocabulary import (MAX_SPEED, doppler_prf_check, echo_block_check, make_radar, positive_up_to,
                                          radar_fields, read_altitude)
 
@@ -30,17 +27,9 @@ MIN_PULSES, MAX_PULSES = 8, 65536
 
 
 def default_config() -> dict:
-    """The ``bpa-sensitivity`` study as a TOML-able dict."""
-    return {
-        "scenario": {"name": "bpa-sensitivity", "kind": "bpa-sensitivity",
-                     "description": "Thesis ch. 4 / Figs 4.11-4.13: BPA image shift and blur from injected navigation errors"},
-        "campaign": {"runs": 1, "seed": 0},
-        "trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 10.0, "duration": 6.0},  # north; duration = aperture
-        "scene": {"target_ground_range": 1800.0},  # east of the track at mid-aperture, on the ground
-        "radar": {"preset": "nav-paper-sim", "prf_hz": 100.0, "pulse_length_us": 0.2, "range_margin_m": 30.0},
-        "image": {"spacing": 0.1, "margin": 4.0, "interpolation": "cubic"},
-        "errors": {name: v[2] for name, v in THESIS_SIM_ERRORS.items()},
-    }
+    """The ``bpa-sensitivity`` study: ``defaults/bpa-sensitivity.toml`` (``[errors]``: the thesis' simulated errors,
+    ``analysis.bpa_sensitivity.THESIS_SIM_ERRORS``)."""
+    return packaged("bpa-sensitivity")
 
 
 def parse(cfg: dict) -> BpaSensitivityParams:

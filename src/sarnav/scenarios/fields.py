@@ -14,7 +14,7 @@ from sarnav.errors import ConfigError, require_finite, require_positive
 
 __all__ = ["table", "get", "positive", "vector", "boolean", "bounded_positive", "POSITIVE_RANGE",
            "MIN_CORRELATION_TIME", "number", "integer", "integer_value", "choice", "bounded_vector", "number_list",
-           "int_list", "name_list"]
+           "int_list", "name_list", "known_keys"]
 
 #: the range of a positive physical quantity read from a scenario, in SI units (a noise 3-sigma, a correlation time,
 #: a rate...): below 1e-6 a noise variance (<= 1e-13) is too small beside the others' for float64 (a 1e-12 m altimeter
@@ -148,3 +148,10 @@ def name_list(cfg: dict, name: str, key: str, choices, allow_empty: bool = False
     if len(set(value)) != len(value):
         raise ConfigError(field, f"must not repeat a name, got {value!r}")
     return list(value)
+
+
+def known_keys(table: dict, known, field: str) -> None:
+    """Refuse a key of ``table`` (the table ``field``) that is not in ``known``, naming it and the known keys."""
+    unknown = set(table) - set(known)
+    if unknown:
+        raise ConfigError(f"{field}.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(known))})")

@@ -1,49 +1,26 @@
-"""Image-formation scenarios (``kind = "image"``): one block of echoes focused into one image.
+"""Image-formation scenarios (``kind = "image"``): one block of echoes focused into one image (docs/imaging.md
+"Scenarios": the tables ``[radar]``, ``[trajectory]``, ``[scene]``, ``[image]`` and their keys).
 
-Two named scenarios, each a nested dict that round-trips through TOML:
-
-* ``point-target`` — one point target in the middle of the block (the point-target checks of the thesis ch. 5 /
-  anchors-sar §3: IRW, PSLR, ISLR against theory);
-* ``scatterers`` — a random field of point scatterers (Poisson, seeded) over the imaged patch.
-
-Tables (shared vocabulary, docs/scenarios/vocabulary.md)::
-
-    [scenario]   name, kind = "image", description
-    [radar]      carrier_ghz, bandwidth_mhz, sample_rate_mhz, pulse_length_us, prf_hz, antenna_length_m,
-                 look_side, range_window, antenna_pattern (bool), snr_db (<= 200; 200 = no noise),
-                 range_margin_m (receive window beyond the imaged slant ranges)
-    [trajectory] start_ned [m] (the aperture centre, at t = 0), speed [m/s], duration [s] (straight, level, north)
-    [scene]      type ("point" | "random"), seed,
-                 target_along_track_m, target_slant_range_m          (point)
-                 along_track_extent_m, slant_range_min_m, slant_range_max_m,
-                 density_per_m2 (per m^2 of flat ground), amplitude_law  (random)
-                 origin_llh = [lat deg, lon deg, height m]: where the NED origin is on the WGS-84
-                 ellipsoid (used only by the CPHD / SICD files, ``sarnav image --cphd / --sicd``)
-    [image]      algorithm ("rda" | "bpa"), window, rcmc_kernel, azimuth_model, speed_error_mps,
-                 autofocus ("none" | "mapdrift" | "contrast"), bpa_interpolation
-
-The antenna flies north through ``start_ned`` at t = 0, looking right (east) by default; pulse times are centred on
-0, so the aperture centre is at north = start_ned[0] and the image's along-track axis is measured from it.
-``image.speed_error_mps`` is added to the true speed for focusing (a navigation speed error, to exercise autofocus).
-The receive window spans the imaged slant ranges plus the pulse half-extent cT/4 and ``radar.range_margin_m``.
-Configuration and wiring only: the defaults, ``parse`` (TOML -> :class:`~sarnav.simulation.image_scene.
-ImageSceneParams`) and the kind; the experiment (echoes, focusing, metrics) is ``simulation.image_scene.run``, the
-files ``report.image_files.write_scene_image`` (with the collect as CPHD ``collect.cphd``, scene reference point at
-the scene centre, and the back-projected image as SICD ``image.nitf``, through ``sarnav.io``).
+``point-target`` (one point target: IRW, PSLR, ISLR against theory) and ``scatterers`` (a Poisson field of point
+scatterers, seeded). The antenna flies north through ``trajectory.start_ned`` at t = 0 (pulse times centred on 0),
+looking right by default; ``image.speed_error_mps`` is added to the true speed for focusing; the receive window spans
+the imaged slant ranges plus cT/4 and ``radar.range_margin_m``. Configuration and wiring only: the defaults,
+``parse`` (TOML -> :class:`~sarnav.simulation.image_scene.ImageSceneParams`) and the kind; the experiment is
+``simulation.image_scene.run``, the files ``report.image_files.write_scene_image`` (CPHD, SICD through ``sarnav.io``).
 """
 
 from __future__ import annotations
 
-import copy
 import math
 from pathlib import Path
 
-
 from sarnav.errors import ConfigError
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
-from sarnav.scenarios.kind_base import FileKind
 from sarnav.radar.params import RadarParams
-from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields
+from sarnav.scenarios.fields import known_keys
+from sarnav.scenarios.kind_base import FileKind
+from sarnav.scenarios.registry import packaged
+from sarnav.scenarios.vocabulary import echo_block_check, make_radar, radar_fields, radar_key
 from sarnav.simulation.image_scene import ImageSceneParams, run
 
 __all__ = ["IMAGE_SCENARIOS", "ImageKind", "default_config", "validate", "parse", "run_image", "origin_llh",
@@ -53,52 +30,15 @@ SCENE_TYPES = ("point", "random")
 #: snr_db at or above this value means "no receiver noise" (TOML has no None; inf is rejected)
 NO_NOISE_SNR_DB = 200.0
 
-_BASE = {
-    "scenario": {"name": "", "kind": "image", "description": ""},
-    "radar": {
-        "carrier_ghz": 9.75, "bandwidth_mhz": 500.0, "sample_rate_mhz": 1000.0, "pulse_length_us": 1.0,
-        "prf_hz": 250.0, "antenna_length_m": 0.5, "look_side": "right", "range_window": "none",
-        "antenna_pattern": False, "snr_db": NO_NOISE_SNR_DB, "range_margin_m": 10.0,
-    },
-    "trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 60.0, "duration": 1.0},
-    "scene": {
-        "type": "point", "seed": 0,
-        "target_along_track_m": 0.0, "target_slant_range_m": 2000.0,
-        "along_track_extent_m": 40.0, "slant_range_min_m": 1985.0, "slant_range_max_m": 2020.0,
-        "density_per_m2": 0.01, "amplitude_law": "rayleigh", "origin_llh": [58.4, 15.6, 100.0],
-    },
-    "image": {
-        "algorithm": "rda", "window": "none", "rcmc_kernel": "sinc8", "azimuth_model": "parabolic",
-        "speed_error_mps": 0.0, "autofocus": "none", "bpa_interpolation": "upsample",
-    },
-}
-
-
-def point_target_config() -> dict:
-    cfg = copy.deepcopy(_BASE)
-    cfg["scenario"].update(name="point-target", description="One point target, 1-s X-band aperture at 60 m/s, "
-                           "RDA point-target metrics against theory (IRW, PSLR, ISLR)")
-    return cfg
-
-
-def scatterers_config() -> dict:
-    cfg = copy.deepcopy(_BASE)
-    cfg["scenario"].update(name="scatterers", description="Random field of point scatterers (Poisson, Rayleigh "
-                           "amplitudes, seeded) over a 40 m x 35 m slant patch")
-    cfg["scene"]["type"] = "random"
-    cfg["radar"]["antenna_pattern"] = True
-    return cfg
-
-
-#: name -> factory of the default configuration
-IMAGE_SCENARIOS = {"point-target": point_target_config, "scatterers": scatterers_config}
+#: the registered scenarios of the kind (``defaults/<name>.toml``)
+IMAGE_SCENARIOS = ("point-target", "scatterers")
 
 
 def default_config(name: str = "point-target") -> dict:
     """A fresh copy of the named image scenario's configuration (the reference file of the kind: point-target)."""
     if name not in IMAGE_SCENARIOS:
         raise ConfigError("scenario.name", f"unknown image scenario {name!r}; known: {', '.join(IMAGE_SCENARIOS)}")
-    return IMAGE_SCENARIOS[name]()
+    return packaged(name)
 
 
 def _num(cfg, table, key, lo=None, hi=None, lo_open=False, integer=False):
@@ -123,13 +63,12 @@ def _choice(cfg, table, key, options):
 
 
 def _tables(cfg: dict) -> None:
-    for table in _BASE:
+    base = packaged("point-target")
+    for table in base:
         if not isinstance(cfg.get(table), dict):
             raise ConfigError(table, f"missing table [{table}]")
-        unknown = set(cfg[table]) - set(_BASE[table])
-        if unknown:
-            raise ConfigError(f"{table}.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(_BASE[table]))})")
-        missing = set(_BASE[table]) - set(cfg[table])
+        known_keys(cfg[table], base[table], table)
+        missing = set(base[table]) - set(cfg[table])
         if missing:
             raise ConfigError(f"{table}.{sorted(missing)[0]}", "missing")
     if cfg["scenario"]["kind"] != "image":
@@ -141,7 +80,11 @@ def altitude(cfg: dict) -> float:
 
 
 def validate(cfg: dict) -> None:
-    """Raise :class:`ConfigError` naming the first bad field and its valid range."""
+    """Raise :class:`ConfigError` naming the first bad field and its valid range (:func:`parse`)."""
+    parse(cfg)
+
+
+def _check(cfg: dict) -> None:
     from sarnav.imaging.rda import RCMC_KERNELS
     from sarnav.signal.windows import Window
 
@@ -178,7 +121,6 @@ def validate(cfg: dict) -> None:
     origin_llh(cfg)
     params = radar_params(cfg)  # RadarParams validates the radar, naming the [radar] keys
     echo_block_check(n_pulses, params.n_range_samples)
-    _check_doppler_band(cfg, params)
     _choice(cfg, "image", "algorithm", ALGORITHMS)
     Window.from_spec(cfg["image"]["window"], "image.window")
     _choice(cfg, "image", "rcmc_kernel", tuple(RCMC_KERNELS))
@@ -200,27 +142,6 @@ def origin_llh(cfg: dict) -> list[float]:
         raise ConfigError("scene.origin_llh", "must be [latitude deg in [-90, 90], longitude deg in [-180, 360], "
                           f"height m in [-1e4, 1e5]], got {v!r}")
     return [float(x) for x in v]
-
-
-def _check_doppler_band(cfg: dict, params) -> None:
-    """The scene's azimuth band must fit in the PRF (the RDA azimuth FFT is circular).
-
-    A scatterer at along-track y seen by pulses t in [-T/2, T/2] has Doppler -K_a (t - y/V) (paper
-    eq. 8), so the scene occupies K_a (T + 2 max|y| / V) Hz at its nearest range (largest K_a); with
-    the antenna pattern the band is at most the beam's Doppler bandwidth ``params.doppler_bandwidth(V)`` (about
-    0.886 * 2V / L_a).
-    """
-    v = float(cfg["trajectory"]["speed"])
-    lam = params.wavelength
-    r_min = imaged_slant_ranges(cfg)[0]
-    s = cfg["scene"]
-    half = abs(s["target_along_track_m"]) if s["type"] == "point" else 0.5 * s["along_track_extent_m"]
-    band = 2.0 * v**2 / (lam * r_min) * (cfg["trajectory"]["duration"] + 2.0 * half / v)
-    if cfg["radar"]["antenna_pattern"]:
-        band = min(band, params.doppler_bandwidth(v))
-    if band > cfg["radar"]["prf_hz"]:
-        raise ConfigError("radar.prf_hz", f"must be >= the scene's azimuth bandwidth {band:.4g} Hz "
-                          f"(K_a (T + 2 max|y|/V) at the nearest range), got {cfg['radar']['prf_hz']}")
 
 
 def imaged_slant_ranges(cfg: dict) -> tuple[float, float]:
@@ -253,19 +174,25 @@ _SCENE_KEYS = {"point": {"target_along_track": "target_along_track_m", "target_s
 
 
 def parse(cfg: dict) -> ImageSceneParams:
-    """Validate ``cfg`` (:func:`validate`) and convert it to the :class:`ImageSceneParams` of the experiment."""
-    validate(cfg)
+    """Validate ``cfg`` and convert it to the :class:`ImageSceneParams` of the experiment; the scene's azimuth band
+    against the PRF is ``ImageSceneParams.check_doppler_band``."""
+    _check(cfg)
     tr, s, im, snr = cfg["trajectory"], cfg["scene"], cfg["image"], float(cfg["radar"]["snr_db"])
     scene = {field: float(s[key]) for field, key in _SCENE_KEYS[s["type"]].items()}
     if s["type"] == "random":
         scene["amplitude_law"] = s["amplitude_law"]
-    return ImageSceneParams(
+    prm = ImageSceneParams(
         radar=radar_params(cfg), start_ned=tuple(float(v) for v in tr["start_ned"]), speed=float(tr["speed"]),
         duration=float(tr["duration"]), scene=s["type"], seed=int(s["seed"]), **scene,
         snr_db=snr if snr < NO_NOISE_SNR_DB else None, antenna_pattern=cfg["radar"]["antenna_pattern"],
         algorithm=im["algorithm"], window=im["window"], rcmc_kernel=im["rcmc_kernel"],
         azimuth_model=im["azimuth_model"], autofocus=im["autofocus"], bpa_interpolation=im["bpa_interpolation"],
         speed_error=float(im["speed_error_mps"]), origin_llh=tuple(origin_llh(cfg)), name=cfg["scenario"]["name"])
+    try:
+        prm.check_doppler_band()
+    except ConfigError as err:
+        raise ConfigError(radar_key(err.field), err.message) from None
+    return prm
 
 
 def run_image(cfg: dict, out, overwrite: bool = False, *, cphd: bool = False, sicd: bool = False) -> dict:
@@ -291,6 +218,6 @@ class ImageKind(FileKind):
 
     kind = "image"
     needs_campaign = False
-    config, check, write = staticmethod(point_target_config), staticmethod(validate), staticmethod(run_image)
+    config, check, write = staticmethod(default_config), staticmethod(validate), staticmethod(run_image)
     options = ("overwrite",)
     what = "a single-image kind (sarnav image NAME)"

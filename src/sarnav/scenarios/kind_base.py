@@ -1,23 +1,38 @@
 """What the scenario kinds share beyond their tables: the base of the kinds that write their own files instead of a
-Monte Carlo campaign (:class:`FileKind`: ``bpa-sensitivity``, ``image``, ``quality-sweep``, ``gpsd-search``) and the
-check of a batch's seeds (:func:`one_seed_per_run`).
+Monte Carlo campaign (:class:`FileKind`: ``bpa-sensitivity``, ``image``, ``quality-sweep``, ``gpsd-search``), the
+claim of their output folder (:func:`writing`) and the check of a batch's seeds (:func:`one_seed_per_run`).
 """
 
 from __future__ import annotations
 
+import contextlib
+from pathlib import Path
 from typing import Callable, Sequence
 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.record import RunRecord
 
-__all__ = ["FileKind", "one_seed_per_run"]
+__all__ = ["FileKind", "one_seed_per_run", "writing"]
 
 
 def one_seed_per_run(run_ids: Sequence[int], seeds: Sequence) -> None:
     """Refuse a batch whose seeds do not match its runs one to one (``ScenarioKind.simulate``'s contract)."""
     if len(run_ids) != len(seeds):
         raise ConfigError("seeds", f"need one seed per run, got {len(seeds)} for {len(run_ids)} runs")
+
+
+@contextlib.contextmanager
+def writing(cfg: dict, out, overwrite: bool, what: str):
+    """``out`` claimed for the scenario ``cfg`` (``montecarlo.outdir.OutputFolder``; ``overwrite`` replaces another
+    scenario's results) with a file ``INCOMPLETE`` ("<what> running") that only a block run to its end removes."""
+    from sarnav.montecarlo.outdir import OutputFolder, identity
+
+    with OutputFolder(out, identity(cfg), overwrite=overwrite):
+        marker = Path(out) / "INCOMPLETE"
+        marker.write_text(f"{what} running\n")
+        yield
+        marker.unlink()
 
 
 class FileKind(ScenarioKind):

@@ -1,20 +1,11 @@
 """Scenario kinds of Sun (2022) (extraction seed-003; docs/particles.md "Scenarios"): configuration and wiring of the
-library experiments of ``sarnav.simulation.multi_imu`` into Monte Carlo campaigns.
+library experiments of ``sarnav.simulation.multi_imu`` into Monte Carlo campaigns: ``multi-imu-path1`` (path 1, eq.
+5.21, three position sensors of Table 5.1), ``multi-imu`` (scenario ``multi-imu-adis``: 3 x ADIS16465 against one
+NovAtel IMU-ISA-100C) and ``upf-flight`` (the one-hour flight, the UPF and the interpolated KF on the 3 kHz grid).
 
-* ``multi-imu-path1`` (scenario ``multi-imu-path1``): simulated path 1 (eq. 5.21) with the three position sensors
-  of Table 5.1, one PF per sensor, fused by the mean and by SIR (Figs. 5.5, 5.11; T17-T19);
-* ``multi-imu`` (scenario ``multi-imu-adis``): 3 x ADIS16465 against one NovAtel IMU-ISA-100C on a climb-and-turn
-  flight over the rotating Earth, one 1000-particle aided PF per IMU, SIR / mean / virtual IMU (Figs. 5.10,
-  5.12, 5.13; T20-T23);
-* ``upf-flight`` (scenario ``upf-flight``): the one-hour flight (climb, figure-eights, racetracks), 200 Hz IMU +
-  20 Hz fix, the 2000-particle UPF and the interpolated KF on the 3 kHz grid (Figs. 5.8, 5.26; T10-T13).
-
-Every run is a pure function of the scenario and its seed (one ``SeedSequence`` per run, named child streams
-per sensor, fix and filter). Parameters and runs to records: ``sarnav.simulation.multi_imu`` (``Path1Params`` ->
-``run_path1_records``, ...). Records (``sarnav.simulation.fusion_records``): the states are the position errors
-of the filters that have a covariance (``sensor1_pN`` ...), against the 1-sigma of that covariance, with the
-stacked NEES; ``source_error (time, source, axis)`` and ``source_ms (source)`` hold every navigation source
-(fused outputs included); ``summary.json`` -> ``rmse`` per source.
+Every run is a pure function of the scenario and its seed. Records (``sarnav.simulation.fusion_records``): the states
+are the position errors of the filters that have a covariance, ``source_error`` and ``source_ms`` every navigation
+source; ``summary.json`` -> ``rmse`` per source.
 """
 
 from __future__ import annotations
@@ -28,12 +19,13 @@ from sarnav.montecarlo.record import RunRecord
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number, number_list
 from sarnav.scenarios.kind_base import one_seed_per_run
+from sarnav.scenarios.registry import packaged
 from sarnav.simulation.fusion_records import AXES, SOURCE_ATTRS
 from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
-from sarnav.simulation.multi_imu import (PATH1_SIGMAS, UPF_ATTRS, MultiImuParams, Path1Params, UpfParams,
+from sarnav.simulation.multi_imu import (UPF_ATTRS, MultiImuParams, Path1Params, UpfParams,
                                          run_multi_imu_records, run_path1_records, run_upf_flight_records)
 
-__all__ = ["SourceKind", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "Path1Params", "MultiImuParams",
+__all__ = ["SourceKind", "settle_time", "MultiImuPath1Kind", "MultiImuKind", "UpfFlightKind", "Path1Params", "MultiImuParams",
            "UpfParams"]
 
 #: largest particle count of any filter (memory: runs x particles x 6 floats per filter)
@@ -43,11 +35,26 @@ MAX_PARTICLES = 100_000
 MIN_PARTICLES = 7
 
 
+def settle_time(cfg: dict, hi: float, duration: float, epoch: float, duration_key: str) -> float:
+    """``filter.settle_s`` in [0, ``hi``] s (the filters' settling time, left out of the statistics), leaving at least
+    one ``epoch`` [s] of the flight (``duration_key`` = ``duration`` [s]) after it."""
+    settle = number(cfg, "filter", "settle_s", 0.0, hi, "s")
+    if settle > duration - epoch:
+        raise ConfigError("filter.settle_s", f"must leave at least one epoch ({epoch:g} s) before {duration_key} = "
+                          f"{duration} s, got {settle}")
+    return settle
+
+
 class SourceKind(ScenarioKind):
     """Common part of the kinds that compare navigation sources (module docstring). Subclasses set ``kind``,
     ``parse(cfg)`` and ``run_batch(prm, seeds, run_ids) -> list[RunRecord]`` (a ``run_*_records`` of
     ``simulation``); ``filters(prm)`` and ``sources(prm)`` (names) are the parameters' own by default;
-    ``gains(rmse)`` adds ratios to summary.json."""
+    ``gains(rmse)`` adds ratios to summary.json; ``scenario``: the registered scenario whose file is the default."""
+
+    scenario = ""
+
+    def default_config(self) -> dict:
+        return packaged(self.scenario)
 
     def parse(self, cfg: dict):  # pragma: no cover - replaced by subclasses
         raise NotImplementedError
@@ -61,8 +68,14 @@ class SourceKind(ScenarioKind):
     def sources(self, prm) -> list[str]:
         return prm.sources()
 
+    #: summary.json ``gains``: name -> (numerator, denominator) of ``analysis.sources.rmse_ratio``; "sensors": the
+    #: mean RMS of every single-sensor source
+    gain_pairs: dict = {}
+
     def gains(self, rmse: dict) -> dict:
-        return {}
+        sensors = [k for k in rmse if k.startswith("sensor")]
+        pick = lambda name: sensors if name == "sensors" else name  # noqa: E731
+        return {key: rmse_ratio(rmse, pick(a), pick(b)) for key, (a, b) in self.gain_pairs.items()}
 
     def validate(self, cfg: dict) -> None:
         self.parse(cfg)
@@ -109,40 +122,17 @@ class SourceKind(ScenarioKind):
 
 # --- multi-imu-path1 ------------------------------------------------------------------------------------------
 
-def path1_config() -> dict:
-    """Path 1 (eq. 5.21) with Table 5.1's sensors; gap decisions G19 (docs/particles.md)."""
-    return {
-        "scenario": {"name": "multi-imu-path1", "kind": "multi-imu-path1",
-                     "description": "Sun 2022 path 1 (eq. 5.21): three position sensors of Table 5.1, one PF each, mean vs SIR"},
-        "campaign": {"runs": 20, "seed": 51},
-        "path": {"duration": 100.0},  # t in [0, 100] s (G19: not given)
-        "sensors": {"sigma_m": list(PATH1_SIGMAS), "rate_hz": 20.0},  # Table 5.1; 20 Hz like the GPS (G19)
-        "filter": {"n_particles": 1000,  # L908
-                   "accel_psd": 1.0,  # m^2/s^3 (G19: the "IMU" is the path's exact acceleration at 10 x the rate)
-                   "settle_s": 5.0},
-        "fusion": {"fix_sigma_m": 0.05,  # the weighting fix (G19): the best sensor's filtered error, 0.055 m/axis
-                   "n_draws": 50,  # L908
-                   "per_axis": True},  # G13
-    }
-
-
 class MultiImuPath1Kind(SourceKind):
     """Sun (2022) simulated path 1 (module docstring)."""
 
-    kind = "multi-imu-path1"
-
-    def default_config(self) -> dict:
-        return path1_config()
+    kind, scenario = "multi-imu-path1", "multi-imu-path1"
 
     def parse(self, cfg: dict) -> Path1Params:
         runs, _ = validate_campaign(cfg)
         duration = number(cfg, "path", "duration", 1.0, 600.0, "s")
         rate = number(cfg, "sensors", "rate_hz", 1.0, 100.0, "Hz")
         sig = number_list(cfg, "sensors", "sigma_m", 1e-4, 100.0, "m")
-        settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
-        if settle > duration - 1.0 / rate:
-            raise ConfigError("filter.settle_s", f"must leave at least one epoch before path.duration = {duration} s, "
-                              f"got {settle}")
+        settle = settle_time(cfg, 600.0, duration, 1.0 / rate, "path.duration")
         return Path1Params(runs, duration, sig, rate, integer(cfg, "filter", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                            number(cfg, "filter", "accel_psd", 1e-8, 1e4, "m^2/s^3"), settle,
                            number(cfg, "fusion", "fix_sigma_m", 1e-4, 100.0, "m"),
@@ -151,48 +141,22 @@ class MultiImuPath1Kind(SourceKind):
     def run_batch(self, prm: Path1Params, seeds, run_ids) -> list[RunRecord]:
         return run_path1_records(prm, seeds, run_ids)
 
-    def gains(self, rmse: dict) -> dict:
-        sensors = [k for k in rmse if k.startswith("sensor")]
-        return {"mean_over_sir": rmse_ratio(rmse, "mean", "sir"),  # T18 (source: ~3)
-                "sir_over_fix": rmse_ratio(rmse, "sir", "fix"),  # T16/T25: bounded by the weighting fix
-                "single_over_mean": rmse_ratio(rmse, sensors, "mean")}
+    gain_pairs = {"mean_over_sir": ("mean", "sir"),  # T18 (source: ~3)
+                  "sir_over_fix": ("sir", "fix"),  # T16/T25: bounded by the weighting fix
+                  "single_over_mean": ("sensors", "mean")}
 
 
 # --- multi-imu (multi-imu-adis) -------------------------------------------------------------------------------
 
-def adis_config() -> dict:
-    """3 x ADIS16465 vs one NovAtel (Tables 5.2, 5.4 with the G23 unit decisions); docs/particles.md."""
-    return {
-        "scenario": {"name": "multi-imu-adis", "kind": "multi-imu",
-                     "description": "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C"},
-        "campaign": {"runs": 10, "seed": 165},
-        "flight": {"duration": 300.0, "speed": 50.0},  # climb-and-turn S-turn (G20: re-authored)
-        "imu": {"n_adis": 3},  # L1131; lever arms ADIS_LEVER_ARMS
-        "fix": {"sigma_m": [0.3, 0.3, 0.5],  # extraction §8 default (G8/G20)
-                "bias_m": [0.0, 0.0, 0.0],
-                "shared": False},  # False: one fix realisation per IMU (separate gnss-ins-sim runs, G20)
-        "filter": {"n_particles": 1000,  # L908
-                   "accel_psd_scale": 1.0,  # x the PSD derived from each IMU's specs (G16, spec_accel_psd)
-                   "settle_s": 10.0},
-        "fusion": {"n_draws": 50, "per_axis": True, "virtual_imu": True},
-        "output": {"record_rate_hz": 5.0},  # results.nc epochs (the RMS uses every 20 Hz fix epoch)
-    }
-
-
 class MultiImuKind(SourceKind):
     """3 x ADIS16465 against one NovAtel (module docstring)."""
 
-    kind = "multi-imu"
-
-    def default_config(self) -> dict:
-        return adis_config()
+    kind, scenario = "multi-imu", "multi-imu-adis"
 
     def parse(self, cfg: dict) -> MultiImuParams:
         runs, _ = validate_campaign(cfg)
         duration = number(cfg, "flight", "duration", 10.0, 1800.0, "s")
-        settle = number(cfg, "filter", "settle_s", 0.0, 1800.0, "s")
-        if settle > duration - 0.05:
-            raise ConfigError("filter.settle_s", f"must be < flight.duration = {duration} s, got {settle}")
+        settle = settle_time(cfg, 1800.0, duration, 0.05, "flight.duration")
         rec = number(cfg, "output", "record_rate_hz", 0.1, 20.0, "Hz")
         stride = round(20.0 / rec)
         if abs(20.0 / rec - stride) > 1e-9:
@@ -209,12 +173,10 @@ class MultiImuKind(SourceKind):
     def run_batch(self, prm: MultiImuParams, seeds, run_ids) -> list[RunRecord]:
         return run_multi_imu_records(prm, seeds, run_ids)
 
-    def gains(self, rmse: dict) -> dict:
-        sensors = [k for k in rmse if k.startswith("sensor")]
-        return {"single_over_mean": rmse_ratio(rmse, sensors, "mean"),  # T21 (source ~5; i.i.d. theory sqrt(S))
-                "mean_over_sir": rmse_ratio(rmse, "mean", "sir"),  # T22 (source ~2)
-                "sir_over_novatel": rmse_ratio(rmse, "sir", "novatel"),  # T23 (source ~1)
-                "single_over_novatel": rmse_ratio(rmse, sensors, "novatel")}  # T23: > 1
+    gain_pairs = {"single_over_mean": ("sensors", "mean"),  # T21 (source ~5; i.i.d. theory sqrt(S))
+                  "mean_over_sir": ("mean", "sir"),  # T22 (source ~2)
+                  "sir_over_novatel": ("sir", "novatel"),  # T23 (source ~1)
+                  "single_over_novatel": ("sensors", "novatel")}  # T23: > 1
 
 
 # --- upf-flight -----------------------------------------------------------------------------------------------
@@ -222,41 +184,16 @@ class MultiImuKind(SourceKind):
 IMU_PRESETS = ("novatel-isa-100c", "adis16465")
 
 
-def upf_config() -> dict:
-    """The one-hour flight of L1273-1288 (Figs 5.25-5.28) with the NovAtel model of Table 5.2 (Fig 5.8)."""
-    return {
-        "scenario": {"name": "upf-flight", "kind": "upf-flight",
-                     "description": "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz"},
-        "campaign": {"runs": 2, "seed": 3591},  # ~6 min of one core per run (docs/particles.md)
-        "flight": {"duration": 3600.0,  # 3591 s flight (L1273)
-                   "speed": 50.0, "climb_rate": 3.0},  # G20: re-authored survey flight
-        "imu": {"preset": "novatel-isa-100c", "rate_hz": 200.0},  # Table 5.2, L1188
-        "fix": {"sigma_m": [0.3, 0.3, 0.5], "rate_hz": 20.0},  # L735; sigma: extraction §8
-        "filter": {"n_particles": 2000,  # L766, L1283
-                   "accel_psd_scale": 1.0,  # x spec_accel_psd of the IMU (G16)
-                   "noise_at": "fix",  # process noise once per fix interval (same law at the fixes)
-                   "settle_s": 75.0,  # T13: the UPF converges within 75 s (L1285)
-                   "kf_coriolis": False},  # the source's KF (eq. 3.10: no Coriolis / transport rate); true: consistent
-        "output": {"rate_hz": 3000.0,  # PRF (L1313): 15 x the IMU rate
-                   "record_rate_hz": 1.0},  # results.nc epochs (the RMS uses every 3 kHz epoch)
-    }
-
-
 class UpfFlightKind(SourceKind):
     """The UPF against the interpolated KF on a one-hour flight (module docstring)."""
 
-    kind = "upf-flight"
-
-    def default_config(self) -> dict:
-        return upf_config()
+    kind, scenario = "upf-flight", "upf-flight"
 
     def parse(self, cfg: dict) -> UpfParams:
         runs, _ = validate_campaign(cfg)
         duration = number(cfg, "flight", "duration", 120.0, 7200.0, "s")  # the climb / pattern / descent phases
-        settle = number(cfg, "filter", "settle_s", 0.0, 7200.0, "s")
         fix_rate = number(cfg, "fix", "rate_hz", 1.0, 100.0, "Hz")
-        if settle > duration - 1.0 / fix_rate:
-            raise ConfigError("filter.settle_s", f"must be < flight.duration = {duration} s, got {settle}")
+        settle = settle_time(cfg, 7200.0, duration, 1.0 / fix_rate, "flight.duration")
         imu_rate = number(cfg, "imu", "rate_hz", 10.0, 2000.0, "Hz")
         out_rate = number(cfg, "output", "rate_hz", 1.0, 20_000.0, "Hz")
         rec = number(cfg, "output", "record_rate_hz", 0.01, fix_rate, "Hz")
@@ -278,10 +215,9 @@ class UpfFlightKind(SourceKind):
     def run_batch(self, prm: UpfParams, seeds, run_ids) -> list[RunRecord]:
         return run_upf_flight_records(prm, seeds, run_ids)
 
-    def gains(self, rmse: dict) -> dict:
-        return {"upf_over_pf": rmse_ratio(rmse, "upf", "pf"),  # T10: 3 kHz output no worse than at the fixes
-                "pf_over_kf": rmse_ratio(rmse, "pf", "kf"),  # T11: < 1
-                "upf_over_kf_interp": rmse_ratio(rmse, "upf", "kf-interp")}
+    gain_pairs = {"upf_over_pf": ("upf", "pf"),  # T10: 3 kHz output no worse than at the fixes
+                  "pf_over_kf": ("pf", "kf"),  # T11: < 1
+                  "upf_over_kf_interp": ("upf", "kf-interp")}
 
     def summary_extras(self, results) -> dict:
         from sarnav.tomlio import parse_toml

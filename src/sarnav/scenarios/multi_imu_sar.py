@@ -1,13 +1,10 @@
 """The ``multi-imu-sar`` kind (scenario ``multi-imu-sar-fix``): GPS-denied multi-IMU fusion, the absolute fix that aids
 each IMU's particle filter and weights the SIR fusion made from SAR images (range and cross-range to a geolocated
-reference every second, as in rda-nav) instead of GPS. Beyond Sun (2022) (gap G29). Configuration and wiring of
-``sarnav.simulation.multi_imu_sar`` (``SarFixSetup`` -> ``run_sar_fix_records``); docs/particles.md
-"multi-imu-sar-fix".
+reference every second, as in rda-nav) instead of GPS; beyond Sun (2022) (gap G29). Configuration and wiring of
+``sarnav.simulation.multi_imu_sar`` (``SarFixSetup`` -> ``run_sar_fix_records``); docs/particles.md.
 
-``fix.source``: ``"sar"`` (image-derived: echoes along the true track, RDA + mapdrift with the estimated track,
-registration against the reference chip), ``"oracle"`` (the same pair synthesised from the truth at the true TOC plus
-N(0, sar.registration_sigma_m^2): the only mode in which truth enters the SAR measurement) or ``"gps"`` (the source's
-setting on the same flight: 20 Hz GPS fixes, for the comparison of the fusion gain).
+``fix.source``: ``"sar"`` (image-derived), ``"oracle"`` (the same pair from the truth plus N(0,
+sar.registration_sigma_m^2): the only mode in which truth enters the SAR measurement) or ``"gps"`` (20 Hz GPS fixes).
 """
 
 from __future__ import annotations
@@ -20,39 +17,15 @@ from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import bounded_vector, choice, integer, number
 from sarnav.montecarlo.record import RunRecord
-from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
+from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, MultiImuKind, SourceKind, settle_time
 from sarnav.scenarios.vocabulary import make_radar, radar_fields
 from sarnav.simulation.imu_rig import ADIS_LEVER_ARMS
 from sarnav.simulation.multi_imu_sar import FIX_SOURCES, SAR_FIX_ATTRS, SAR_UPDATES, SarFixSetup, run_sar_fix_records
 
-__all__ = ["MultiImuSarKind", "default_config"]
+__all__ = ["MultiImuSarKind"]
 
 #: slant-range half-window the imager searches around the predicted range (measurements.sar_image) [m]
 SEARCH_HALF_RANGE = 12.0
-
-
-def default_config() -> dict:
-    """rda-nav's flight and scene (Tables 1-3 of the NAVIGATION paper) with the rig of multi-imu-adis."""
-    return {
-        "scenario": {"name": "multi-imu-sar-fix", "kind": "multi-imu-sar",
-                     "description": "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes"},
-        "campaign": {"runs": 10, "seed": 29},
-        "flight": {"duration": 50.0, "speed": 10.0, "altitude": 1000.0},  # rda-nav (paper Table 3, 50 apertures)
-        "imu": {"n_adis": 3},
-        "fix": {"source": "sar",  # "sar" | "oracle" | "gps"
-                "gps_sigma_m": [0.3, 0.3, 0.5], "gps_rate_hz": 20.0},  # fix.source = "gps" only
-        "sar": {"registration_sigma_m": [0.00125, 0.0315],  # R: rda-nav's measured registration 1-sigma
-                "altimeter_sigma_m": 4.0 / 3.0},  # paper Table 2: 4 m 3-sigma
-        "radar": {"preset": "nav-paper-sim", "snr_db": -10.0},  # as rda-nav
-        "scene": {"seed": 7, "ground_range_min": 1760.0, "ground_range_max": 1940.0, "toc_jitter_s": 0.25,
-                  "clutter_per_image": 4, "clutter_per_run": True, "reflector_amplitude": 3.16},
-        "initial": {"p_3sigma": [1.9, 1.9, 4.4], "v_3sigma": [0.3, 0.3, 0.5]},  # paper Table 1
-        "filter": {"n_particles": 1000,  # L908
-                   "accel_psd_scale": 1.0,  # x spec_accel_psd of each IMU (G16)
-                   "sar_update": "gaussian",  # "gaussian" (GPF update) | "tempered" (bootstrap SIR, progressive)
-                   "settle_s": 5.0},
-        "fusion": {"n_draws": 50, "per_axis": True},
-    }
 
 
 def _scene(cfg, altitude, radar):
@@ -91,9 +64,7 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
         radar.check_doppler(speed)
     except ConfigError as err:
         raise ConfigError("flight.speed", f"too fast for the radar: radar.prf_hz {err.message}") from None
-    settle = number(cfg, "filter", "settle_s", 0.0, 600.0, "s")
-    if settle > duration - 1.0:
-        raise ConfigError("filter.settle_s", f"must be <= flight.duration - 1 = {duration - 1} s, got {settle}")
+    settle = settle_time(cfg, 600.0, duration, 1.0, "flight.duration")
     reg = bounded_vector(cfg, "sar", "registration_sigma_m", 1e-5, 100.0, n=2, unit="m")
     p3 = bounded_vector(cfg, "initial", "p_3sigma", 1e-3, 1e4, unit="m")
     v3 = bounded_vector(cfg, "initial", "v_3sigma", 1e-4, 100.0, unit="m/s")
@@ -116,13 +87,7 @@ def parse(cfg: dict) -> tuple[SarFixSetup, float]:
 class MultiImuSarKind(SourceKind):
     """GPS-denied multi-IMU fusion with SAR fixes (module docstring)."""
 
-    kind = "multi-imu-sar"
-
-    def default_config(self) -> dict:
-        return default_config()
-
-    def optional_keys(self) -> list[str]:
-        return []
+    kind, scenario = "multi-imu-sar", "multi-imu-sar-fix"
 
     def parse(self, cfg: dict):
         return parse(cfg)
@@ -147,13 +112,7 @@ class MultiImuSarKind(SourceKind):
         setup, settle = prm
         return run_sar_fix_records(setup, seeds, run_ids, settle)
 
-    def gains(self, rmse: dict) -> dict:
-        from sarnav.analysis.sources import rmse_ratio
-
-        sensors = [k for k in rmse if k.startswith("sensor")]
-        return {"single_over_mean": rmse_ratio(rmse, sensors, "mean"), "mean_over_sir": rmse_ratio(rmse, "mean", "sir"),
-                "sir_over_novatel": rmse_ratio(rmse, "sir", "novatel"),
-                "single_over_novatel": rmse_ratio(rmse, sensors, "novatel")}
+    gain_pairs = MultiImuKind.gain_pairs  # the multi-imu-adis comparison (T21-T23) on SAR fixes
 
     def summary_extras(self, results) -> dict:
         out = super().summary_extras(results)

@@ -1,17 +1,7 @@
 """The ``nav-source-focus`` kind: which navigation source focuses a back-projected Ku-band image (Sun 2022 §6.2-6.3,
-Figs. 6.5-6.9; extraction seed-003 §3.7, E9; claims T27-T32). Configuration and wiring of
-``sarnav.simulation.nav_focus`` (``FocusParams`` -> ``run_focus_records``); docs/particles.md "nav-source-focus".
-
-Per run: the cart's navigation sources (truth, UPF, interpolated KF, splines of the fix / of the 200 Hz KF and PF
-output, 3-ADIS SIR, one NovAtel PF) at every pulse; echoes along the true track; one BPA chip per reflector and
-source; IRW and PSLR along track, peak offset, entropy and kurtosis. Records: the states are the position errors of
-the UPF and the KF at their fix epochs (run-in and aperture) against their covariances; the kind's variables are
-``focus (source, reflector, metric)``, ``focus_censored``, ``los_error_rms (source, reflector)``, ``nav_error
-(pulse, source, axis)`` and ``source_ms (source)`` (3-D position error over the aperture).
-
-``sarnav run nav-source-focus`` writes the campaign (results.nc, summary.json), ``focus.csv`` (one row per source,
-columns ``source, irw_along_m, pslr_along_db, peak_offset_m, entropy, kurtosis``: means over reflectors and runs)
-and, with figures, ``figures/images.png`` (run 0's images side by side, re-simulated from its seed).
+Figs. 6.5-6.9; claims T27-T32). Configuration and wiring of ``sarnav.simulation.nav_focus`` (``FocusParams`` ->
+``run_focus_records``); the records, ``focus.csv`` and ``figures/images.png`` in docs/particles.md
+"nav-source-focus".
 """
 
 from __future__ import annotations
@@ -24,8 +14,7 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
-from sarnav.scenarios.fields import bounded_vector, integer, number, number_list
-from sarnav.scenarios.fields import get as _get
+from sarnav.scenarios.fields import bounded_vector, integer, name_list, number, number_list
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES
@@ -33,34 +22,10 @@ from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRIC
     run_focus_records
 from sarnav.simulation.nav_sources import NAV_SOURCES
 
-__all__ = ["NavFocusKind", "default_config", "FOCUS_FILTERS", "FocusParams"]
+__all__ = ["NavFocusKind", "FOCUS_FILTERS", "FocusParams"]
 
 #: receive-window margin beyond the reflectors' slant ranges over the aperture [m]
 RANGE_MARGIN = 3.0
-
-
-def default_config() -> dict:
-    """§6.2 (L1313-1332): 16.6 GHz, 300 MHz, PRF 3 kHz, three reflectors at 20 m, 2000 pulses at 1 m/s, no window;
-    gap fills (G25) commented."""
-    return {
-        "scenario": {"name": "nav-source-focus", "kind": "nav-source-focus",
-                     "description": "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions"},
-        "campaign": {"runs": 10, "seed": 1332},
-        "radar": {"preset": "sun-ku-cart", "carrier_ghz": 16.6, "bandwidth_mhz": 300.0, "prf_hz": 3000.0},  # L1313-1318
-        "cart": {"speed": 1.0,  # 10 m in 10 s (L1322)
-                 "run_in_s": 30.0,  # navigation before the aperture (filters start from the first fix at t = 0)
-                 "antenna_height_m": 1.5},  # G25: not given
-        "aperture": {"n_pulses": 2000},  # L1322: ~0.67 s, ~0.67 m
-        "scene": {"along_track_m": [-2.5, 0.0, 2.5],  # three reflectors (L1322); spacing G25
-                  "ground_range_m": [19.5, 20.0, 20.5]},  # "20 m from the radar"
-        "image": {"chip_half_m": 1.2, "spacing_m": 0.04},  # ground chip per reflector (about 6 px per IRW)
-        "navigation": {"sources": list(NAV_SOURCES),
-                       "n_particles": 2000,  # UPF (L766)
-                       "adis_particles": 1000,  # per ADIS PF and the NovAtel PF of the multi-IMU comparison (L908)
-                       "fix_sigma_m": [0.3, 0.3, 0.5],  # white, per fix: extraction §8 default (G8)
-                       "fix_correlated_sigma_m": [0.0, 0.0, 0.0],  # + Gauss-Markov part (0: none; docs/particles.md)
-                       "fix_correlation_time_s": 300.0},
-    }
 
 
 def _reflectors(cfg):
@@ -73,9 +38,7 @@ def _reflectors(cfg):
 
 
 def _sources(cfg):
-    src = _get(cfg, "navigation", "sources")
-    if not isinstance(src, list) or not src or any(s not in NAV_SOURCES for s in src) or len(set(src)) != len(src):
-        raise ConfigError("navigation.sources", f"must be a list of distinct names from {list(NAV_SOURCES)}, got {src!r}")
+    src = name_list(cfg, "navigation", "sources", NAV_SOURCES)
     if "truth" not in src:
         raise ConfigError("navigation.sources", "must include 'truth' (the reference image)")
     if not any(s in src for pair in FOCUS_FILTERS.values() for s in pair):
@@ -123,10 +86,7 @@ def parse(cfg: dict) -> FocusParams:
 class NavFocusKind(SourceKind):
     """Which navigation source focuses a BPA image (module docstring)."""
 
-    kind = "nav-source-focus"
-
-    def default_config(self) -> dict:
-        return default_config()
+    kind = scenario = "nav-source-focus"
 
     def parse(self, cfg: dict) -> FocusParams:
         return parse(cfg)

@@ -17,7 +17,8 @@ from sarnav.montecarlo.kind import validate_campaign
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.error_state import ErrorStateKind
 from sarnav.scenarios.fields import boolean, choice, integer, number
-from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, IMU_OVERRIDES, RADAR_KEYS, doppler_prf_check, filter_imu_keys,
+from sarnav.scenarios.registry import packaged
+from sarnav.scenarios.vocabulary import (IMU_OVERRIDES, RADAR_KEYS, doppler_prf_check, filter_imu_keys,
                                          read_earth,
                                          flight_size_check, make_radar, radar_fields, read_filter_imu, read_imu,
                                          read_initial, read_trajectory, whole_number)
@@ -35,28 +36,9 @@ MAX_IMAGE_WORK = 2e8
 
 
 def default_config() -> dict:
-    """The thesis' geometry (60 m/s, 1000 m, scene 1760 m east, PRF 1667 Hz) with the NAVIGATION paper's tactical IMU."""
-    return {
-        "scenario": {"name": "quality-nav", "kind": "quality-nav",
-                     "description": "INS aided by the best-focus along-track velocity of its own BPA images (no map)"},
-        "campaign": {"runs": 100, "seed": 2023},
-        "trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 60.0, "heading_deg": 0.0, "duration": 20.0},
-        "earth": dict(EARTH_DEFAULT),  # the sources' non-rotating Earth; docs/navigation.md "Frame"
-        "imu": {"grade": "nav-paper-tactical", "rate_hz": 100.0, "tau_accel": 3600.0, "tau_gyro": 3600.0},
-        "initial": {"p_3sigma": [1.9, 1.9, 4.4], "v_3sigma": [0.3, 0.3, 0.5], "theta_3sigma": [0.002, 0.002, 0.006]},
-        "radar": {"preset": "flexsar", "pulse_length_us": 0.2, "snr_db": 0.0, "range_margin_m": 20.0},
-        # a strip along the track, long enough for the image shifts of the INS's cross-track and vertical velocity
-        # errors (R / V x line-of-sight error: 17 m at 0.5 m/s); points 20 dB over clutter, 4 per 8 x 8 m grid
-        "scene": {"ground_range": 1760.0, "width": 12.0, "length": 60.0, "point_density": 0.0625,
-                  "point_to_clutter_db": 20.0, "clutter_density": 0.5},
-        # a fix per second from the last 1200 pulses (0.72 s) on a 64 x 64 grid of 0.125 m; the first search stage
-        # spans 4 predicted sigma of the fix (0.5 .. 2.5 m/s); kappa from 200 calibration apertures (relative SE 0.1)
-        "aperture": {"n_pulses": 1200},
-        "focus": {"enabled": True, "measurement": "image", "interval_s": 1.0, "pixels": 64,
-                  "pixel_m": 0.125, "span": 0.5, "span_sigmas": 4.0, "span_max": 2.5, "gate_sigmas": 5.0, "n_grid": 11,
-                  "measure": "kurtosis", "calibration_apertures": 200, "calibration_seed": 13, "delayed_state": True,
-                  "mapdrift": True, "oracle_sigma": 0.05},
-    }
+    """The thesis' geometry (60 m/s, 1000 m, scene 1760 m east, PRF 1667 Hz) with the NAVIGATION paper's tactical IMU:
+    ``defaults/quality-nav.toml``."""
+    return packaged("quality-nav")
 
 
 def optional_keys() -> list[str]:

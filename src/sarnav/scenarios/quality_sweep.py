@@ -2,16 +2,9 @@
 
 Configuration and wiring only: the defaults, ``parse`` (TOML ->
 :class:`~sarnav.analysis.quality_sweep.QualitySweepParams`) and the kind; the sweep is
-``sarnav.analysis.quality_sweep.run`` (score of BPA images formed along tracks with a constant velocity error), the
-measures ``sarnav.imaging.quality``, the files and figures ``sarnav.report.quality_figures`` (docs/quality.md §3). ``sarnav run quality-sweep`` writes into ``--out``:
-
-* ``sweep.nc``: every measure versus error for each image size and bin count, both directions;
-* ``claims.json``: the thesis' claims T3, T7-T17 with the numbers of this sweep beside the source's statement;
-* ``figures/``: ``fig4_1_images.png`` (T3), ``fig4_2_along_100.png``, ``fig4_3-4_6_sizes.png``, ``fig4_7_bins_along.png``,
-  ``fig4_8_bins_cross.png``, ``cross_sizes.png`` and (``reliability.scenes`` > 0) ``t16_reliability.png``.
-
-Sizes keep the ground extent (``scene.extent``) and vary the pixel count (gap 4): 10, 50, 100, 200 pixels
-(the thesis' 300 x 300 is 200 x 200 here).
+``sarnav.analysis.quality_sweep.run``, the measures ``sarnav.imaging.quality``, the files (``sweep.nc``,
+``claims.json``, ``figures/``) and figures ``sarnav.report.quality_figures`` (docs/quality.md §3). Sizes keep the
+ground extent (``scene.extent``) and vary the pixel count (gap 4).
 """
 
 from __future__ import annotations
@@ -24,32 +17,20 @@ from sarnav.analysis.quality_sweep import DIRECTIONS, QualitySweepParams, Reliab
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
-from sarnav.scenarios.kind_base import FileKind
-from sarnav.scenarios.quality_tables import default_scene, default_tables, read_geometry, read_scene
+from sarnav.scenarios.kind_base import FileKind, writing
+from sarnav.scenarios.quality_tables import read_geometry, read_scene
+from sarnav.scenarios.registry import packaged
 
 __all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep", "QualitySweepParams"]
 
-MEASURES = ("kurtosis", "kurtosis_mean_removed", "normalised_kurtosis", "entropy_magnitude", "entropy_sum",
-            "intensity_entropy")
 PIVOTS = ("first", "centre")
 #: BPA work of a sweep (pixels x pulses over every image), about 3 min on 2 cores
 MAX_BPA_WORK = 3e11
 
 
 def default_config() -> dict:
-    """Figs. 4.1-4.8 on the USU-like picture, and T16 over 20 point/clutter scenes."""
-    return {
-        "scenario": {"name": "quality-sweep", "kind": "quality-sweep",
-                     "description": "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs velocity error"},
-        **default_tables(),
-        "scene": default_scene("usu"),
-        "sweep": {"directions": ["along", "cross"], "sizes": [10, 50, 100, 200], "bins": [10, 100, 1000],
-                  "measures": list(MEASURES), "steps": 10, "span_depths": 6.0, "pivot": "first",
-                  "figure_size": 100},
-        "reliability": {"scenes": 20, "size": 100, "bins": 100, "seed": 16, "clutter_density": 0.5,
-                        "measures": ["kurtosis", "normalised_kurtosis", "entropy_magnitude", "entropy_sum",
-                                     "intensity_entropy"]},
-    }
+    """Figs. 4.1-4.8 on the USU-like picture, and T16 over 20 point/clutter scenes: ``defaults/quality-sweep.toml``."""
+    return packaged("quality-sweep")
 
 
 def _parse_sweep(cfg: dict) -> dict:
@@ -92,36 +73,6 @@ def parse(cfg: dict) -> QualitySweepParams:
     return prm
 
 
-def _figures(res: dict, prm: QualitySweepParams, figdir: Path) -> list[Path]:
-    from sarnav.report.quality_figures import plot_reliability, plot_score_curves, plot_t3
-
-    figdir.mkdir(exist_ok=True)
-    measures = list(prm.measures)
-    fig_n = min(prm.sizes, key=lambda n: abs(n - prm.figure_size))
-    b0, bmax = prm.bins[0], prm.bins[-1]
-    paths = [plot_t3(res["t3"], prm.geometry.grid_spacing(prm.figure_size), figdir / "fig4_1_images.png")]
-    three = [m for m in ("kurtosis", "entropy_magnitude", "entropy_sum") if m in measures] or measures[:3]
-    for d, ds in res["sweeps"].items():
-        sizes = [(n, bmax) for n in prm.sizes]
-        bins = [(fig_n, b) for b in prm.bins]
-        if d == "along":
-            paths.append(plot_score_curves(ds, three, [(fig_n, b0)], figdir / f"fig4_2_along_{fig_n}.png",
-                                           f"Fig. 4.2: along-track, {fig_n}x{fig_n}, N = {b0}", scatter=True))
-            paths.append(plot_score_curves(ds, measures, sizes, figdir / "fig4_3-4_6_sizes.png",
-                                           f"Figs. 4.3-4.6: along-track, N = {bmax}"))
-        else:
-            paths.append(plot_score_curves(ds, measures, sizes, figdir / "cross_sizes.png",
-                                           f"cross-track (T8), N = {bmax}"))
-        ent = [m for m in measures if QUALITY_MEASURES[m].uses_bins] or measures[:1]
-        name = "fig4_7_bins_along.png" if d == "along" else "fig4_8_bins_cross.png"
-        paths.append(plot_score_curves(ds, ent, bins, figdir / name,
-                                       f"Fig. {'4.7' if d == 'along' else '4.8'}: {d}-track, {fig_n}x{fig_n}"))
-    if res["reliability"] is not None:
-        paths.append(plot_reliability(res["reliability"][1], list(prm.reliability.measures),
-                                      figdir / "t16_reliability.png"))
-    return paths
-
-
 def _stderr_progress():
     """``progress(text)`` of :func:`analysis.quality_sweep.run`: one line per stage on stderr, with the seconds since
     the sweep started."""
@@ -131,26 +82,14 @@ def _stderr_progress():
 
 def run_sweep(cfg: dict, out, figures: bool = True, overwrite: bool = False, quiet: bool = True) -> Path:
     """Run the sweep (``analysis.quality_sweep.run``) into ``out`` (claimed as ``montecarlo.outdir.OutputFolder``;
-    ``INCOMPLETE`` until the end); returns the path of ``sweep.nc``. Unless ``quiet``, each stage is told on
-    stderr."""
-    from sarnav.montecarlo.outdir import OutputFolder, identity
-    from sarnav.report.quality_figures import sweep_dataset, write_strict_json
+    ``INCOMPLETE`` until the end; ``report.quality_files.write_sweep_files``); returns the path of ``sweep.nc``. Unless ``quiet``, each stage is
+    told on stderr."""
+    from sarnav.report.quality_files import write_sweep_files
 
     prm = parse(cfg)
-    out = Path(out)
-    with OutputFolder(out, identity(cfg), overwrite=overwrite):
-        marker = out / "INCOMPLETE"
-        marker.write_text("quality-sweep running\n")
-        res = run(prm, None if quiet else _stderr_progress())
-        ds = sweep_dataset(res["sweeps"], {"scenario": cfg["scenario"]["name"], "references": "Hathaway 2023 §4.1.1"})
-        path = out / "sweep.nc"
-        ds.to_netcdf(out / "sweep.nc.partial")
-        Path(out / "sweep.nc.partial").replace(path)
-        write_strict_json(res["claims"], out / "claims.json")
-        if figures:
-            _figures(res, prm, out / "figures")
-        marker.unlink()
-    return path
+    with writing(cfg, out, overwrite, "quality-sweep"):
+        return write_sweep_files(run(prm, None if quiet else _stderr_progress()), prm, cfg["scenario"]["name"],
+                                 Path(out), figures)
 
 
 class QualitySweepKind(FileKind):

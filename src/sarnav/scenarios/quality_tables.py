@@ -1,20 +1,11 @@
 """The tables the image-quality kinds share (``quality-sweep``, ``gpsd-search``), in the shared vocabulary
-(docs/scenarios/vocabulary.md): ``[trajectory]``, ``[aperture]``, ``[radar]`` and ``[scene]``.
+(docs/scenarios/vocabulary.md, docs/quality.md §2): ``[trajectory]`` (``start_ned`` = [0, 0, -altitude], the
+aperture centre over the NED origin, flying north; ``speed``), ``[aperture] n_pulses``, ``[radar]`` (the thesis'
+FlexSAR, the only radar ``QualityGeometry`` forms) and ``[scene]``.
 
-* ``[trajectory]`` ``start_ned`` [m] = [0, 0, -altitude] (the aperture centre: the middle pulse, over the NED origin,
-  flying north), ``speed`` [m/s];
-* ``[aperture]`` ``n_pulses`` (the middle one abeam the scene centre);
-* ``[radar]`` ``preset = "flexsar"`` (the thesis' radar at PRF 1667 Hz, the only one ``QualityGeometry`` forms),
-  ``pulse_length_us``, ``range_margin_m``, ``snr_db`` and ``receiver_noise``;
-* ``[scene]`` ``type``, ``seed``, ``ground_range`` and ``extent`` [m] (centre east of the track, side of the square),
-  ``points``, ``point_to_clutter_db``, ``clutter_density``, ``usu_cells``.
-
-Until sarnav 0.3 the ``[geometry]`` table of 0.2 is read with a notice per key (``scenarios.aliases``).
-
-Configuration only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry` (docs/quality.md §2), the
-scene :class:`sarnav.simulation.quality_scene.QualitySceneSpec` (drawn by ``simulation.quality_scene.make_scene``).
-Every value is checked here with its range, so that a scenario of any size is refused before anything is allocated
-(echo data pulses x range samples, scatterers x pulses of echo work).
+Configuration only: the geometry is :class:`sarnav.radar.quality_scenes.QualityGeometry`, the scene
+:class:`sarnav.simulation.quality_scene.QualitySceneSpec`. Every value is checked here with its range, so that a
+scenario of any size is refused before anything is allocated.
 """
 
 from __future__ import annotations
@@ -26,7 +17,7 @@ from sarnav.scenarios.fields import boolean, choice, integer, number, table
 from sarnav.scenarios.vocabulary import read_altitude
 from sarnav.simulation.quality_scene import SCENE_TYPES, QualitySceneSpec
 
-__all__ = ["SCENE_TYPES", "RADAR_KEYS", "default_tables", "default_scene", "read_geometry", "read_scene",
+__all__ = ["SCENE_TYPES", "RADAR_KEYS", "read_geometry", "read_scene",
            "MAX_ECHO_SAMPLES", "MAX_ECHO_WORK"]
 
 #: the ``[radar]`` keys of the quality kinds (the radar itself is the thesis' FlexSAR, docs/quality.md §2)
@@ -35,21 +26,6 @@ RADAR_KEYS = ("preset", "pulse_length_us", "range_margin_m", "snr_db", "receiver
 MAX_ECHO_SAMPLES = 2**24
 #: echo work (scatterers x pulses): about 1 s per 2e7 on 2 cores
 MAX_ECHO_WORK = 1e8
-
-
-def default_tables() -> dict:
-    """The thesis' flight and radar as sarnav fills them (docs/quality.md §2): 60 m/s north at 1000 m, 4000 pulses of
-    FlexSAR with a 0.2 us chirp, no receiver noise (gap 18)."""
-    return {"trajectory": {"start_ned": [0.0, 0.0, -1000.0], "speed": 60.0},
-            "aperture": {"n_pulses": 4000},
-            "radar": {"preset": "flexsar", "pulse_length_us": 0.2, "range_margin_m": 10.0, "receiver_noise": False,
-                      "snr_db": 10.0}}
-
-
-def default_scene(kind: str = "usu") -> dict:
-    """``[scene]``: the USU-like picture (quality sweep) or points over clutter (the search), 25 m square 1760 m east."""
-    return {"type": kind, "seed": 5, "ground_range": 1760.0, "extent": 25.0, "points": 12, "point_to_clutter_db": 20.0,
-            "clutter_density": 0.5, "usu_cells": 24}
 
 
 def _check_radar_keys(cfg: dict) -> None:

@@ -1,8 +1,9 @@
 """The table of named scenarios and the table of scenario kinds.
 
 ``SCENARIOS`` has one line per named scenario: name, kind, one-line description, and where its
-default configuration comes from (``"module:function"``, imported lazily, or ``"kind:"`` for the
-kind's own ``default_config()``). ``KINDS`` maps ``scenario.kind`` to the ``ScenarioKind`` class
+default configuration comes from: ``"file:"``, the TOML file shipped with the package,
+``scenarios/defaults/<name>.toml`` (:func:`packaged`; data, with a comment on every value the sources leave open),
+``"module:function"`` (imported lazily) or ``"kind:"`` (the kind's own ``default_config()``). ``KINDS`` maps ``scenario.kind`` to the ``ScenarioKind`` class
 (``"module:Class"``, imported lazily). A kind name that itself looks like ``"package.module:Class"``
 is imported directly (plug-in kinds living outside sarnav, and the toy kinds of the tests).
 """
@@ -10,30 +11,22 @@ is imported directly (plug-in kinds living outside sarnav, and the toy kinds of 
 from __future__ import annotations
 
 import copy
+import functools
 import importlib
 from dataclasses import dataclass
+from importlib import resources
 
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
+from sarnav.tomlio import parse_toml
 
-__all__ = [
-    "ScenarioEntry",
-    "SCENARIOS",
-    "KINDS",
-    "list_scenarios",
-    "get_scenario",
-    "get_kind",
-    "template_for_kind",
-    "template_for",
-    "optional_keys",
-    "DEFAULT_SCENARIO",
-    "DEFAULT_RUNS",
-]
+__all__ = ["ScenarioEntry", "SCENARIOS", "KINDS", "list_scenarios", "get_scenario", "get_kind", "template_for_kind",
+           "template_for", "optional_keys", "packaged", "DEFAULT_SCENARIO", "DEFAULT_RUNS"]
 
 
 @dataclass(frozen=True)
 class ScenarioEntry:
-    """One named scenario: ``factory`` is ``"module:function"`` or ``"kind:"`` (the kind's default)."""
+    """One named scenario: ``factory`` is ``"file:"`` (:func:`packaged`), ``"module:function"`` or ``"kind:"``."""
 
     name: str
     kind: str
@@ -63,29 +56,29 @@ KINDS: dict[str, str] = {
 # fmt: off
 #: one line per scenario (name, kind, description, default-config factory)
 SCENARIOS: tuple[ScenarioEntry, ...] = (
-    ScenarioEntry("telemetry", "telemetry", "Thesis ch. 3: INS + altimeter/range/range-rate EKF, one known target, Monte Carlo (Figs 3.4-3.7)", "kind:"),
-    ScenarioEntry("telemetry-imu-grade", "study", "Thesis Table 3.2 / Fig 3.8: position 3-sigma for consumer, tactical, navigation IMUs", "sarnav.scenarios.study:imu_grade_study"),
-    ScenarioEntry("telemetry-noise", "study", "Thesis Table 3.3 / Fig 3.9: range, range-rate, altimeter noise x10 one at a time", "sarnav.scenarios.study:noise_study"),
-    ScenarioEntry("telemetry-geometry", "study", "Thesis Table 3.4 / Figs 3.10-3.11: eight target locations", "sarnav.scenarios.study:geometry_study"),
-    ScenarioEntry("rda-nav", "rda-nav", "NAVIGATION paper / thesis ch. 5: INS aided by range and cross-range from RDA images", "kind:"),
-    ScenarioEntry("rda-nav-flexsar", "rda-nav", "Paper Tables 4-6: simulated FlexSAR-like flight at 60 m/s", "sarnav.scenarios.rda_nav:flexsar_config"),
-    ScenarioEntry("rda-nav-terrain", "rda-nav", "rda-nav over terrain with speckle clutter and a reference from another pass", "sarnav.scenarios.rda_nav:terrain_config"),
-    ScenarioEntry("rda-nav-robustness", "study", "rda-nav outside its calibration: SNR, clutter density, reference pass offset (sweep figures)", "sarnav.scenarios.study:robustness_study"),
-    ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "kind:"),
-    ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "sarnav.scenarios.imaging:point_target_config"),
-    ScenarioEntry("spacecraft-tc1", "spacecraft", "Pogorelsky et al. 2022 TC-1 open loop: LEO MEKF, misalignment 0.1 deg, Lear underweighting, 100 runs x 600 s", "sarnav.scenarios.spacecraft:tc1_config"),
-    ScenarioEntry("spacecraft-tc2", "spacecraft", "Pogorelsky et al. 2022 TC-2 open loop: LEO MEKF, misalignment 0.01 deg, 100 runs x 600 s", "sarnav.scenarios.spacecraft:tc2_config"),
-    ScenarioEntry("spacecraft-closed-loop", "spacecraft-closed-loop", "Pogorelsky et al. 2022 closed loop, simulated: L-band echoes, autofocus v_ic, registration r_f, 3 updates", "kind:"),
-    ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "sarnav.scenarios.imaging:scatterers_config"),
-    ScenarioEntry("multi-imu-path1", "multi-imu-path1", "Sun 2022 path 1 (eq. 5.21): three position sensors (Table 5.1), one PF each, mean vs SIR fusion", "kind:"),
-    ScenarioEntry("multi-imu-adis", "multi-imu", "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 PFs fused (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C", "kind:"),
-    ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "kind:"),
-    ScenarioEntry("nav-source-focus", "nav-source-focus", "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions (focus.csv)", "kind:"),
-    ScenarioEntry("multi-imu-sar-fix", "multi-imu-sar", "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes (rda-nav flight)", "kind:"),
-    ScenarioEntry("quality-sweep", "quality-sweep", "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs along- and cross-track velocity error", "kind:"),
-    ScenarioEntry("gpsd-search", "gpsd-search", "Hathaway 2023 Alg. 3.3: reduced Table 4.1 sweep (rho.csv), controls, searches that span the bias (~2 min)", "kind:"),
-    ScenarioEntry("gpsd-search-table41", "gpsd-search", "Hathaway 2023 Table 4.1: the full velocity-offset search sweep, all six (S_i, L)", "sarnav.scenarios.gpsd_search:table41_config"),
-    ScenarioEntry("quality-nav", "quality-nav", "INS aided by the best-focus along-track velocity of its own BPA images (no map), 100 runs", "kind:"),
+    ScenarioEntry("telemetry", "telemetry", "Thesis ch. 3: INS + altimeter/range/range-rate EKF, one known target, Monte Carlo (Figs 3.4-3.7)", "file:"),
+    ScenarioEntry("telemetry-imu-grade", "study", "Thesis Table 3.2 / Fig 3.8: position 3-sigma for consumer, tactical, navigation IMUs", "file:"),
+    ScenarioEntry("telemetry-noise", "study", "Thesis Table 3.3 / Fig 3.9: range, range-rate, altimeter noise x10 one at a time", "file:"),
+    ScenarioEntry("telemetry-geometry", "study", "Thesis Table 3.4 / Figs 3.10-3.11: eight target locations", "file:"),
+    ScenarioEntry("rda-nav", "rda-nav", "NAVIGATION paper / thesis ch. 5: INS aided by range and cross-range from RDA images", "file:"),
+    ScenarioEntry("rda-nav-flexsar", "rda-nav", "Paper Tables 4-6: simulated FlexSAR-like flight at 60 m/s", "file:"),
+    ScenarioEntry("rda-nav-terrain", "rda-nav", "rda-nav over terrain with speckle clutter and a reference from another pass", "file:"),
+    ScenarioEntry("rda-nav-robustness", "study", "rda-nav outside its calibration: SNR, clutter density, reference pass offset (sweep figures)", "file:"),
+    ScenarioEntry("bpa-sensitivity", "bpa-sensitivity", "Thesis ch. 4: BPA image shifts and blur from navigation errors", "file:"),
+    ScenarioEntry("point-target", "image", "One point target, 1-s X-band aperture at 60 m/s: IRW, PSLR, ISLR against theory (sarnav image)", "file:"),
+    ScenarioEntry("spacecraft-tc1", "spacecraft", "Pogorelsky et al. 2022 TC-1 open loop: LEO MEKF, misalignment 0.1 deg, Lear underweighting, 100 runs x 600 s", "file:"),
+    ScenarioEntry("spacecraft-tc2", "spacecraft", "Pogorelsky et al. 2022 TC-2 open loop: LEO MEKF, misalignment 0.01 deg, 100 runs x 600 s", "file:"),
+    ScenarioEntry("spacecraft-closed-loop", "spacecraft-closed-loop", "Pogorelsky et al. 2022 closed loop, simulated: L-band echoes, autofocus v_ic, registration r_f, 3 updates", "file:"),
+    ScenarioEntry("scatterers", "image", "Random field of point scatterers (Poisson, Rayleigh amplitudes, seeded) (sarnav image)", "file:"),
+    ScenarioEntry("multi-imu-path1", "multi-imu-path1", "Sun 2022 path 1 (eq. 5.21): three position sensors (Table 5.1), one PF each, mean vs SIR fusion", "file:"),
+    ScenarioEntry("multi-imu-adis", "multi-imu", "Sun 2022 Figs 5.10-5.13: 3 x ADIS16465 PFs fused (SIR, mean, virtual IMU) vs one NovAtel IMU-ISA-100C", "file:"),
+    ScenarioEntry("upf-flight", "upf-flight", "Sun 2022 Figs 5.8, 5.26: 1-h flight, 200 Hz IMU + 20 Hz fix, 2000-particle UPF vs interpolated KF at 3 kHz", "file:"),
+    ScenarioEntry("nav-source-focus", "nav-source-focus", "Sun 2022 Figs 6.5-6.9: Ku-band cart BPA focused with truth / UPF / KF / splines / 3-ADIS SIR / NovAtel positions (focus.csv)", "file:"),
+    ScenarioEntry("multi-imu-sar-fix", "multi-imu-sar", "GPS-denied multi-IMU fusion: 3 x ADIS16465 + NovAtel PFs aided and SIR-weighted by SAR range/cross-range fixes (rda-nav flight)", "file:"),
+    ScenarioEntry("quality-sweep", "quality-sweep", "Hathaway 2023 Figs. 4.1-4.8: kurtosis / entropy of BPA images vs along- and cross-track velocity error", "file:"),
+    ScenarioEntry("gpsd-search", "gpsd-search", "Hathaway 2023 Alg. 3.3: reduced Table 4.1 sweep (rho.csv), controls, searches that span the bias (~2 min)", "file:"),
+    ScenarioEntry("gpsd-search-table41", "gpsd-search", "Hathaway 2023 Table 4.1: the full velocity-offset search sweep, all six (S_i, L)", "file:"),
+    ScenarioEntry("quality-nav", "quality-nav", "INS aided by the best-focus along-track velocity of its own BPA images (no map), 100 runs", "file:"),
 )
 # fmt: on
 
@@ -144,10 +137,30 @@ def get_kind(kind: str) -> ScenarioKind:
     return inst
 
 
+@functools.cache
+def _packaged_text(name: str) -> str:
+    return resources.files("sarnav.scenarios").joinpath("defaults", f"{name}.toml").read_text(encoding="utf-8")
+
+
+def packaged(name: str) -> dict:
+    """The default configuration of the registered scenario ``name`` as shipped, ``scenarios/defaults/<name>.toml``.
+
+    A study's ``[base] registered = "<scenario>"`` is that registered scenario, whose campaign seed the study takes
+    (common random numbers across the cases)."""
+    cfg = parse_toml(_packaged_text(name), f"sarnav/scenarios/defaults/{name}.toml")
+    base = cfg.get("base")
+    if isinstance(base, dict) and "registered" in base:
+        cfg["base"] = get_scenario(base["registered"])
+        cfg["campaign"]["seed"] = cfg["base"].pop("campaign")["seed"]
+    return cfg
+
+
 def get_scenario(name: str) -> dict:
     """A fresh copy of the default configuration of the registered scenario ``name``."""
     e = _entry(name)
-    if e.factory == "kind:":
+    if e.factory == "file:":
+        cfg = packaged(e.name)
+    elif e.factory == "kind:":
         kind = get_kind(e.kind)
         make = getattr(kind, "default_config", None)
         if make is None:

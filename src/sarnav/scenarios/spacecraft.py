@@ -1,16 +1,10 @@
 """The ``spacecraft`` scenario kind: the open-loop Monte Carlo of Pogorelsky et al. 2022 §VI.B-VII (scenarios
 ``spacecraft-tc1``, ``spacecraft-tc2``; docs/spacecraft.md).
 
-Configuration and wiring only; the physics is ``simulation.spacecraft.run_open_loop`` (as records
-``run_open_loop_records``: truth orbit RK4 + J2, the MEKF of ``filters.mekf`` at 100 Hz, the centre-pixel
-measurement of ``measurements.spacecraft``, Lear underweighting of ``filters.underweighting``). The measurements are
-synthesised from the truth as the paper's open loop does (r_f = boresight ∩ WGS-84 + N(0, D), range + N(0, 1 m^2),
-speed + N(0, 0.54^2)): the kind's only measurement mode, named ``oracle`` (``[measurement] mode``) as the project's
-rule for truth-made measurements asks.
-The closed loop from raw echoes is the ``spacecraft-closed-loop`` kind (``scenarios.spacecraft_closed_loop``).
-
-Random draws: run i uses only ``Generator(PCG64(seeds[i]))`` in the order of ``run_open_loop`` (9 initial-error
-normals, then 5 per update), so a run does not depend on the batch, the executor or the number of workers.
+Configuration and wiring only; the experiment is ``simulation.spacecraft.run_open_loop_records`` (truth orbit RK4 + J2,
+the MEKF of ``filters.mekf``, the centre-pixel measurement of ``measurements.spacecraft``, Lear underweighting). The
+measurements are synthesised from the truth as the paper's open loop does: the kind's only measurement mode, named
+``oracle`` (``[measurement] mode``). The closed loop from raw echoes is ``scenarios.spacecraft_closed_loop``.
 """
 
 from __future__ import annotations
@@ -30,6 +24,7 @@ from sarnav.scenarios.fields import boolean as _bool
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.kind_base import one_seed_per_run
+from sarnav.scenarios.registry import packaged
 from sarnav.simulation.spacecraft import BLOCK_NAMES, MEAS_UNITS, RIC_NAMES, RIC_UNITS, STATE_UNITS, OpenLoopParams, \
     check_geometry, run_open_loop_records
 from sarnav.simulation.spacecraft import OPEN_LOOP_ATTRS as EXTRA_ATTRS
@@ -38,57 +33,6 @@ from sarnav.frames.earth import WGS84_A
 
 #: longest simulated flight [s] (one day: the truth orbit and the records are allocated up front)
 MAX_DURATION = 86400.0
-
-
-def _elements_table() -> dict:
-    return {"altitude_km": 691.5,  # Table 2: altitude at the equator (a = R_e + 691.5 km)
-            "inclination_deg": 98.16,  # Table 2
-            "eccentricity": 0.00118,  # Table 2
-            # G1 (not in the paper): ascending pass over 30.15 N 100 W at t = 0, so that the boresight lands near
-            # Houston and the ground track reaches northern Canada after 10 min; frozen-orbit argument of perigee
-            "latitude_deg": 30.15, "longitude_deg": -100.0, "argp_deg": 90.0}
-
-
-def default_config(case: str = "tc2") -> dict:
-    """TC-2 (misalignment 0.01 deg, no underweighting) or TC-1 (0.1 deg, beta 0.2 on 10 updates): Table 4, L514."""
-    tc1 = case == "tc1"
-    name = f"spacecraft-{case}"
-    return {
-        "scenario": {"name": name, "kind": "spacecraft",
-                     "description": ("Pogorelsky et al. 2022 TC-1 open loop: misalignment 0.1 deg, Lear beta 0.2 on "
-                                     "10 updates" if tc1 else "Pogorelsky et al. 2022 TC-2 open loop: misalignment "
-                                     "0.01 deg, no underweighting")},
-        "campaign": {"runs": 100, "seed": 20220901},  # 100 runs: L462
-        "orbit": _elements_table(),
-        "antenna": {"look_angle_deg": 34.3,  # G3: ALOS PALSAR nominal off-nadir angle, right-looking
-                    "squint_deg": 0.0, "steering": "lvlh"},  # G3/G4: body = exact LVLH
-        "simulation": {"duration": 600.0,  # 10 min (L484)
-                       "update_interval": 8.2,  # L514
-                       "n_updates": 0,  # 0: every t_k = 8.2 k <= duration (73, G11); 72 = the paper's count
-                       "record_interval": 1.0, "truth_dt": 0.1},
-        "initial": {"sigma_r0": 1000.0, "sigma_v0": 10.0,  # Table 4 [m, m/s per axis]
-                    "sigma_mu0_deg": 0.1 if tc1 else 0.01},
-        "measurement": {"mode": "oracle",  # the paper's open loop: measurements synthesised from the truth
-                        "sigma_range": 1.0,  # Table 3 [m]
-                        "sigma_vic": 0.54,  # Table 3 [m/s]
-                        # G8: "2 to 8 m 1-sigma" per ECEF axis, values not given: 5^2 I m^2 (x-axis result depends on it)
-                        "D": [[25.0, 0.0, 0.0], [0.0, 25.0, 0.0], [0.0, 0.0, 25.0]]},
-        "mekf": {"q_accel": 3.5e-11, "q_misalignment": 3.4e-13,  # Q_PSD (L490)
-                 "literal_q": True,  # G6: eq. 12 as printed
-                 "coriolis": False,  # G7: eq. 13 without the Coriolis terms
-                 "dt": 0.01,  # 100 Hz (L514)
-                 "underweight_beta": 0.2 if tc1 else 0.0,  # L514: TC-1 only (0 disables)
-                 "underweight_updates": 10},  # L514
-        "truth": {"misalignment_psd": 0.0},  # G17/G18: the true misalignment is constant
-    }
-
-
-def tc1_config() -> dict:
-    return default_config("tc1")
-
-
-def tc2_config() -> dict:
-    return default_config("tc2")
 
 
 def read_elements(cfg: dict):
@@ -189,15 +133,17 @@ def parse(cfg: dict) -> OpenLoopParams:
 
 
 class SpacecraftKind(ScenarioKind):
-    """Open-loop spacecraft SAR navigation Monte Carlo (module docstring)."""
+    """Open-loop spacecraft SAR navigation Monte Carlo (module docstring); the closed loop's kind changes its
+    ``kind``, ``parse``, ``run_records`` and ``attrs``."""
 
-    kind = "spacecraft"
+    kind, scenario = "spacecraft", "spacecraft-tc2"
+    parse, run_records, attrs = staticmethod(parse), staticmethod(run_open_loop_records), EXTRA_ATTRS
 
     def default_config(self) -> dict:
-        return default_config("tc2")
+        return packaged(self.scenario)
 
     def validate(self, cfg: dict) -> None:
-        parse(cfg)
+        self.parse(cfg)
 
     def state_names(self, cfg: dict) -> list[str]:
         return list(STATE_NAMES)
@@ -212,7 +158,7 @@ class SpacecraftKind(ScenarioKind):
         return list(MEAS_UNITS)
 
     def extra_attrs(self, cfg: dict) -> dict:
-        return EXTRA_ATTRS
+        return self.attrs
 
     def extra_coords(self, cfg: dict) -> dict:
         return {"ric": (list(RIC_NAMES), {"units": list(RIC_UNITS), "description": "radial, in-track, cross-track "
@@ -223,7 +169,7 @@ class SpacecraftKind(ScenarioKind):
         one_seed_per_run(run_ids, seeds)
         if len(run_ids) == 0:
             return []
-        return run_open_loop_records(parse(cfg), list(seeds), run_ids)
+        return self.run_records(self.parse(cfg), list(seeds), run_ids)
 
     def figures(self, results, outdir) -> list[str]:
         from sarnav.report.spacecraft_figures import write_spacecraft_figures

@@ -1,63 +1,24 @@
 """The ``spacecraft-closed-loop`` scenario kind: the spacecraft SAR navigation closed on images formed from simulated
-ALOS-like L-band raw echoes (issue 11 Build 5; Pogorelsky et al. 2022 §VI.A with a simulated pass instead of the real
-PALSAR data; docs/spacecraft.md).
+ALOS-like L-band raw echoes (issue 11 Build 5; Pogorelsky et al. 2022 §VI.A with a simulated pass; docs/spacecraft.md).
 
-Configuration and wiring only: the world and the image chain are ``measurements.spacecraft_image`` (terrain, echoes
-along the true orbit, RDA with the estimated effective velocity, hill-climbing autofocus -> v_ic, registration against
-a geocoded reference -> r_f), the filter loop ``simulation.spacecraft_closed_loop`` (as records:
-``run_closed_loop_records``). ``[measurement] mode = "oracle"`` runs the paper's open loop (§VI.B: r_f + N(0, D),
-V_r + N(0, sigma_vic^2)) on the same updates and world (claim T19).
-R and B use ``[measurement] sigma_vic`` and ``D``, set from the Monte Carlo of the first measurement
-(``first_measurement_statistics``; docs/spacecraft.md gives the command and the numbers), as the paper does.
+Configuration and wiring only: the world and the image chain are ``measurements.spacecraft_image``, the filter loop
+``simulation.spacecraft_closed_loop`` (``run_closed_loop_records``). ``[measurement] mode = "oracle"`` runs the
+paper's open loop on the same updates and world (claim T19). R and B use ``[measurement] sigma_vic`` and ``D``, set
+from the Monte Carlo of the first measurement (docs/spacecraft.md gives the command and the numbers).
 """
 
 from __future__ import annotations
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_extra, require_finite
-from sarnav.filters.mekf import STATE_NAMES
-from sarnav.measurements.spacecraft import MEASUREMENT_NAMES
 from sarnav.measurements.spacecraft_image import REGISTRATIONS, STAGES, ImagingConfig
-from sarnav.montecarlo.kind import ScenarioKind, validate_campaign
-from sarnav.montecarlo.record import RunRecord
+from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios import spacecraft as sc
 from sarnav.scenarios.fields import choice, get, integer, number
 from sarnav.scenarios.fields import positive as _pos
-from sarnav.scenarios.kind_base import one_seed_per_run
 from sarnav.simulation.spacecraft import OpenLoopParams, check_geometry
 from sarnav.simulation.spacecraft_closed_loop import CLOSED_LOOP_ATTRS as EXTRA_ATTRS
 from sarnav.simulation.spacecraft_closed_loop import MODES, ClosedLoopParams, run_closed_loop_records
-
-
-def default_config() -> dict:
-    """TC-2 filter on a simulated 41-s pass with three image updates (the paper's closed loop: L514, L531)."""
-    cfg = sc.default_config("tc2")
-    cfg["scenario"] = {"name": "spacecraft-closed-loop", "kind": "spacecraft-closed-loop",
-                       "description": "Pogorelsky et al. 2022 closed loop, simulated: L-band echoes, autofocus v_ic, "
-                                      "registration r_f, 3 updates"}
-    cfg["campaign"] = {"runs": 20, "seed": 20220902}
-    cfg.pop("truth")
-    cfg["antenna"]["steering"] = "zero-doppler"  # G3/G9: the beam centre at zero Doppler (docs/spacecraft.md)
-    cfg["simulation"].update(duration=41.0, n_updates=3)  # ~41 s of data, first three updates (L514, L531)
-    cfg["measurement"] = {"mode": "image",
-                          "sigma_range": 1.0,  # the paper's added range noise (L476, Table 3)
-                          # measured: Monte Carlo of the first measurement, 40 runs: rms of v_ic - V_r (mean -0.114,
-                          # std 0.012 m/s) and the second moment of r_f - truth (docs/spacecraft.md)
-                          "sigma_vic": 0.12,
-                          "D": [[126.0, 0.0, 18.0], [0.0, 0.2, 0.3], [18.0, 0.3, 3.1]]}
-    cfg["radar"] = {"carrier_ghz": 1.27, "bandwidth_mhz": 28.0,  # ALOS PALSAR FBS
-                    "pulse_length_us": 1.0,  # shorter than ALOS's 27 us to keep the echo simulation cheap (same B)
-                    "sample_rate_mhz": 32.0, "prf_hz": 2200.0, "n_range_samples": 384, "antenna_length_m": 8.9,
-                    "snr_db": -15.0}  # per-sample SNR of a unit-power clutter scatterer
-    cfg["aperture"] = {"duration": 2.0}  # processed aperture (of the ~3 s beam)
-    cfg["terrain"] = {"seed": 11, "relief_m": 60.0, "clutter_spacing_m": 40.0, "bright_scatterers": 15,
-                      "bright_amplitude": 8.0, "coherence": 0.7, "half_along_m": 900.0, "half_range_m": 650.0,
-                      "map_spacing_m": 7.5}
-    cfg["autofocus"] = {"step": 1.0, "max_iter": 60, "refine": [0.5, 0.25]}  # eq. 3 / Algorithm 1 (L510)
-    # min_inliers: the paper's 3 (L193) is the minimum (an affine has 6 unknowns); 3 points always fit an affine exactly,
-    # so a noise image would "match": 6 inliers make a random match improbable (docs/spacecraft.md, departure)
-    cfg["registration"] = {"method": "orb", "min_inliers": 6, "smoothing_px": 1.0, "residual_px": 2.0}
-    return cfg
 
 
 def read_imaging(cfg: dict) -> ImagingConfig:
@@ -128,44 +89,18 @@ def parse(cfg: dict) -> ClosedLoopParams:
     return ClosedLoopParams(base=base, imaging=img, mode=mode)
 
 
-class ClosedLoopKind(ScenarioKind):
+class ClosedLoopKind(sc.SpacecraftKind):
     """Simulated closed loop of the spacecraft SAR navigation (module docstring)."""
 
-    kind = "spacecraft-closed-loop"
-
-    def default_config(self) -> dict:
-        return default_config()
+    kind = scenario = "spacecraft-closed-loop"
+    parse, run_records, attrs = staticmethod(parse), staticmethod(run_closed_loop_records), EXTRA_ATTRS
 
     def validate(self, cfg: dict) -> None:
         if parse(cfg).mode == "image":  # registration by scikit-image, an optional dependency
             require_extra("measurement.mode", "registration", "skimage", "scikit-image")
 
-    def state_names(self, cfg):
-        return list(STATE_NAMES)
-
-    def state_units(self, cfg):
-        return list(sc.STATE_UNITS)
-
-    def meas_names(self, cfg):
-        return list(MEASUREMENT_NAMES)
-
-    def meas_units(self, cfg):
-        return list(sc.MEAS_UNITS)
-
-    def extra_attrs(self, cfg):
-        return EXTRA_ATTRS
-
     def extra_coords(self, cfg):
-        out = sc.SpacecraftKind().extra_coords(cfg)
+        out = super().extra_coords(cfg)
         out["stage"] = (list(STAGES), {"units": "", "description": "stages of the image chain"})
         out["xyz"] = (["x", "y", "z"], {"units": "", "description": "ECEF axes"})
         return out
-
-    def simulate(self, cfg, run_ids, seeds) -> list[RunRecord]:
-        one_seed_per_run(run_ids, seeds)
-        return run_closed_loop_records(parse(cfg), list(seeds), run_ids)
-
-    def figures(self, results, outdir) -> list[str]:
-        from sarnav.report.spacecraft_figures import write_spacecraft_figures
-
-        return write_spacecraft_figures(results, outdir)

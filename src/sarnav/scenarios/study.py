@@ -1,22 +1,12 @@
-"""Studies: one base scenario run as several Monte Carlo campaigns that differ in a few values.
+"""Studies: one base scenario run as several Monte Carlo campaigns that differ in a few values (docs/scenarios/studies.md).
 
-A study scenario (kind ``"study"``)::
-
-    [scenario]  name, kind = "study", description
-    [campaign]  runs, seed          # used by every case (same seed: common random numbers)
-    [study]     states = ["pN", "pE", "pD"]    # states compared in the default figure
-    [base]      a complete scenario of another kind (its own [base.scenario], [base.imu], ...)
-    [[cases]]   label = "consumer", style = "--", set = { "imu.grade" = "consumer" }
-    [[figures]] name, title, cases = [labels], states = [...]   # optional; default one with all
-    [[sweeps]]  name, title, x_label, x = [values], cases = [labels]   # optional: statistics against a swept value
-
-Running it (:func:`run_study`) runs each case as a campaign into ``OUT/<label>/`` (resumable like any campaign;
-``montecarlo.study.run`` with the cases of :func:`parse`), draws the 3σ comparison figure(s) ``OUT/study_<name>.png``
-(thesis Figs 3.8-3.11: filter 3σ of each case, mean over runs) and writes ``OUT/study.json`` with each case's final
-1σ/3σ and time-averaged 3σ per state. A ``[[sweeps]]`` entry draws ``OUT/sweep_<name>.png``: the registration sigma
-(predicted and measured), mean NEES, NIS/dof and final position 3σ of its cases against ``x``, and adds them to
-``study.json``. The three chapter 3 studies of Lindstrom (2020) and the rda-nav robustness study are defined here.
-Configuration and wiring only: the case tables, :func:`parse`, the kind, the figures and ``study.json``.
+A study scenario (kind ``"study"``) has ``[campaign]`` (used by every case: the same seed, common random numbers),
+``[study] states``, ``[base]`` (a complete scenario of another kind), ``[[cases]]`` (``label``, ``style``, ``set`` of
+dotted keys), optional ``[[figures]]`` and ``[[sweeps]]`` (statistics against a swept value). :func:`run_study` runs
+each case as a campaign into ``OUT/<label>/`` (``montecarlo.study.run``) and writes the comparison and sweep figures
+and ``OUT/study.json``. The chapter 3 studies of Lindstrom (2020) and the rda-nav robustness study are registered
+scenarios (``defaults/telemetry-imu-grade.toml`` ...). Configuration and wiring only: :func:`parse`, the kind, the
+figures and ``study.json``.
 """
 
 from __future__ import annotations
@@ -30,18 +20,9 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.study import StudyCase, StudyParams, run
 from sarnav.scenarios.config import set_value, validate_scenario
+from sarnav.scenarios.fields import known_keys
 
-__all__ = [
-    "StudyKind",
-    "case_config",
-    "parse",
-    "run_study",
-    "imu_grade_study",
-    "noise_study",
-    "geometry_study",
-    "robustness_study",
-    "STYLES",
-]
+__all__ = ["StudyKind", "case_config", "parse", "run_study", "STYLES"]
 
 STYLES = ("-", "--", "-.", ":")
 _LABEL_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
@@ -67,8 +48,7 @@ def case_config(cfg: dict, index: int) -> dict:
     from sarnav.scenarios.registry import optional_keys
 
     case = cfg["cases"][index]
-    out = copy.deepcopy(cfg["base"])
-    out["campaign"] = copy.deepcopy(cfg["campaign"])
+    out = case_config_shallow(cfg)
     out["scenario"]["name"] = f"{cfg['scenario']['name']}.{case['label']}"
     opt = optional_keys(out["scenario"]["kind"])
     for key, value in case.get("set", {}).items():
@@ -111,9 +91,7 @@ class StudyKind(ScenarioKind):
         for i, case in enumerate(cases):
             if not isinstance(case, dict):
                 raise ConfigError(f"cases[{i}]", "must be a table with label and set")
-            unknown = set(case) - {"label", "set", "style"}
-            if unknown:
-                raise ConfigError(f"cases[{i}].{sorted(unknown)[0]}", "unknown key (known: label, set, style)")
+            known_keys(case, ("label", "set", "style"), f"cases[{i}]")
             label = case.get("label")
             if not isinstance(label, str) or not _LABEL_RE.match(label):
                 raise ConfigError(f"cases[{i}].label", f"must be a name of letters, digits, '_.-', got {label!r}")
@@ -189,13 +167,6 @@ def case_config_shallow(cfg: dict) -> dict:
     return out
 
 
-def _figure_specs(cfg: dict) -> list[dict]:
-    labels = [c["label"] for c in cfg["cases"]]
-    states = cfg.get("study", {}).get("states", ["pN", "pE", "pD"])
-    figs = cfg.get("figures") or [{"name": "3sigma", "title": cfg["scenario"].get("description", ""), "cases": labels, "states": states}]
-    return [{"name": f["name"], "title": f.get("title", ""), "cases": f.get("cases", labels), "states": f.get("states", states)} for f in figs]
-
-
 def parse(cfg: dict) -> StudyParams:
     """The checked study (``StudyKind.validate``): each case's complete scenario (:func:`case_config`) and the base
     kind; ConfigError names the first bad key."""
@@ -212,6 +183,7 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
     ``study.json`` content.
     """
     from sarnav.montecarlo.outdir import OutputFolder, identity
+    from sarnav.report.study_figure import write_study_files
 
     prm = parse(cfg)
     out = Path(out)
@@ -219,150 +191,4 @@ def run_study(cfg: dict, out, figures: bool = True, **campaign_options) -> dict:
                       overwrite=campaign_options.get("overwrite", False)):
         (out / "study.json").unlink(missing_ok=True)
         outcomes = run(prm, out, **campaign_options)
-        return _write(cfg, prm, outcomes, out, figures)
-
-
-def _write(cfg: dict, prm: StudyParams, outcomes, out: Path, figures: bool) -> dict:
-    """The case figures, the comparison and sweep figures, and ``study.json``."""
-    from sarnav.report.figures import write_campaign_figures
-    from sarnav.report.study_figure import plot_study_comparison, plot_sweep, sweep_points, write_study_json
-    from sarnav.tomlio import dump_toml
-
-    by_label = {o.label: o for o in outcomes}
-    cases_out = [{"label": case["label"], "set": case.get("set", {}), "dir": case["label"],
-                  "states": by_label[case["label"]].states} for case in cfg["cases"]]
-    if figures:
-        for o in outcomes:
-            write_campaign_figures(o.result.dataset, out / o.label, kind=prm.kind)
-    fig_paths = []
-    if figures:
-        style = {c["label"]: c.get("style", STYLES[k % len(STYLES)]) for k, c in enumerate(cfg["cases"])}
-        for spec in _figure_specs(cfg):
-            sel = [(lab, *by_label[lab].curves[:2], style[lab]) for lab in spec["cases"]]
-            path = out / f"study_{spec['name']}.png"
-            fig_paths.append(plot_study_comparison(sel, by_label[spec["cases"][0]].curves[2], spec["states"],
-                                                   spec["title"], path))
-    sweeps = {}
-    for sw in cfg.get("sweeps", []):
-        sweeps[sw["name"]] = sweep_points([by_label[lab].result.summary for lab in sw["cases"]], sw["x"])
-        if figures:
-            fig_paths.append(plot_sweep(sweeps[sw["name"]], sw.get("x_label", ""), sw.get("title", ""),
-                                        out / f"sweep_{sw['name']}.png"))
-    result = {
-        "study": cfg["scenario"]["name"],
-        "runs": cfg["campaign"]["runs"],
-        "seed": cfg["campaign"]["seed"],
-        "complete": True,
-        "cases": cases_out,
-        "figures": [Path(p).name for p in fig_paths],
-        **({"sweeps": sweeps} if sweeps else {}),
-        "scenario_toml": dump_toml(cfg),
-    }
-    write_study_json(out / "study.json", result)
-    return result
-
-
-# ----------------------------------------------------------------------------- chapter 3 studies
-def _study(name: str, description: str, runs: int, cases: list[dict], states=("pN", "pE", "pD"), figures=None) -> dict:
-    from sarnav.scenarios.registry import get_scenario
-
-    base = get_scenario("telemetry")
-    seed = base.pop("campaign")["seed"]
-    cfg = {
-        "scenario": {"name": name, "kind": "study", "description": description},
-        "campaign": {"runs": runs, "seed": seed},
-        "study": {"states": list(states)},
-        "base": base,
-        "cases": cases,
-    }
-    if figures:
-        cfg["figures"] = figures
-    return cfg
-
-
-#: runs per case of the chapter 3 studies: the thesis plots the filter 3σ of "a single iteration"
-#: (L666); a few runs add hairlines and a consistency check at little cost.
-STUDY_RUNS = 10
-
-
-def imu_grade_study() -> dict:
-    """Thesis Table 3.2 / Fig 3.8: consumer (dashed), tactical (solid), navigation (dot-dash)."""
-    cases = [
-        {"label": "consumer", "style": "--", "set": {"imu.grade": "consumer"}},
-        {"label": "tactical", "style": "-", "set": {"imu.grade": "tactical"}},
-        {"label": "navigation", "style": "-.", "set": {"imu.grade": "navigation"}},
-    ]
-    return _study("telemetry-imu-grade", "Position 3-sigma for three IMU grades (thesis Table 3.2, Fig 3.8)", STUDY_RUNS, cases)
-
-
-def noise_study() -> dict:
-    """Thesis Table 3.3 / Fig 3.9: each measurement's 3σ noise ×10 in turn (0.2 -> 2 m, m/s, m)."""
-    base = {"measurements.range_3sigma": 0.2, "measurements.rate_3sigma": 0.2, "measurements.alt_3sigma": 0.2}
-    cases = [
-        {"label": "test1-baseline", "style": "-", "set": dict(base)},
-        {"label": "test2-range", "style": "--", "set": base | {"measurements.range_3sigma": 2.0}},
-        {"label": "test3-rate", "style": "-.", "set": base | {"measurements.rate_3sigma": 2.0}},
-        {"label": "test4-alt", "style": ":", "set": base | {"measurements.alt_3sigma": 2.0}},
-    ]
-    return _study("telemetry-noise", "Position 3-sigma with range, range-rate or altimeter noise x10 (thesis Table 3.3, Fig 3.9)", STUDY_RUNS, cases)
-
-
-#: thesis Table 3.4: target (N, E, D) [m]; the track starts at E = -200 m and flies north (L701)
-GEOMETRY_TARGETS = (
-    (500.0, 0.0, 0.0), (500.0, 500.0, 0.0), (500.0, 1000.0, 0.0), (500.0, 1500.0, 0.0),
-    (1000.0, 0.0, 0.0), (1000.0, 500.0, 0.0), (1000.0, 1000.0, 0.0), (1000.0, 1500.0, 0.0),
-)
-
-
-def geometry_study() -> dict:
-    """Thesis Table 3.4 / Figs 3.10 (north 500 m) and 3.11 (north 1000 m): N and E 3σ per target."""
-    cases = [
-        {"label": f"test{k + 1}", "style": STYLES[k % 4], "set": {"target.position_ned": list(p)}}
-        for k, p in enumerate(GEOMETRY_TARGETS)
-    ]
-    figures = [
-        {"name": "north500", "title": "Targets at north 500 m, east 0/500/1000/1500 m (Fig 3.10)", "cases": ["test1", "test2", "test3", "test4"], "states": ["pN", "pE"]},
-        {"name": "north1000", "title": "Targets at north 1000 m, east 0/500/1000/1500 m (Fig 3.11)", "cases": ["test5", "test6", "test7", "test8"], "states": ["pN", "pE"]},
-    ]
-    return _study("telemetry-geometry", "Position 3-sigma for eight target locations (thesis Table 3.4, Figs 3.10-3.11)", STUDY_RUNS, cases, figures=figures)
-
-
-# ----------------------------------------------------------------------------- rda-nav robustness (issue 10)
-#: receiver SNR below the default (dB), clutter scatterers per image, reference pass offset across the track (m)
-ROBUSTNESS_SNR_DROP = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0)
-ROBUSTNESS_CLUTTER = (4, 20, 50, 100)
-ROBUSTNESS_OFFSET = (0.0, 30.0, 100.0)
-ROBUSTNESS_RUNS = 10
-
-
-def robustness_study() -> dict:
-    """rda-nav outside its calibration (issue 10): sweeps of receiver SNR (0 to 25 dB below the default), point clutter
-    density (4 to 100 scatterers per image) and the reference pass's offset across the track over terrain (0 to
-    100 m, clutter coherence 0.8); one campaign per case, a sweep figure each (registration sigma predicted and
-    measured, NEES, NIS, final position 3-sigma). No noise setting is changed by hand: R comes from the images."""
-    from sarnav.scenarios.registry import get_scenario
-
-    base = get_scenario("rda-nav")
-    seed = base.pop("campaign")["seed"]
-    snr0 = base["radar"]["snr_db"]
-    cases, sweeps = [], []
-    snr = [f"snr-{d:g}" for d in ROBUSTNESS_SNR_DROP]
-    cases += [{"label": lab, "set": {"radar.snr_db": snr0 - d}} for lab, d in zip(snr, ROBUSTNESS_SNR_DROP)]
-    clut = [f"clutter-{n}" for n in ROBUSTNESS_CLUTTER]
-    cases += [{"label": lab, "set": {"scene.clutter_per_image": n}} for lab, n in zip(clut, ROBUSTNESS_CLUTTER)]
-    off = [f"terrain-offset-{d:g}" for d in ROBUSTNESS_OFFSET]
-    cases += [{"label": lab, "set": {"scene.type": "terrain", "scene.reference_offset_m": [d, 0.0],
-                                     "scene.reference_coherence": 0.8, "scene.geolocation_sigma_m": [0.3, 0.3, 0.5]}}
-              for lab, d in zip(off, ROBUSTNESS_OFFSET)]
-    sweeps = [
-        {"name": "snr", "title": "rda-nav: receiver SNR below the default", "x_label": "SNR drop [dB]",
-         "x": list(ROBUSTNESS_SNR_DROP), "cases": snr},
-        {"name": "clutter", "title": "rda-nav: point clutter per image", "x_label": "clutter scatterers per image",
-         "x": [float(n) for n in ROBUSTNESS_CLUTTER], "cases": clut},
-        {"name": "reference-offset", "title": "rda-nav over terrain: reference pass offset across the track",
-         "x_label": "reference pass offset [m]", "x": list(ROBUSTNESS_OFFSET), "cases": off},
-    ]
-    return {"scenario": {"name": "rda-nav-robustness", "kind": "study",
-                         "description": "rda-nav outside its calibration: SNR, clutter density, reference pass offset"},
-            "campaign": {"runs": ROBUSTNESS_RUNS, "seed": seed}, "study": {"states": ["pN", "pE", "pD"]},
-            "base": base, "cases": cases, "sweeps": sweeps}
+        return write_study_files(cfg, prm.kind, outcomes, out, figures)

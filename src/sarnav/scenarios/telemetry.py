@@ -1,6 +1,6 @@
 """The ``telemetry`` scenario kind: thesis chapter 3 (INS + altimeter, range and range-rate to one known ground target,
 18-state error-state EKF, Monte Carlo; Figs 3.4-3.7, App. A.5-A.6). Configuration and wiring only: the defaults
-(values the sources leave out are chosen in :meth:`TelemetryKind.default_config`, a comment beside each;
+(``defaults/telemetry.toml``: values the sources leave out are chosen there, a comment beside each;
 docs/scenarios/telemetry.md), ``parse`` (TOML -> :class:`~sarnav.simulation.telemetry.TelemetryParams`) and the kind;
 the experiment is ``sarnav.simulation.telemetry``.
 """
@@ -13,10 +13,11 @@ from sarnav import units
 from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.scenarios.error_state import ErrorStateKind
-from sarnav.scenarios.fields import bounded_positive, get
+from sarnav.scenarios.fields import bounded_positive, choice, get, integer
 from sarnav.scenarios.fields import positive as _pos
 from sarnav.scenarios.fields import vector as _vector
-from sarnav.scenarios.vocabulary import (EARTH_DEFAULT, read_earth, flight_size_check, IMU_OVERRIDES, TRAJECTORY_TYPES,
+from sarnav.scenarios.registry import packaged
+from sarnav.scenarios.vocabulary import (read_earth, flight_size_check, IMU_OVERRIDES, TRAJECTORY_TYPES,
                                          filter_imu_keys, read_filter_imu,
                                          read_imu, read_initial, read_trajectory, result_bytes_check)
 from sarnav.simulation.telemetry import (COV_STEP_MAX, EXTRA_ATTRS, MEAS_NAMES, MEAS_UNITS, STATE_LAYOUT,
@@ -71,16 +72,11 @@ def parse(cfg: dict) -> TelemetryParams:
 
 def _read_update(cfg: dict) -> dict:
     """The ``[update]`` table: strategy, split_threshold, max_components (ConfigError naming the key)."""
-    strategy = get(cfg, "update", "strategy")
-    if strategy not in STRATEGIES:
-        raise ConfigError("update.strategy", f"must be one of {', '.join(STRATEGIES)}, got {strategy!r}")
     lo, hi = SPLIT_THRESHOLD_RANGE
-    threshold = bounded_positive("update.split_threshold", get(cfg, "update", "split_threshold"), lo=lo, hi=hi)
-    k = get(cfg, "update", "max_components")
-    klo, khi = MAX_COMPONENTS_RANGE
-    if isinstance(k, bool) or not isinstance(k, int) or not klo <= k <= khi:
-        raise ConfigError("update.max_components", f"must be an integer in [{klo}, {khi}], got {k!r}")
-    return {"strategy": strategy, "split_threshold": threshold, "max_components": int(k)}
+    return {"strategy": choice(cfg, "update", "strategy", STRATEGIES),
+            "split_threshold": bounded_positive("update.split_threshold", get(cfg, "update", "split_threshold"), lo=lo,
+                                                hi=hi),
+            "max_components": integer(cfg, "update", "max_components", *MAX_COMPONENTS_RANGE)}
 
 
 class TelemetryKind(ErrorStateKind):
@@ -89,53 +85,8 @@ class TelemetryKind(ErrorStateKind):
     kind = "telemetry"
 
     def default_config(self) -> dict:
-        """Chapter 3 validation: Tables A.1, A.7, A.8, 3.1; 200 runs (thesis L656, L1855)."""
-        return {
-            "scenario": {
-                "name": "telemetry",
-                "kind": "telemetry",
-                "description": "Thesis ch. 3: INS + altimeter/range/range-rate EKF to one known target",
-            },
-            "campaign": {"runs": 200, "seed": 20200},  # 200 runs: thesis L656 / A.5-A.6
-            "trajectory": {
-                "type": "straight",  # the thesis flies straight and level due north (L701)
-                "start_ned": [0.0, -200.0, -500.0],  # east -200 m: Table 3.4 start; 500 m altitude: Table A.1
-                "speed": 50.0,  # Table A.1 velocity (50, 0, 0) m/s
-                "heading_deg": 0.0,  # due north (L701)
-                "duration": 20.0,  # not given [GAP §16 item 6]: ends abeam the target (N = 1000 m), see docs
-            },
-            "earth": dict(EARTH_DEFAULT),  # the thesis's non-rotating Earth (L486-L488); docs/navigation.md "Frame"
-            "imu": {
-                "grade": "tactical",  # Table A.8 = tactical row of Table 3.2
-                "rate_hz": 100.0,  # not given [GAP §16 item 5]; extraction §18 suggests 100 Hz
-                "tau_accel": 3600.0,  # not given [GAP §16 item 1]; extraction §16 suggests 3600 s
-                "tau_gyro": 3600.0,  # idem
-            },
-            "measurements": {
-                "rate_hz": 10.0,  # not given [GAP §16 item 9]; 10 Hz telemetry (position 3-sigma ends below P0)
-                "alt_3sigma": 0.2,  # Table 3.1 / A.9 [m]
-                "range_3sigma": 0.2,  # Table 3.1 / A.9 [m]
-                "rate_3sigma": 0.2,  # Table 3.1 / A.9 [m/s]
-                "bias_alt_3sigma": 0.1,  # Table A.8 [m]
-                "bias_range_3sigma": 0.1,  # Table A.8 [m]
-                "bias_rate_3sigma": 0.1,  # Table A.8 [m/s] (printed "m", units typo)
-                "tau_alt": 300.0,  # not given [GAP §16 item 1]; §16 suggests a few hundred s
-                "tau_range": 300.0,  # idem
-                "tau_rate": 300.0,  # idem
-            },
-            "target": {"position_ned": [1000.0, 0.0, 0.0]},  # Table 3.4 test 5
-            # not in the thesis (first-order EKF, eqs. 3.20-3.22): the thesis's EKF is over-confident with the target
-            # under the track (mean NEES 20.4, final 34.3 vs [17.2, 18.8], 200 runs); docs "Target under the track"
-            "update": {"strategy": "gaussian-sum", "split_threshold": 0.1, "max_components": 27},
-            "initial": {
-                "p_3sigma": [1.0, 1.0, 3.0],  # Table A.7 [m]
-                "v_3sigma": [0.1, 0.1, 0.1],  # Table A.7 [m/s]
-                # Table A.7 has 0.1 rad; with it the EKF is measurably inconsistent (mean NEES 50-85 vs
-                # the 95% band [17.2, 18.8], docs/scenarios/telemetry.md), so 0.01 rad [departure]
-                "theta_3sigma": [0.01, 0.01, 0.01],
-                # bias 3-sigma default to the [imu] and [measurements] values (Table A.7 = A.8)
-            },
-        }
+        """Chapter 3 validation: Tables A.1, A.7, A.8, 3.1; 200 runs (thesis L656, L1855): ``defaults/telemetry.toml``."""
+        return packaged("telemetry")
 
     def optional_keys(self) -> list[str]:
         """Keys accepted although the default configuration leaves them out."""

@@ -1,34 +1,10 @@
-"""One configuration vocabulary: the tables every kind shares, read in one place (docs/scenarios/vocabulary.md).
+"""One configuration vocabulary: the tables every kind shares, read in one place.
 
-========================= ==================================================================================
-``[trajectory]``          ``type`` ("straight" | "maneuver"; where the kind offers both), ``start_ned`` [m]
-                          (position at t = 0), ``speed`` [m/s], ``heading_deg``, ``duration`` [s]
-``[imu]``                 the truth sensor: ``grade`` (a preset of ``sensors.imu.GRADE_THREE_SIGMA`` or
-                          "custom"), ``rate_hz``, ``tau_accel``, ``tau_gyro`` [s]; optional 3-sigma overrides
-                          ``vrw_3sigma`` [m/s/sqrt(hr)], ``accel_bias_3sigma`` [g], ``arw_3sigma`` [deg/sqrt(hr)],
-                          ``gyro_bias_3sigma`` [deg/hr] (required with "custom")
-``[filter.imu]``          the filter's model of that sensor: the same keys (no ``rate_hz``), each defaulting to
-                          ``[imu]``'s; a ``grade`` given here drops ``[imu]``'s 3-sigma overrides
-``[earth]``               ``rotation`` (false: the sources' non-rotating Earth; true: the Earth-fixed NED frame turns
-                          with the Earth, ``frames.ned``), ``latitude_deg`` (of the NED origin, [-90, 90]; used when
-                          ``rotation`` is true), ``modelled`` (true: the INS and the filter model the turn; false:
-                          they keep the flat-Earth model while the truth IMU senses it) — telemetry, rda-nav,
-                          quality-nav
-``[initial]``             3-sigma initial uncertainty: ``p_3sigma`` [m], ``v_3sigma`` [m/s], ``theta_3sigma``
-                          [rad] (each 3 numbers); optional ``accel_bias_3sigma`` [g], ``gyro_bias_3sigma``
-                          [deg/hr] (default: the filter's IMU figures)
-``[radar]``               ``preset`` ("nav-paper-sim" | "flexsar" | "sun-ku-cart") and/or the fields with their
-                          units in the key:
-                          ``carrier_ghz``, ``bandwidth_mhz``, ``sample_rate_mhz``, ``pulse_length_us``,
-                          ``prf_hz``, ``antenna_length_m``, ``look_side``, ``range_window``, ``azimuth_window``;
-                          ``snr_db`` (receiver noise), ``receiver_noise`` (bool), ``range_margin_m`` (receive-window
-                          margin), ``near_range_m`` and ``n_range_samples`` (a fixed window) where used
-``[aperture]``            the pulses of one image: ``n_pulses``, or ``duration`` [s] (spacecraft-closed-loop)
-========================= ==================================================================================
-
-Values are validated where they are used (``RadarParams`` validates the radar, ``StraightLevel`` the track); a
-:class:`~sarnav.errors.ConfigError` always names the user's key. Every key, shared or a kind's own, is read through
-the typed readers of :mod:`sarnav.scenarios.fields`.
+``[trajectory]``, ``[imu]``, ``[filter.imu]`` (the filter's model of the IMU, each key defaulting to ``[imu]``'s),
+``[earth]``, ``[initial]``, ``[radar]`` (a preset and/or fields with their units in the key) and ``[aperture]``: every
+key, its unit and range, in docs/scenarios/vocabulary.md. Values are validated where they are used (``RadarParams``
+validates the radar, ``StraightLevel`` the track); a :class:`~sarnav.errors.ConfigError` always names the user's key.
+Every key, shared or a kind's own, is read through the typed readers of :mod:`sarnav.scenarios.fields`.
 """
 
 from __future__ import annotations
@@ -41,7 +17,7 @@ from sarnav import units
 from sarnav.errors import ConfigError, require_finite
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import PRESETS
-from sarnav.scenarios.fields import bounded_positive, get, positive, table, vector
+from sarnav.scenarios.fields import boolean, bounded_positive, get, known_keys, positive, table, vector
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade
 from sarnav.simulation.flight import FlightSpec, ImuSpec
 from sarnav.trajectory import Maneuvering, StraightLevel
@@ -136,13 +112,9 @@ EARTH_DEFAULT = {"rotation": False, "latitude_deg": 40.0, "modelled": True}
 def read_earth(cfg: dict) -> dict:
     """``[earth]`` as FlightSpec fields: ``earth_rate`` (omega_ie^t (3,) [rad/s] when ``rotation`` is true, else None)
     and ``filter_earth_rate`` (the same when ``modelled``, else None: a flat-Earth filter)."""
-    flags = {}
-    for key in ("rotation", "modelled"):
-        flags[key] = get(cfg, "earth", key)
-        if not isinstance(flags[key], bool):
-            raise ConfigError(f"earth.{key}", f"must be a boolean (true or false), got {flags[key]!r}")
+    rotation, modelled = boolean(cfg, "earth", "rotation"), boolean(cfg, "earth", "modelled")
     lat = require_finite("earth.latitude_deg", get(cfg, "earth", "latitude_deg"), lo=-90.0, hi=90.0, unit="deg")
-    return FlightSpec.earth_fields(units.deg_to_rad(lat), flags["rotation"], flags["modelled"])
+    return FlightSpec.earth_fields(units.deg_to_rad(lat), rotation, modelled)
 
 
 # ----------------------------------------------------------------------------- IMU
@@ -183,14 +155,10 @@ def read_filter_imu(cfg: dict, truth: ImuSpec) -> ImuSpec:
         return truth
     if not isinstance(f, dict) or not isinstance(f.get("imu", {}), dict):
         raise ConfigError("filter", "must be a table with an [filter.imu] table")
-    unknown = set(f) - {"imu"}
-    if unknown:
-        raise ConfigError(f"filter.{sorted(unknown)[0]}", "unknown key (known: imu)")
+    known_keys(f, ("imu",), "filter")
     fi = f.get("imu", {})
     known = {"grade", "tau_accel", "tau_gyro", *IMU_OVERRIDES}
-    unknown = set(fi) - known
-    if unknown:
-        raise ConfigError(f"filter.imu.{sorted(unknown)[0]}", f"unknown key (known: {', '.join(sorted(known))})")
+    known_keys(fi, known, "filter.imu")
     if not fi:
         return truth
     imu = cfg["imu"]

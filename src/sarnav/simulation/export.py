@@ -89,18 +89,20 @@ def check_exportable(prm: rda_nav.RdaNavParams) -> None:
                           f"makes its measurements from the truth), got {prm.measurement!r}")
 
 
-def prepare_folder(out, overwrite: bool = False) -> Path:
-    """The recording's folder ``out``, created; one that holds files already is refused (ConfigError ``--out``)
-    unless ``overwrite``, which removes a recording's files (:data:`RECORDING_FILES`) and keeps anything else."""
+def prepare_folder(out, overwrite: bool = False, files=RECORDING_FILES, what: str = "a recording") -> Path:
+    """The folder ``out``, created; one that holds files already is refused (ConfigError ``--out``) unless
+    ``overwrite``, which removes the files matching the globs ``files`` (default a recording's,
+    :data:`RECORDING_FILES`) and keeps anything else; ``what``: what ``--overwrite`` replaces (the message)."""
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise ConfigError("--out", f"{str(folder)!r} is a file, not a folder")
     if folder.is_dir() and any(folder.iterdir()):
         if not overwrite:
-            raise ConfigError("--out", f"{str(folder)!r} is not empty (--overwrite replaces a recording there)")
-        for pattern in RECORDING_FILES:
+            raise ConfigError("--out", f"{str(folder)!r} is not empty (--overwrite replaces {what} there)")
+        for pattern in files:
             for f in folder.glob(pattern):
-                f.unlink()
+                if f.is_file():
+                    f.unlink()
     folder.mkdir(parents=True, exist_ok=True)
     return folder
 

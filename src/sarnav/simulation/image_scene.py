@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sarnav.errors import ConfigError
 from sarnav.imaging import quality
 from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
@@ -70,6 +71,24 @@ class ImageSceneParams:
     def focus_speed(self) -> float:
         """The processor's speed estimate [m/s]: the true speed plus ``speed_error``."""
         return float(self.speed) + float(self.speed_error)
+
+    def check_doppler_band(self) -> None:
+        """The scene's azimuth band must fit in the PRF (the RDA azimuth FFT is circular); ConfigError naming ``prf``.
+
+        A scatterer at along-track y seen by pulses t in [-T/2, T/2] has Doppler -K_a (t - y/V) (paper eq. 8), so the
+        scene occupies K_a (T + 2 max|y| / V) Hz at its nearest range (largest K_a); with the antenna pattern the band
+        is at most the beam's Doppler bandwidth ``RadarParams.doppler_bandwidth(V)`` (about 0.886 * 2V / L_a).
+        """
+        v = float(self.speed)
+        point = self.scene == "point"
+        r_min = float(self.target_slant_range if point else self.slant_range_min)
+        half = abs(self.target_along_track) if point else 0.5 * self.along_track_extent
+        band = 2.0 * v**2 / (self.radar.wavelength * r_min) * (self.duration + 2.0 * half / v)
+        if self.antenna_pattern:
+            band = min(band, self.radar.doppler_bandwidth(v))
+        if band > self.radar.prf:
+            raise ConfigError("prf", f"must be >= the scene's azimuth bandwidth {band:.4g} Hz (K_a (T + 2 max|y|/V) "
+                              f"at the nearest range), got {self.radar.prf:g}")
 
 
 @dataclass(frozen=True)
