@@ -23,7 +23,7 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
 
-__all__ = ["GroundGrid", "SlantGrid", "PlaneGrid", "PointGrid", "as_grid", "regular_axis"]
+__all__ = ["GroundGrid", "SlantGrid", "PlaneGrid", "PointGrid", "as_grid", "regular_axis", "check_resampled"]
 
 
 def regular_axis(center: float, spacing: float, n: int, name: str = "axis") -> np.ndarray:
@@ -316,3 +316,41 @@ def as_grid(grid) -> GroundGrid | SlantGrid | PointGrid:
     if a.ndim == 2 and a.shape[-1] == 3:
         a = a[None, :, :]
     return PointGrid(a)
+
+
+def _flag_number(name: str, value) -> float | None:
+    if value is None:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(name, f"must be a number [m], got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError(name, f"must be finite and > 0 m, got {value!r}")
+    return v
+
+
+def _extent(value, field: str):
+    if value is None:
+        return None
+    parts = [p for p in str(value).replace("x", ",").split(",") if p.strip()]
+    if len(parts) not in (1, 2):
+        raise ConfigError(field, f"must be X or X,Y [m], got {value!r}")
+    return tuple(_flag_number(field, p) for p in parts) if len(parts) == 2 else _flag_number(field, parts[0])
+
+
+def check_resampled(default, spacing, extent, max_pixels: int, fields=("spacing", "extent")):
+    """``default`` (a :class:`PlaneGrid`) resampled at ``spacing`` [m] over ``extent`` (X or (Y, X) [m], or text 'X'
+    / 'Y,X'; None: the grid's own), at most ``max_pixels``; ConfigError naming ``fields`` (spacing, extent)."""
+    sp, ext = _flag_number(fields[0], spacing), _extent(extent, fields[1])
+    rows, cols = default.rows, default.cols
+    dy, dx = (sp, sp) if sp is not None else (rows[1] - rows[0], cols[1] - cols[0])
+    ey, ex = (ext if isinstance(ext, tuple) else (ext, ext)) if ext is not None else (np.ptp(rows), np.ptp(cols))
+    n = (math.floor(ey / dy + 1e-9) + 1) * (math.floor(ex / dx + 1e-9) + 1)
+    if n > max_pixels:
+        raise ConfigError(fields[1] if ext is not None else fields[0],
+                          f"{ey:g} x {ex:g} m at {dy:g} x {dx:g} m spacing is {n:.3g} pixels (at most {max_pixels:.3g}): "
+                          f"raise {fields[0]} or lower {fields[1]}")
+    if min(math.floor(ey / dy + 1e-9), math.floor(ex / dx + 1e-9)) < 1:
+        raise ConfigError(fields[1], f"must span at least two pixels of the spacing, got {ey:g} x {ex:g} m")
+    return default.resampled(sp, ext)

@@ -26,7 +26,8 @@ from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.phase_history import default_range_axis, phase_history_to_pulses
 from sarnav.signal.windows import as_window
 
-__all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET", "read_sicd_geometry"]
+__all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET", "read_sicd_geometry",
+           "read_budget_flag", "read_pulses_flag"]
 
 _C = 299792458.0
 _FFBP_UPSAMPLE = 8                 # ffbp's default level-0 range upsampling
@@ -177,3 +178,37 @@ def read_sicd_geometry(c, grid):
     mid = c.n_pulses // 2
     rc = phase_history_to_pulses(c.phase_history(max(mid - 4, 0), min(mid + 4, c.n_pulses)))
     return SicdGeometry(grid, c.positions, c.pulse_times, rc.wavelength, collect_figures(rc).bandwidth)
+
+
+_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "KIB": 2**10, "M": 2**20, "MB": 2**20, "MIB": 2**20,
+          "G": 2**30, "GB": 2**30, "GIB": 2**30}
+
+
+def read_pulses_flag(value, field: str = "pulses"):
+    """``--pulses START:STOP`` (vector indices, STOP exclusive; either may be empty) -> (start, stop) or None."""
+    if value is None:
+        return None
+    parts = str(value).split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        start = int(parts[0]) if parts[0].strip() else 0
+        stop = int(parts[1]) if parts[1].strip() else None
+    except ValueError:
+        raise ConfigError(field, f"must be START:STOP vector indices (STOP exclusive), got {value!r}") from None
+    return start, stop
+
+
+def read_budget_flag(value, field: str = "budget") -> float:
+    """``--budget SIZE``: bytes, or a number with K, M, G (binary: MiB, GiB); default :data:`DEFAULT_BUDGET`."""
+    if value is None:
+        return float(DEFAULT_BUDGET)
+    text = str(value).strip().upper()
+    num = text.rstrip("KMGIB")
+    try:
+        v = float(num) * _UNITS[text[len(num):]]
+    except (ValueError, KeyError):
+        raise ConfigError(field, f"must be a size such as 1.5G, 512M or 1e9 (bytes), got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError(field, f"must be finite and > 0, got {value!r}")
+    return v

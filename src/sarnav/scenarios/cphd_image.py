@@ -17,13 +17,14 @@ file's field.
 from __future__ import annotations
 
 import hashlib
-import math
 from pathlib import Path
 
-import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.collect_image import ALGORITHMS
+from sarnav.imaging.grid import check_resampled
+from sarnav.io.cphd_stream import read_budget_flag as parse_budget
+from sarnav.io.cphd_stream import read_pulses_flag as parse_pulses
 
 __all__ = ["ALGORITHMS", "MAX_PIXELS", "is_cphd", "run_cphd_image"]
 
@@ -36,80 +37,12 @@ def is_cphd(target: str) -> bool:
     return str(target).lower().endswith(".cphd")
 
 
-def _flag_number(name: str, value) -> float | None:
-    if value is None:
-        return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(name, f"must be a number [m], got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ConfigError(name, f"must be finite and > 0 m, got {value!r}")
-    return v
-
-
-def _extent(value):
-    if value is None:
-        return None
-    parts = [p for p in str(value).replace("x", ",").split(",") if p.strip()]
-    if len(parts) not in (1, 2):
-        raise ConfigError("--extent", f"must be X or X,Y [m], got {value!r}")
-    return tuple(_flag_number("--extent", p) for p in parts) if len(parts) == 2 else _flag_number("--extent", parts[0])
-
-
 def _grid(default, spacing, extent):
-    sp, ext = _flag_number("--spacing", spacing), _extent(extent)
-    rows, cols = default.rows, default.cols
-    dy, dx = (sp, sp) if sp is not None else (rows[1] - rows[0], cols[1] - cols[0])
-    ey, ex = (ext if isinstance(ext, tuple) else (ext, ext)) if ext is not None else (np.ptp(rows), np.ptp(cols))
-    n = (math.floor(ey / dy + 1e-9) + 1) * (math.floor(ex / dx + 1e-9) + 1)
-    if n > MAX_PIXELS:
-        raise ConfigError("--extent" if ext is not None else "--spacing",
-                          f"{ey:g} x {ex:g} m at {dy:g} x {dx:g} m spacing is {n:.3g} pixels (at most {MAX_PIXELS:.3g}): "
-                          "raise --spacing or lower --extent")
-    if min(math.floor(ey / dy + 1e-9), math.floor(ex / dx + 1e-9)) < 1:
-        raise ConfigError("--extent", f"must span at least two pixels of the spacing, got {ey:g} x {ex:g} m")
-    return default.resampled(sp, ext)
+    return check_resampled(default, spacing, extent, MAX_PIXELS, ("--spacing", "--extent"))
 
 
 #: errors of the library's parameters that name a flag of ``sarnav image FILE.cphd``
 _FLAGS = {"channel": "--channel", "pulses": "--pulses", "tropo": "--tropo", "budget": "--budget"}
-_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "KIB": 2**10, "M": 2**20, "MB": 2**20, "MIB": 2**20,
-          "G": 2**30, "GB": 2**30, "GIB": 2**30}
-
-
-def parse_pulses(value):
-    """``--pulses START:STOP`` (vector indices, STOP exclusive; either may be empty) -> (start, stop) or None."""
-    if value is None:
-        return None
-    parts = str(value).split(":")
-    try:
-        if len(parts) != 2:
-            raise ValueError
-        start = int(parts[0]) if parts[0].strip() else 0
-        stop = int(parts[1]) if parts[1].strip() else None
-    except ValueError:
-        raise ConfigError("--pulses", f"must be START:STOP vector indices (STOP exclusive), got {value!r}") from None
-    return start, stop
-
-
-def parse_budget(value) -> float:
-    """``--budget SIZE``: bytes, or a number with K, M, G (binary: MiB, GiB); default :data:`DEFAULT_BUDGET`."""
-    from sarnav.io.cphd_stream import DEFAULT_BUDGET
-
-    if value is None:
-        return float(DEFAULT_BUDGET)
-    text = str(value).strip().upper()
-    num = text.rstrip("KMGIB")
-    try:
-        v = float(num) * _UNITS[text[len(num):]]
-    except (ValueError, KeyError):
-        raise ConfigError("--budget", f"must be a size such as 1.5G, 512M or 1e9 (bytes), got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ConfigError("--budget", f"must be finite and > 0, got {value!r}")
-    return v
-
-
 def _open(path: Path, channel, pulses, tropo):
     from sarnav.io.cphd import read_collect_header
 
@@ -159,8 +92,8 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
         from sarnav.io.geotiff import check_geo_extra
 
         check_geo_extra("--geotiff")
-    budget = parse_budget(budget)
-    pulses = parse_pulses(pulses) if isinstance(pulses, str) else pulses
+    budget = parse_budget(budget, "--budget")
+    pulses = parse_pulses(pulses, "--pulses") if isinstance(pulses, str) else pulses
     c, default = _open(path, channel, pulses, tropo)
     grid = _grid(default, spacing, extent)
     if sicd and spacing is None:      # the SICD's pixels spaced from its impulse-response bandwidth (sicdcheck: OSR)

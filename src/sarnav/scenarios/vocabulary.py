@@ -9,12 +9,13 @@ Every key, shared or a kind's own, is read through the typed readers of :mod:`sa
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from sarnav import units
 from sarnav.errors import ConfigError, require_finite
+from sarnav.montecarlo.budgets import (BYTES_PER_BLOCK_SAMPLE, MAX_BLOCK_SAMPLES, MAX_IMU_SAMPLES,  # noqa: F401
+                                       echo_block_check, flight_size_check, result_bytes_check, whole_number)
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import PRESETS
 from sarnav.scenarios.fields import boolean, bounded_positive, get, known_keys, positive, table, vector
@@ -276,57 +277,3 @@ def doppler_prf_check(params: RadarParams, speed: float) -> None:
         params.check_doppler(speed)
     except ConfigError as err:
         raise ConfigError(radar_key(err.field), err.message) from None
-
-
-#: the longest flight a campaign integrates: IMU samples per run (the INS steps through them one at a time, batched
-#: over runs: about 10 us each, so 2e6 samples cost ~20 s per batch) — 100 Hz for 5.5 hours
-MAX_IMU_SAMPLES = 2_000_000
-
-
-def flight_size_check(duration: float, imu_rate: float) -> int:
-    """IMU samples of the flight (duration x rate); refused beyond :data:`MAX_IMU_SAMPLES` before anything is
-    allocated."""
-    n = duration * imu_rate
-    if not n <= MAX_IMU_SAMPLES:
-        raise ConfigError("trajectory.duration", f"{duration:g} s at imu.rate_hz = {imu_rate:g} Hz is {n:.3g} IMU "
-                          f"samples per run; at most {MAX_IMU_SAMPLES:.0e}: shorten the flight or lower the rate")
-    return int(n)
-
-
-#: the largest block of echoes simulated and focused at once, in samples (pulses x range samples): the image chain
-#: holds about :data:`BYTES_PER_BLOCK_SAMPLE` bytes per sample at its peak (echoes and range-compressed block in
-#: complex128, the image, FFT work arrays; measured: point-target at radar.sample_rate_mhz = 16000, 4.5e6 samples,
-#: 570 MB above the interpreter's own and 8 s), so 2^23 samples stay within about 1 GiB and 15 s
-MAX_BLOCK_SAMPLES = 2**23
-BYTES_PER_BLOCK_SAMPLE = 128
-
-
-def echo_block_check(n_pulses: float, n_range: int) -> None:
-    """Refuse a block of ``n_pulses`` x ``n_range`` samples beyond :data:`MAX_BLOCK_SAMPLES` before anything is
-    allocated, naming the key that makes it large: ``radar.sample_rate_mhz`` (range samples) or
-    ``trajectory.duration`` (pulses = duration x radar.prf_hz)."""
-    n = float(n_pulses) * float(n_range)
-    if not n <= MAX_BLOCK_SAMPLES:
-        field = "radar.sample_rate_mhz" if n_range >= n_pulses else "trajectory.duration"
-        raise ConfigError(field, f"{n_pulses:g} pulses x {n_range} range samples = {n:.3g} samples need about "
-                          f"{n * BYTES_PER_BLOCK_SAMPLE / 2**30:.3g} GiB (at most {MAX_BLOCK_SAMPLES:.3g} samples, "
-                          f"{MAX_BLOCK_SAMPLES * BYTES_PER_BLOCK_SAMPLE / 2**30:g} GiB): lower radar.sample_rate_mhz, the "
-                          "imaged slant-range extent or the block (trajectory.duration x radar.prf_hz)")
-
-
-def whole_number(field: str, value: float, step: float, what: str) -> int:
-    """``value / step`` as an integer, or a ConfigError naming ``field`` (e.g. whole sub-apertures)."""
-    n = value / step
-    if abs(n - round(n)) > 1e-9 * max(1.0, abs(n)) or round(n) < 1:
-        raise ConfigError(field, f"must be a whole number of {what}, got {value}")
-    return int(round(n))
-
-
-def result_bytes_check(runs, duration: float, step: float, n_states: int, limit: int) -> None:
-    """Refuse a campaign whose error + sigma histories (float64) would exceed ``limit`` bytes."""
-    n_out = math.ceil(duration / step) + 1
-    need = (runs if isinstance(runs, int) and runs > 0 else 1) * n_out * n_states * 8 * 2
-    if need > limit:
-        raise ConfigError("trajectory.duration", f"{duration} s x campaign.runs = {runs} would need "
-                          f"{need / 2**30:.1f} GiB of results (limit {limit / 2**30:.0f} GiB): "
-                          "shorten the flight or run fewer runs")
