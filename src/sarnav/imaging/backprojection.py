@@ -15,8 +15,15 @@ specified) — ``interpolation=``:
 * ``"nearest"``: the closest sample;
 * ``"linear"``: two-tap linear;
 * ``"cubic"``: four-tap Keys cubic convolution (a = -1/2, Keys 1981);
+* ``"lagrange"``: four-tap cubic Lagrange (error O(h^4): the accurate one on oversampled data);
 * ``"upsample"``: band-limited FFT zero-padding of every pulse by ``upsample`` (default 4) and then
-  linear interpolation on the finer grid.
+  linear interpolation on the finer grid;
+* ``"upsample-lagrange"``: the same FFT upsampling, then cubic Lagrange;
+* ``"precise"``: the high-accuracy mode: ``"upsample-lagrange"`` with the factor chosen from the data's
+  oversampling fs/B so that the predicted error is <= :data:`PRECISE_MAX_ERROR` (-80 dB; ``"lagrange"``
+  alone when the data are oversampled enough);
+* ``"auto"`` (default): accuracy first, speed second: the cheapest of linear, Lagrange and
+  upsample-Lagrange x2..x32 whose predicted error is <= :data:`AUTO_MAX_ERROR` (-60 dB).
 
 docs/backprojection.md gives the measured accuracy of each against exact band-limited (sinc)
 interpolation. Samples outside the receive window are zero: a pixel whose range falls outside
@@ -50,18 +57,23 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import GroundGrid, PlaneGrid, SlantGrid, as_grid
 from sarnav.imaging.interpolation_error import interpolation_error
-from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, cis32, gather,
-                                    gather_pair, keys_cubic, range_tap, upsample_pulses)
+from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, UPSAMPLED, cis32,
+                                    gather, gather_pair, point_kernel, range_tap, upsample_pulses)
 
 __all__ = ["backproject", "backproject_numpy", "backproject_points", "backproject_fan", "resolve_interpolation",
            "data_oversampling", "plane_of", "PHASE_F32_MAX_ERROR",
-           "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR",
+           "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR", "PRECISE_MAX_ERROR",
            "bpa_fan_kernel", "check_pulses", "check_interpolation", "wavelength_of", "grid_points", "sar_image"]
 
-INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample", "auto")
-#: "auto" picks the cheapest of linear / upsample x2..x16 whose predicted error (flat band, linear
-#: kernel at fs/B * factor, sarnav.imaging.interpolation_error) is at most this (-35 dB)
-AUTO_MAX_ERROR = 10.0 ** -3.5
+INTERPOLATIONS = ("nearest", "linear", "cubic", "lagrange", "upsample", "upsample-lagrange", "precise", "auto")
+#: "auto" picks the cheapest of linear / lagrange / upsample-lagrange x2..x32 whose predicted error (flat band at
+#: fs/B * factor, per-sample error of the kernel: sarnav.imaging.interpolation_error) is at most this (-60 dB)
+AUTO_MAX_ERROR = 1e-6
+#: "precise" picks the smallest upsampling whose predicted Lagrange error is at most this (-80 dB: <= -75 dB measured
+#: with margin, docs/backprojection.md)
+PRECISE_MAX_ERROR = 1e-8
+#: largest FFT upsampling "auto" and "precise" choose
+_MAX_FACTOR = 32
 #: pixels per parallel work item (a block of contiguous pixels: the row stays in L1 cache)
 DEFAULT_BLOCK = 512
 #: pulses per pass over the image (their samples stay in the L2 cache)
@@ -141,7 +153,7 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
             while k < k_stop:
                 _pass_points(px, py, pz, i0, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx, wgt,
                              cph, sph)
-                if mode != 2 and k + 1 < k_stop:
+                if mode < 2 and k + 1 < k_stop:
                     _pass_points(px, py, pz, i0, n, ant, k + 1, u_offset, inv_dr, u_max, shift, two_over_lambda,
                                  idx2, wgt2, cph2, sph2)
                     gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
@@ -198,7 +210,7 @@ def bpa_fan_kernel(origins, e_cols, nx, ant, data, u_offset, inv_dr, u_max, two_
             while k < k_stop:
                 _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx,
                           wgt, cph, sph)
-                if mode != 2 and k + 1 < k_stop:
+                if mode < 2 and k + 1 < k_stop:
                     _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k + 1, u_offset, inv_dr, u_max, shift,
                               two_over_lambda, idx2, wgt2, cph2, sph2)
                     gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
@@ -278,17 +290,22 @@ def data_oversampling(rc: PulseData, bandwidth: float | None = None) -> float:
 
 
 def resolve_interpolation(rc: PulseData, interpolation: str, upsample: int, bandwidth: float | None = None):
-    """(mode, upsample) actually used: "auto" -> "linear" when the data are oversampled enough
-    (fs/B >~ 5.6), else "upsample" with the smallest factor 2, 4, 8, 16 meeting ``AUTO_MAX_ERROR``."""
-    if interpolation != "auto":
+    """(mode, upsample) actually used. "auto": "linear" when the data are oversampled enough for
+    ``AUTO_MAX_ERROR`` (fs/B >~ 22), else "lagrange" (fs/B >~ 4.9), else "upsample-lagrange" with the smallest
+    integer factor (<= 32) meeting it (fs/B = 1 -> x5, 2 -> x3); "precise": the same with ``PRECISE_MAX_ERROR``
+    and Lagrange only (fs/B = 1 -> x9, 2 -> x5, >= 12: Lagrange alone)."""
+    if interpolation not in ("auto", "precise"):
         return interpolation, upsample
     os_ = data_oversampling(rc, bandwidth)
-    if interpolation_error("linear", os_) <= AUTO_MAX_ERROR:
+    limit = AUTO_MAX_ERROR if interpolation == "auto" else PRECISE_MAX_ERROR
+    if interpolation == "auto" and interpolation_error("linear", os_) <= limit:
         return "linear", upsample
-    for factor in (2, 4, 8, 16):
-        if interpolation_error("linear", os_ * factor) <= AUTO_MAX_ERROR:
-            return "upsample", factor
-    return "upsample", 16
+    if interpolation_error("lagrange", os_) <= limit:
+        return "lagrange", upsample
+    for factor in range(2, _MAX_FACTOR + 1):
+        if interpolation_error("lagrange", os_ * factor) <= limit:
+            return "upsample-lagrange", factor
+    return "upsample-lagrange", _MAX_FACTOR
 
 
 def check_interpolation(interpolation: str, upsample: int) -> int:
@@ -304,7 +321,7 @@ def _prepare(rc, positions, interpolation, upsample, wavelength, dtype=np.comple
     upsample = check_interpolation(interpolation, upsample)
     data, rng, pos = check_pulses(rc, positions)
     lam = wavelength_of(rc, wavelength)
-    if interpolation == "upsample":
+    if interpolation in UPSAMPLED:
         data, rng = upsample_pulses(data, rng, upsample, dtype)
     return data, rng, pos, lam
 
@@ -324,7 +341,7 @@ def sar_image(g, values: np.ndarray, rc: PulseData, lam: float, interpolation: s
     y, x, y_name, x_name = g.axes()
     meta = {"algorithm": algorithm, "wavelength": lam, "interpolation": interpolation,
             "n_pulses": int(rc.n_pulses)}
-    if interpolation == "upsample":
+    if interpolation in UPSAMPLED:
         meta["upsample"] = int(upsample)
     meta.update(g.metadata())
     return SarImage(values, np.asarray(y, dtype=np.float64), np.asarray(x, dtype=np.float64), y_name, x_name, meta)
@@ -475,11 +492,13 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto"
         ``(Ny, Nx, 3)`` / ``(M, 3)`` float64 array of pixel positions (NED, m).
     positions : (P, 3) antenna positions used for focusing (NED, m); default ``rc.positions``. Pass
         the navigation estimate to form the image the navigation system would see.
-    interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys) or "upsample" (FFT
-        ×``upsample`` then linear). "auto" chooses from the data's oversampling fs/B
-        (:func:`resolve_interpolation`): linear when its predicted error is <= -35 dB (fs/B >~ 5.6),
-        else upsample ×2/4/8/16 (fs/B = 1.2 -> ×4, error ~ -35 dB); docs/backprojection.md gives
-        each mode's error.
+    interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys), "lagrange" (cubic Lagrange),
+        "upsample" (FFT ×``upsample`` then linear), "upsample-lagrange" (FFT ×``upsample`` then Lagrange) or
+        "precise" (high accuracy, <= -75 dB). "auto" chooses from the data's oversampling fs/B
+        (:func:`resolve_interpolation`) for accuracy first (predicted <= -60 dB), speed second: fs/B = 1.2
+        -> upsample-lagrange ×5, fs/B = 2 -> ×3; "precise" for <= -80 dB predicted (fs/B = 1.2 -> ×8, 2 -> ×5);
+        docs/backprojection.md
+        gives each mode's measured error.
     bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.bandwidth`` or estimated
         from the pulses' power spectrum.
     wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
@@ -554,6 +573,6 @@ def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = 
         elif mode == 1:
             s = row[j] * (1.0 - w) + row[j + 1] * w
         else:
-            s = sum(keys_cubic(d - w) * row[j + d] for d in (-1, 0, 1, 2))
+            s = sum(point_kernel("cubic" if mode == 2 else "lagrange", d - w) * row[j + d] for d in (-1, 0, 1, 2))
         out += np.where(valid, s * np.exp(1j * 4.0 * np.pi * r / lam), 0.0)
     return sar_image(g, out.reshape(pts.shape[:-1]), rc, lam, interpolation, upsample, "bpa-numpy")

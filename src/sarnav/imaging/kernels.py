@@ -3,7 +3,9 @@
 Kernels (distance x in samples; all interpolating: k(0) = 1, k(n) = 0 for the other integers n):
 
 * "nearest" (box), "linear" (triangle), "cubic": Keys (1981) cubic convolution, a = -1/2 (:func:`keys_cubic`),
-  all three by :func:`point_kernel`;
+  "lagrange": the 4-point cubic Lagrange interpolator (:func:`lagrange_cubic`; error O(h^4) where Keys' is O(h^3):
+  on oversampled data it is the more accurate of the two, -77.5 dB against -70.7 dB at fs/B = 8), all four by
+  :func:`point_kernel`;
 * Kaiser-windowed sinc of N taps, ``sinc(x) I0(beta sqrt(1 - (2x/N)^2)) / I0(beta)`` on |x| < N/2
   (:func:`windowed_sinc`): FFBP's "kaiser6" (:data:`WINDOWED`, beta from the oversampling:
   ``interpolation_error.kaiser_beta``) and the RDA's range-migration correction "sinc8" / "sinc16"
@@ -11,7 +13,7 @@ Kernels (distance x in samples; all interpolating: k(0) = 1, k(n) = 0 for the ot
 
 Users: back-projection (``backprojection``, FFBP's level 0 and ``offset_bpa``) interpolates each range-compressed
 pulse, zero-padded by :data:`PAD` samples at each end, at the fractional sample of a range (:func:`range_tap`) with
-nearest / linear / cubic (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MODE`) or FFT upsampling then linear
+nearest / linear / cubic / lagrange (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MODE`) or FFT upsampling then linear
 (:func:`upsample_pulses`); FFBP interpolates its polar images with a separable N x N kernel read from a table
 (:func:`tabulate`; :func:`polar_tap` locates a point, :func:`taps_2d` sums the taps); the RDA reads
 :func:`rcmc_kernel_table` in its compiled RCMC loop. Every interpolated sample is rotated by exp(j 2 pi f), f the
@@ -31,9 +33,9 @@ import numba
 import numpy as np
 import scipy.fft as sfft
 
-__all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE",
+__all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE", "RANGE_KERNEL", "UPSAMPLED",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
-           "rcmc_kernel_table", "upsample_pulses", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
+           "rcmc_kernel_table", "upsample_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
            "gather_pair", "polar_tap", "taps_2d"]
 
 # ---------------------------------------------------------------------------------------------
@@ -42,7 +44,7 @@ __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", 
 #: Keys (1981) cubic-convolution parameter
 KEYS_A = -0.5
 #: piecewise-polynomial kernels of back-projection's range interpolation (:func:`point_kernel`)
-KERNELS = ("nearest", "linear", "cubic")
+KERNELS = ("nearest", "linear", "cubic", "lagrange")
 #: windowed-sinc kernels: name -> taps (beta from the oversampling, ``interpolation_error.kaiser_beta``)
 WINDOWED = {"kaiser6": 6}
 #: RCMC interpolation kernels of the RDA: name -> (taps, Kaiser beta); "none" skips RCMC.
@@ -59,13 +61,25 @@ def keys_cubic(x):
                     np.where(x < 2.0, a * x ** 3 - 5.0 * a * x ** 2 + 8.0 * a * x - 4.0 * a, 0.0))
 
 
+def lagrange_cubic(x):
+    """The 4-point cubic Lagrange interpolator as a kernel at distances x (support |x| < 2): the weights of the
+    cubic through the samples at -1, 0, 1, 2 (Schafer & Rabiner, Proc. IEEE 61(6) 1973, "A digital signal processing
+    approach to interpolation"): (1 - x^2)(2 - x)/2 on [0, 1], -(x - 1)(x - 2)(x - 3)/6 on [1, 2]."""
+    x = np.abs(x)
+    return np.where(x <= 1.0, 0.5 * (1.0 - x * x) * (2.0 - x),
+                    np.where(x < 2.0, -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0, 0.0))
+
+
 def point_kernel(name: str, x) -> np.ndarray:
-    """The kernel ``name`` of :data:`KERNELS` at distances x (float64): box (0.5 at |x| = 1/2), triangle or Keys."""
+    """The kernel ``name`` of :data:`KERNELS` at distances x (float64): box (0.5 at |x| = 1/2), triangle, Keys or
+    Lagrange."""
     ax = np.abs(np.asarray(x, dtype=np.float64))
     if name == "nearest":
         return np.where(ax < 0.5, 1.0, np.where(ax == 0.5, 0.5, 0.0))
     if name == "linear":
         return np.clip(1.0 - ax, 0.0, None)
+    if name == "lagrange":
+        return lagrange_cubic(ax)
     return keys_cubic(ax)
 
 
@@ -233,8 +247,13 @@ PHASE_F32_MAX_ERROR = _cis_error()
 
 #: zero samples added at each end of every pulse so that the cubic taps never leave the array
 PAD = 2
-#: the gather mode of each range interpolation ("upsample": linear on the upsampled pulses)
-GATHER_MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1}
+#: the gather mode of each range interpolation ("upsample": linear on the upsampled pulses, "upsample-lagrange":
+#: Lagrange on them)
+GATHER_MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1, "lagrange": 3, "upsample-lagrange": 3}
+#: the point kernel (:data:`KERNELS`) of each range interpolation, and those that FFT-upsample the pulses first
+RANGE_KERNEL = {"nearest": "nearest", "linear": "linear", "cubic": "cubic", "lagrange": "lagrange",
+                "upsample": "linear", "upsample-lagrange": "lagrange"}
+UPSAMPLED = ("upsample", "upsample-lagrange")
 
 
 @numba.njit(fastmath=True, cache=True, inline="always")
@@ -279,15 +298,26 @@ def gather(d, mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i):  # pragma: no cove
             acc_r[i] += sr * c - si * s
             acc_i[i] += sr * s + si * c
     else:
-        for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
-            w = wgt[i]
-            x1 = np.float32(1.0) + w
-            x2 = np.float32(1.0) - w
-            x3 = np.float32(2.0) - w
-            w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
-            w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
-            w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
-            w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+        if mode == 2:
+            for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
+                w = wgt[i]
+                x1 = np.float32(1.0) + w
+                x2 = np.float32(1.0) - w
+                x3 = np.float32(2.0) - w
+                w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+                w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+                w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+                w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+        else:
+            for i in range(n):  # Lagrange cubic through the samples at -1, 0, 1, 2 (vectorised)
+                w = wgt[i]
+                wp = w + np.float32(1.0)
+                wm = w - np.float32(1.0)
+                w2 = w - np.float32(2.0)
+                w4[0, i] = -w * wm * w2 * np.float32(1.0 / 6.0)
+                w4[1, i] = wp * wm * w2 * np.float32(0.5)
+                w4[2, i] = -wp * w * w2 * np.float32(0.5)
+                w4[3, i] = wp * w * wm * np.float32(1.0 / 6.0)
         for i in range(n):
             j = idx[i]
             sm = d[j - one]

@@ -295,7 +295,7 @@ def _default_grid(xml, srp) -> PlaneGrid:
     return PlaneGrid(iarp, uiax, uiay, lines, samples, "iax", "iay")
 
 
-def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None) -> tuple[PulseData, PlaneGrid]:
+def read_collect(path, range_axis=None, *, oversample: float = 4.0, filter=None) -> tuple[PulseData, PlaneGrid]:
     """Read a monostatic FX-domain CPHD: (range-compressed PulseData in ECEF, default image grid).
 
     The pulses land on one absolute range axis (``range_axis`` or the default of
