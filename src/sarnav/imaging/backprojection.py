@@ -58,7 +58,8 @@ from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import GroundGrid, PlaneGrid, SlantGrid, as_grid
 from sarnav.imaging.interpolation_error import interpolation_error
 from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, UPSAMPLED, cis32,
-                                    gather, gather_pair, point_kernel, range_tap, upsample_pulses)
+                                    gather, gather_pair, gather_pair_lagrange, point_kernel, range_tap,
+                                    upsample_pulses)
 
 __all__ = ["backproject", "backproject_numpy", "backproject_points", "backproject_fan", "resolve_interpolation",
            "data_oversampling", "plane_of", "PHASE_F32_MAX_ERROR",
@@ -117,13 +118,14 @@ def _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shi
 @numba.njit(fastmath=True, cache=True, inline="always")
 def _work_arrays(n):  # pragma: no cover - compiled
     """A work item's arrays for n pixels: float32 accumulators (zero), per-pulse tap positions and phase factors of
-    two pulses (``range_tap``, ``cis32``) and the cubic weights (4, n) (``gather``)."""
+    two pulses (``range_tap``, ``cis32``) and the cubic weights of two pulses (8, n) (``gather``,
+    ``gather_pair_lagrange``)."""
     idx, idx2 = np.empty(n, np.uint32), np.empty(n, np.uint32)
     wgt, wgt2 = np.empty(n, np.float32), np.empty(n, np.float32)
     cph, cph2 = np.empty(n, np.float32), np.empty(n, np.float32)
     sph, sph2 = np.empty(n, np.float32), np.empty(n, np.float32)
     return (np.zeros(n, np.float32), np.zeros(n, np.float32), idx, wgt, cph, sph, idx2, wgt2, cph2, sph2,
-            np.empty((4, n), np.float32))
+            np.empty((8, n), np.float32))
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
@@ -153,11 +155,15 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
             while k < k_stop:
                 _pass_points(px, py, pz, i0, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx, wgt,
                              cph, sph)
-                if mode < 2 and k + 1 < k_stop:
+                if mode != 2 and k + 1 < k_stop:
                     _pass_points(px, py, pz, i0, n, ant, k + 1, u_offset, inv_dr, u_max, shift, two_over_lambda,
                                  idx2, wgt2, cph2, sph2)
-                    gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
-                                 acc_i)
+                    if mode == 3:
+                        gather_pair_lagrange(data[k], data[k + 1], n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w4,
+                                             acc_r, acc_i)
+                    else:
+                        gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
+                                    acc_i)
                     k += 2
                 else:
                     gather(data[k], mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i)
@@ -210,11 +216,15 @@ def bpa_fan_kernel(origins, e_cols, nx, ant, data, u_offset, inv_dr, u_max, two_
             while k < k_stop:
                 _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx,
                           wgt, cph, sph)
-                if mode < 2 and k + 1 < k_stop:
+                if mode != 2 and k + 1 < k_stop:
                     _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k + 1, u_offset, inv_dr, u_max, shift,
                               two_over_lambda, idx2, wgt2, cph2, sph2)
-                    gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
-                                 acc_i)
+                    if mode == 3:
+                        gather_pair_lagrange(data[k], data[k + 1], n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w4,
+                                             acc_r, acc_i)
+                    else:
+                        gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
+                                    acc_i)
                     k += 2
                 else:
                     gather(data[k], mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i)

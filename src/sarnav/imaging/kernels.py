@@ -36,7 +36,7 @@ import scipy.fft as sfft
 __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE", "RANGE_KERNEL", "UPSAMPLED",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
            "rcmc_kernel_table", "upsample_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
-           "gather_pair", "polar_tap", "taps_2d"]
+           "gather_pair", "gather_pair_lagrange", "polar_tap", "taps_2d"]
 
 # ---------------------------------------------------------------------------------------------
 # kernel definitions and tables (numpy)
@@ -309,15 +309,7 @@ def gather(d, mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i):  # pragma: no cove
                 w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
                 w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
         else:
-            for i in range(n):  # Lagrange cubic through the samples at -1, 0, 1, 2 (vectorised)
-                w = wgt[i]
-                wp = w + np.float32(1.0)
-                wm = w - np.float32(1.0)
-                w2 = w - np.float32(2.0)
-                w4[0, i] = -w * wm * w2 * np.float32(1.0 / 6.0)
-                w4[1, i] = wp * wm * w2 * np.float32(0.5)
-                w4[2, i] = -wp * w * w2 * np.float32(0.5)
-                w4[3, i] = wp * w * wm * np.float32(1.0 / 6.0)
+            _lagrange_weights(wgt, n, w4, 0)
         for i in range(n):
             j = idx[i]
             sm = d[j - one]
@@ -330,6 +322,43 @@ def gather(d, mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i):  # pragma: no cove
             s = sph[i]
             acc_r[i] += sr * c - si * s
             acc_i[i] += sr * s + si * c
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _lagrange_weights(wgt, n, w, r0):  # pragma: no cover - compiled
+    """Rows r0 .. r0 + 3 of w: the cubic Lagrange weights through the samples at -1, 0, 1, 2 for fractions wgt
+    (vectorised)."""
+    for i in range(n):
+        x = wgt[i]
+        xp = x + np.float32(1.0)
+        xm = x - np.float32(1.0)
+        x2 = x - np.float32(2.0)
+        w[r0, i] = -x * xm * x2 * np.float32(1.0 / 6.0)
+        w[r0 + 1, i] = xp * xm * x2 * np.float32(0.5)
+        w[r0 + 2, i] = -xp * x * x2 * np.float32(0.5)
+        w[r0 + 3, i] = xp * x * xm * np.float32(1.0 / 6.0)
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def gather_pair_lagrange(d, e, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w8, acc_r, acc_i):  # pragma: no cover
+    """:func:`gather` of two pulses with the Lagrange kernel (mode 3) in one pass over the pixels (weights of the
+    first pulse in rows 0-3 of the (8, n) work array ``w8``, of the second in rows 4-7)."""
+    _lagrange_weights(wgt, n, w8, 0)
+    _lagrange_weights(wgt2, n, w8, 4)
+    one = np.uint32(1)
+    two = np.uint32(2)
+    for i in range(n):
+        j = idx[i]
+        k = idx2[i]
+        a0, a1, a2, a3 = d[j - one], d[j], d[j + one], d[j + two]
+        b0, b1, b2, b3 = e[k - one], e[k], e[k + one], e[k + two]
+        sr = w8[0, i] * a0.real + w8[1, i] * a1.real + w8[2, i] * a2.real + w8[3, i] * a3.real
+        si = w8[0, i] * a0.imag + w8[1, i] * a1.imag + w8[2, i] * a2.imag + w8[3, i] * a3.imag
+        tr = w8[4, i] * b0.real + w8[5, i] * b1.real + w8[6, i] * b2.real + w8[7, i] * b3.real
+        ti = w8[4, i] * b0.imag + w8[5, i] * b1.imag + w8[6, i] * b2.imag + w8[7, i] * b3.imag
+        c, s, c2, s2 = cph[i], sph[i], cph2[i], sph2[i]
+        acc_r[i] += (sr * c - si * s) + (tr * c2 - ti * s2)
+        acc_i[i] += (sr * s + si * c) + (tr * s2 + ti * c2)
 
 
 @numba.njit(fastmath=True, cache=True, inline="always")

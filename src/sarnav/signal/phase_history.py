@@ -186,9 +186,9 @@ def phase_history_to_pulses(ph: PhaseHistory, range_axis=None, *, wavelength: fl
 
     Returns
     -------
-    PulseData, ``compressed=True``, ``params=None``, ``wavelength`` set, ``bandwidth`` the stored band
-    N max(SCSS) (the DFT band of a vector: back-projection's "auto" reads the pulses' fs / B from it), complex128
-    data, positions ``ph.positions`` (same frame).
+    PulseData, ``compressed=True``, ``params=None``, ``wavelength`` set, complex128 data, positions
+    ``ph.positions`` (same frame); ``metadata["stored_band_hz"]`` = N max(SCSS), the band the vectors hold
+    (``bandwidth`` stays None: back-projection's "auto" estimates the signal's band from the pulses' spectrum).
     """
     if not isinstance(ph, PhaseHistory):
         raise InputDataError("phase_history", f"must be a PhaseHistory, got {type(ph).__name__}")
@@ -221,10 +221,10 @@ def phase_history_to_pulses(ph: PhaseHistory, range_axis=None, *, wavelength: fl
     delay = 2.0 * (r[None, :] - ph.ref_range[:, None]) / _C
     tol = 1e-6 * 2.0 * dr / _C
     out[(delay < win[:, :1] - tol) | (delay > win[:, 1:] + tol)] = 0.0
-    meta = {"source": "phase_history", "sgn": int(ph.sgn)}
+    meta = {"source": "phase_history", "sgn": int(ph.sgn), "stored_band_hz": n * float(np.max(ph.fx_step))}
     meta.update(metadata or {})
     return PulseData(out, r.copy(), ph.pulse_times.copy(), ph.positions.copy(), None, compressed=True,
-                     metadata=meta, wavelength=_C / fc, bandwidth=n * float(np.max(ph.fx_step)))
+                     metadata=meta, wavelength=_C / fc)
 
 
 def pulses_to_phase_history(rc: PulseData, ref_range, *, pad: float = 1.25, wavelength: float | None = None
