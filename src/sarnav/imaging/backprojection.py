@@ -34,7 +34,7 @@ Implementation (docs/backprojection.md "Speed"): numba ``prange`` over blocks of
 along a row is an exact quadratic in the column index, so no pixel coordinates are read); per pulse
 a vectorised float64 pass computes the range (one square root), the sample index and weight and the
 fractional cycle ``f`` of ``2R/lambda``; a vectorised float32 pass turns f into exp(j 2 pi f); a
-scalar pass gathers the complex64 samples (two pulses per pass for nearest and linear) and
+scalar pass gathers the complex64 samples (two pulses per pass for nearest, linear and Lagrange) and
 accumulates in float32 over ``pulse_block`` pulses, each partial sum added to the float64 image.
 Geometry is float64: ``f`` is reduced to [-1/2, 1/2) in float64 (error ~1e-16 * 2R/lambda cycles,
 1e-11 for R = 2 km at X band) before it is rounded to float32; exp(j 2 pi f) comes from quarter-wave
@@ -138,8 +138,8 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
     (their samples stay in L2 cache) summed in float32, each group's sum added to the float64
     output; pixels in parallel blocks of ``block``. Per pulse: a vectorised float64 pass (range, sample
     index and weight, fractional cycle: ``range_tap``), a vectorised float32 pass (phase factor: ``cis32``,
-    16 lanes on AVX-512), a scalar pass of gathers (``gather``; two pulses at a time for nearest and
-    linear, ``gather_pair``).
+    16 lanes on AVX-512), a scalar pass of gathers (``gather``; two pulses at a time for nearest,
+    linear and Lagrange, ``gather_pair``, ``gather_pair_lagrange``).
     """
     m_total = px.size
     n_pulses = ant.shape[0]
