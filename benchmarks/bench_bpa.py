@@ -247,7 +247,7 @@ def gain_error_db(img, ref) -> float:
     return error_db(g * img, ref)
 
 
-def peer_collect_table(npx: int) -> None:
+def peer_collect_table(npx: int, modes=None) -> None:
     """The peer's simulated collect through sarnav's CPHD path: every mode of both tools, one timed call each (after
     a warm-up at 64^2), time, pixel-pulses/s and error against the exact float64 sum on the 16 x 16 sample."""
     import peer_collect as pc
@@ -267,7 +267,8 @@ def peer_collect_table(npx: int) -> None:
           f"below); exact 16x16 sample in {t_ex:.1f} s", flush=True)
     grid = pc.plane_grid(npx)
     small = pc.plane_grid(64)
-    confs = {k: (fn, sarnav_confs(rc, small)[k]) for k, fn in sarnav_confs(rc, grid).items()}
+    confs = {k: (fn, sarnav_confs(rc, small)[k]) for k, fn in sarnav_confs(rc, grid).items()
+             if modes is None or k[len("sarnav "):] in modes}
     if pc.peer_available() is None:
         for interp in ("cubic", "linear"):
             confs[f"fastsar bp {interp} x8"] = (lambda i=interp: pc.fastsar_image(ph, npx, "bp", interp=i),
@@ -292,6 +293,8 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=5, help="timing rounds on the own collect (0: skip it)")
     ap.add_argument("--targets", type=int, default=20)
     ap.add_argument("--peer-sizes", type=int, nargs="*", default=[1024], help="image sizes on the peer's collect")
+    ap.add_argument("--peer-modes", nargs="*", default=None,
+                    help="sarnav modes timed on the peer's collect (labels of MODES, e.g. auto precise; default all)")
     ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
     args = ap.parse_args(argv)
 
@@ -301,7 +304,7 @@ def main(argv=None):
     if args.rounds > 0:
         own_collect(args, threads)
     for npx in args.peer_sizes:
-        peer_collect_table(npx)
+        peer_collect_table(npx, args.peer_modes)
     if not args.no_table:
         interpolation_table()
 

@@ -34,9 +34,14 @@ def peer_available() -> str | None:
 
 
 def peer_collect(npx: int, n_targets: int = 200, seed: int = 0):
-    """(PhaseHistory, fastsar Collect) of FastSAR's simulated spotlight for an npx x npx image, or None."""
+    """(PhaseHistory, fastsar Collect) of FastSAR's simulated spotlight for an npx x npx image, or None. With the
+    environment variable ``SARNAV_PEER_CACHE`` set to a folder, the simulated phase history is kept there as .npy
+    (the NUFFT of a 4096^2 collect takes minutes on a loaded machine; bench_bpa and bench_ffbp share it)."""
     if peer_available() is not None:
         return None
+    import os
+    from pathlib import Path
+
     from fastsar import sim
 
     from sarnav.signal.phase_history import PhaseHistory
@@ -45,7 +50,16 @@ def peer_collect(npx: int, n_targets: int = 200, seed: int = 0):
     rng = np.random.default_rng(np.random.SeedSequence(seed))
     half = 0.45 * npx * PIXEL
     tg = np.column_stack([rng.uniform(-half, half, n_targets), rng.uniform(-half, half, n_targets), np.zeros(n_targets)])
-    s = sim.simulate(col, tg, np.exp(2j * np.pi * rng.uniform(size=n_targets)))
+    amp = np.exp(2j * np.pi * rng.uniform(size=n_targets))
+    cache = os.environ.get("SARNAV_PEER_CACHE")
+    path = Path(cache) / f"peer_{npx}_{n_targets}_{seed}.npy" if cache else None
+    if path is not None and path.exists():
+        s = np.load(path)
+    else:
+        s = sim.simulate(col, tg, amp)
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            np.save(path, s)
     p = s.shape[0]
     toa = np.column_stack([np.full(p, -0.45 / col.df), np.full(p, 0.45 / col.df)])
     ph = PhaseHistory(s, col.fmin, col.df, col.ant, np.linalg.norm(col.ant, axis=1), np.arange(p) * 1e-3, toa, -1)
