@@ -115,7 +115,7 @@ def fastsar_ffbp(rc, npx, east):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[2048, 4096])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[2048, 4096], help="own collect sizes (none: skip it)")
     ap.add_argument("--exact-pulses", type=int, default=64, help="pulses the exact BP is timed on")
     ap.add_argument("--check", type=int, default=256, help="pixels per side of the uniform sample compared with exact BP")
     ap.add_argument("--oversample", type=float, default=2.0, help="polar samples per Nyquist sample (ffbp's default)")
