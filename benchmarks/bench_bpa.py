@@ -2,9 +2,21 @@
 
 Usage::
 
-    python benchmarks/bench_bpa.py                      # 1024 x 1024 pixels, 1024 pulses
-    python benchmarks/bench_bpa.py --size 256 --pulses 256 --rounds 2   # quick
+    python benchmarks/bench_bpa.py                      # 1024 x 1024 pixels, 1024 pulses; peer collect at 1024^2
+    python benchmarks/bench_bpa.py --size 256 --pulses 256 --rounds 2 --peer-sizes 256   # quick
+    python benchmarks/bench_bpa.py --peer-sizes 1024 2048 --rounds 0 --no-table          # the peer's collect only
     pip install -e '.[bench]'                            # FastSAR (optional), the C++ peer
+
+Two collects, every mode of both tools (sarnav: auto, precise, nearest, linear, cubic, lagrange, upsample x8;
+FastSAR: bp cubic x8, bp linear x8), each printed with its time, pixel-pulses/s and its error against the exact
+float64 image on a uniform 16 x 16 pixel sample after one complex gain:
+
+* sarnav's own (below): ideal range-compressed pulses, the exact image evaluates every pulse analytically at every
+  pixel range; FastSAR gets their phase history (``pulses_to_phase_history``);
+* the peer's (``benchmarks/peer_collect.py``, ``--peer-sizes``): FastSAR's simulated X-band spotlight (9.6 GHz,
+  300 MHz, 5 km, 30 deg, 0.25 m pixels, 200 point targets, phase history by NUFFT), read by sarnav through its CPHD
+  path (``phase_history_to_pulses`` with its default range axis); the exact image is the float64 sum over every
+  pulse and frequency sample. Skipped with a note when fastsar or finufft is not installed.
 
 FastSAR (MIT, PyPI ``fastsar``): ``fastsar.form_image(S, ant, fmin, df, n, n, sp, sp, e1, e2,
 algorithm="bp")`` from the phase history of the same pulses (``sarnav.signal.phase_history``;
@@ -43,8 +55,9 @@ import numpy as np
 from sarnav.imaging.backprojection import backproject, backproject_numpy
 from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
-from sarnav.signal.phase_history import pulses_to_phase_history
+from sarnav.signal.phase_history import phase_history_to_pulses, pulses_to_phase_history
 from sarnav.imaging.interpolation_error import interpolation_error
+from sarnav.imaging.kernels import RANGE_KERNEL
 from sarnav.units import C
 
 FC = 9.75e9
@@ -141,18 +154,25 @@ def timed(fn) -> tuple[float, float, object]:
 
 
 #: (sarnav configuration, FastSAR configuration) ratios printed: same interpolation first, then the defaults
-PAIRS = (("sarnav upsample x8", "fastsar linear x8"), ("sarnav linear", "fastsar linear x8"),
-         ("sarnav cubic", "fastsar cubic x8"), ("sarnav upsample x4", "fastsar cubic x8"))
+PAIRS = (("sarnav auto", "fastsar linear x8"), ("sarnav precise", "fastsar cubic x8"),
+         ("sarnav linear", "fastsar linear x8"), ("sarnav cubic", "fastsar cubic x8"))
+
+
+#: sarnav's modes timed on both collects: (label, interpolation, upsample)
+MODES = (("auto", "auto", 4), ("precise", "precise", 4), ("nearest", "nearest", 4), ("linear", "linear", 4),
+         ("cubic", "cubic", 4), ("lagrange", "lagrange", 4), ("upsample x8", "upsample", 8))
+
+
+def sarnav_confs(rc, grid) -> dict:
+    """{name: callable forming sarnav's image of ``rc`` on ``grid``} for every mode of :data:`MODES`."""
+    return {f"sarnav {label}": (lambda m=m, up=up: backproject(rc, grid, interpolation=m, upsample=up).data)
+            for label, m, up in MODES}
 
 
 def rounds(rc, grid, size: int, n_rounds: int, work: int) -> tuple[dict, dict]:
     """Every configuration timed once per round, sarnav and FastSAR interleaved (the same load on both):
     {name: [(wall, cpu), ...]} and {name: image of the last round}."""
-    confs = {f"sarnav {m}": (lambda m=m: backproject(rc, grid, interpolation=m).data)
-             for m in ("nearest", "linear", "cubic")}
-    for up in (4, 8):
-        confs[f"sarnav upsample x{up}"] = (lambda up=up: backproject(rc, grid, interpolation="upsample",
-                                                                    upsample=up).data)
+    confs = sarnav_confs(rc, grid)
     confs.update(fastsar_former(rc, size))
     times = {k: [] for k in confs}
     images = {}
@@ -183,28 +203,17 @@ def report(times: dict, work: int, threads: int, rate_np: float) -> None:
                   f"[{rc_.min():.2f}, {rc_.max():.2f}] (goal >= 1.0)")
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", type=int, default=1024, help="image is size x size pixels")
-    ap.add_argument("--pulses", type=int, default=1024)
-    ap.add_argument("--numpy-pulses", type=int, default=32, help="pulses the numpy baseline is timed on")
-    ap.add_argument("--check", type=int, default=128, help="side of the pixel block compared with numpy")
-    ap.add_argument("--rounds", type=int, default=5, help="timing rounds (every configuration once per round)")
-    ap.add_argument("--targets", type=int, default=20)
-    ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
-    args = ap.parse_args(argv)
-
-    threads = numba.get_num_threads()
-    print(f"numba {numba.__version__}, threads {threads}, OMP_NUM_THREADS {os.environ.get('OMP_NUM_THREADS')}, "
-          f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+def own_collect(args, threads: int) -> None:
+    """sarnav's own collect: timing rounds of every mode of both tools, then each image's error against the exact
+    image on the uniform 16 x 16 sample and (sarnav) against the float64 numpy reference with the same interpolation."""
     half = 0.5 * args.size * SPACING
     rc, tg, amp = scene(args.pulses, half, args.targets)
     # FastSAR's pixel i is at (i - n/2) * spacing: shift sarnav's centred grid by half a pixel to match
     grid = GroundGrid(regular_axis(-0.5 * SPACING, SPACING, args.size, "grid.north"),
                       regular_axis(GROUND_RANGE - 0.5 * SPACING, SPACING, args.size, "grid.east"))
     work = args.size * args.size * args.pulses
-    print(f"image {args.size}x{args.size}, {args.pulses} pulses, {rc.data.shape[1]} range samples, fs/B = "
-          f"{FS / BANDWIDTH:g}")
+    print(f"own collect: image {args.size}x{args.size}, {args.pulses} pulses, {rc.data.shape[1]} range samples, "
+          f"fs/B = {FS / BANDWIDTH:g}")
 
     # numpy float64 baseline, timed on fewer pulses and scaled (cost is linear in pulses)
     npulses = min(args.numpy_pulses, args.pulses)
@@ -215,20 +224,87 @@ def main(argv=None):
 
     times, images = rounds(rc, grid, args.size, args.rounds, work)
     report(times, work, threads, rate_np)
+    st = max(1, args.size // 16)
+    sample = (slice(st // 2, None, st), slice(st // 2, None, st))
+    exact = exact_image(rc, PointGrid(grid.points()[sample]), tg, amp)
     c = min(args.check, args.size)
     i0 = (args.size - c) // 2
     sub = PointGrid(grid.points()[i0:i0 + c, i0:i0 + c])
     for k, img in images.items():
+        wall = float(np.median([a for a, _ in times[k]]))
+        line = (f"  {k:20s} {wall:8.2f} s {work / wall:9.3e} px-pulse/s  error vs exact (16x16 sample, one gain) "
+                f"{gain_error_db(img[sample], exact):7.1f} dB")
         if k.startswith("sarnav"):
-            mode = k.split()[1]
-            up = int(k.split("x")[-1]) if "upsample" in k else 4
+            label = k[len("sarnav "):]
+            _, mode, up = next(m for m in MODES if m[0] == label)
             ref = backproject_numpy(rc, sub, interpolation=mode, upsample=up).data
-            print(f"  {k:20s} error vs float64 numpy (same interpolation) "
-                  f"{error_db(img[i0:i0 + c, i0:i0 + c], ref):7.1f} dB")
-        else:
-            ref = images["sarnav upsample x8"]
-            g = np.vdot(img, ref) / np.vdot(img, img)
-            print(f"  {k:20s} error vs sarnav upsample x8 {error_db(g * img, ref):7.1f} dB")
+            line += f"; vs float64 numpy (same interpolation) {error_db(img[i0:i0 + c, i0:i0 + c], ref):7.1f} dB"
+        print(line)
+
+
+def gain_error_db(img, ref) -> float:
+    g = np.vdot(img, ref) / np.vdot(img, img)
+    return error_db(g * img, ref)
+
+
+def peer_collect_table(npx: int, modes=None) -> None:
+    """The peer's simulated collect through sarnav's CPHD path: every mode of both tools, one timed call each (after
+    a warm-up at 64^2), time, pixel-pulses/s and error against the exact float64 sum on the 16 x 16 sample."""
+    import peer_collect as pc
+
+    t_sim, made = pc.timed(lambda: pc.peer_collect(npx))
+    if made is None:
+        print(f"peer collect {npx}^2: {pc.peer_available()}")
+        return
+    ph, _ = made
+    t_rc, rc = pc.timed(lambda: phase_history_to_pulses(ph))
+    t_ex, exact = pc.timed(lambda: pc.exact_sample(ph, npx))
+    sample = pc.sample_index(npx)
+    work = npx * npx * ph.n_pulses
+    print(f"peer collect {npx}^2 x {ph.n_pulses} pulses, {ph.data.shape[1]} frequency samples (simulated in "
+          f"{t_sim:.1f} s); sarnav pulses: {rc.data.shape[1]} range samples at fs/B = "
+          f"{C / (2 * (rc.slant_range[1] - rc.slant_range[0])) / rc.metadata['stored_band_hz']:.2f} ({t_rc:.2f} s, not in the times "
+          f"below); exact 16x16 sample in {t_ex:.1f} s", flush=True)
+    grid = pc.plane_grid(npx)
+    small = pc.plane_grid(64)
+    confs = {k: (fn, sarnav_confs(rc, small)[k]) for k, fn in sarnav_confs(rc, grid).items()
+             if modes is None or k[len("sarnav "):] in modes}
+    if pc.peer_available() is None:
+        for interp in ("cubic", "linear"):
+            confs[f"fastsar bp {interp} x8"] = (lambda i=interp: pc.fastsar_image(ph, npx, "bp", interp=i),
+                                                lambda i=interp: pc.fastsar_image(ph, 64, "bp", interp=i))
+    for k, (fn, warm) in confs.items():
+        warm()
+        wall, img = pc.timed(fn)
+        md = ""
+        if k.startswith("sarnav"):
+            md = f"  [{img.metadata['interpolation']}" if hasattr(img, "metadata") else ""
+        img = np.asarray(img)
+        print(f"  {k:24s} {wall:8.2f} s {work / wall:9.3e} px-pulse/s  error vs exact "
+              f"{pc.gain_error_db(img[sample], exact):7.1f} dB{md}", flush=True)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, default=1024, help="own collect: image is size x size pixels")
+    ap.add_argument("--pulses", type=int, default=1024)
+    ap.add_argument("--numpy-pulses", type=int, default=32, help="pulses the numpy baseline is timed on")
+    ap.add_argument("--check", type=int, default=128, help="side of the pixel block compared with numpy")
+    ap.add_argument("--rounds", type=int, default=5, help="timing rounds on the own collect (0: skip it)")
+    ap.add_argument("--targets", type=int, default=20)
+    ap.add_argument("--peer-sizes", type=int, nargs="*", default=[1024], help="image sizes on the peer's collect")
+    ap.add_argument("--peer-modes", nargs="*", default=None,
+                    help="sarnav modes timed on the peer's collect (labels of MODES, e.g. auto precise; default all)")
+    ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
+    args = ap.parse_args(argv)
+
+    threads = numba.get_num_threads()
+    print(f"numba {numba.__version__}, threads {threads}, OMP_NUM_THREADS {os.environ.get('OMP_NUM_THREADS')}, "
+          f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+    if args.rounds > 0:
+        own_collect(args, threads)
+    for npx in args.peer_sizes:
+        peer_collect_table(npx, args.peer_modes)
     if not args.no_table:
         interpolation_table()
 
@@ -241,10 +317,11 @@ def interpolation_table() -> None:
         rc_s, tg_s, amp_s = scene(128, 16.0, 5, seed=1, fs=osr * BANDWIDTH)
         exact = exact_image(rc_s, small, tg_s, amp_s)
         row = []
-        for interp, up in (("nearest", 0), ("linear", 0), ("cubic", 0), ("upsample", 2), ("upsample", 4),
-                           ("upsample", 8), ("upsample", 16)):
+        for interp, up in (("nearest", 0), ("linear", 0), ("cubic", 0), ("lagrange", 0), ("upsample", 2),
+                           ("upsample", 4), ("upsample", 8), ("upsample", 16), ("upsample-lagrange", 2),
+                           ("upsample-lagrange", 4)):
             a = backproject(rc_s, small, interpolation=interp, upsample=max(up, 2)).data
-            kernel, os_eff = ("linear", osr * up) if interp == "upsample" else (interp, osr)
+            kernel, os_eff = (RANGE_KERNEL[interp], osr * up) if up else (interp, osr)
             pred = 10 * np.log10(interpolation_error(kernel, os_eff))
             row.append(f"{interp}{up if up else ''} {error_db(a, exact):6.1f} ({pred:5.1f})")
         print(f"  fs/B = {osr:4.2f}: " + ", ".join(row) + " dB  (predicted, sarnav.imaging.interpolation_error)")

@@ -3,7 +3,16 @@
 Usage::
 
     python benchmarks/bench_ffbp.py                   # 2048^2 and 4096^2 pixels (exact BP timed on a subset)
-    python benchmarks/bench_ffbp.py --sizes 512       # quick
+    python benchmarks/bench_ffbp.py --sizes 512 --peer-sizes 512      # quick
+    python benchmarks/bench_ffbp.py --sizes --peer-sizes 2048 4096    # the peer's collect only
+
+Peer collect (``--peer-sizes``, ``benchmarks/peer_collect.py``; skipped with a note without fastsar and finufft):
+FastSAR's simulated X-band spotlight (9.6 GHz, 300 MHz, 5 km, 30 deg, 0.25 m pixels, 200 point targets) through
+sarnav's CPHD path (``phase_history_to_pulses``, default axis); printed for sarnav's FFBP (kaiser6 and cubic polar
+kernels, B = the stored band), sarnav's exact BP (default "auto", timed on ``--exact-pulses`` pulses and scaled) and
+FastSAR's FFBP and exact BP (cubic x8; ``--peer-exact`` to time it, it takes as long as sarnav's): time,
+pixel-pulses/s, and the error after one complex gain against the exact float64 sum over every pulse and frequency
+sample on a uniform 16 x 16 pixel sample.
 
 Scene: X band (9.75 GHz), B = 150 MHz, fs = 2 B, 5 km slant range at 30 deg depression, 0.5 m pixels,
 aperture for 0.5 m azimuth resolution with as many pulses as pixels per side (pulse spacing at the
@@ -23,6 +32,7 @@ the same phase history when installed (``pip install -e '.[bench]'``).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -34,7 +44,7 @@ from sarnav.imaging.backprojection import backproject
 from sarnav.imaging.ffbp import ffbp
 from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
 from sarnav.signal.data import PulseData
-from sarnav.signal.phase_history import pulses_to_phase_history
+from sarnav.signal.phase_history import phase_history_to_pulses, pulses_to_phase_history
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from helpers import random_point_scene  # noqa: E402  (the FFBP tests' scene, larger)
@@ -100,7 +110,7 @@ def fastsar_ffbp(rc, npx, east):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[2048, 4096])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[2048, 4096], help="own collect sizes (none: skip it)")
     ap.add_argument("--exact-pulses", type=int, default=64, help="pulses the exact BP is timed on")
     ap.add_argument("--check", type=int, default=256, help="pixels per side of the uniform sample compared with exact BP")
     ap.add_argument("--oversample", type=float, default=2.0, help="polar samples per Nyquist sample (ffbp's default)")
@@ -108,8 +118,10 @@ def main(argv=None):
     ap.add_argument("--upsample", type=int, default=8, help="range upsampling of the pulses at level 0 (ffbp's default)")
     ap.add_argument("--repeat", type=int, default=2, help="FFBP calls timed (best of; the exact BP is best of 2)")
     ap.add_argument("--no-fastsar", action="store_true", help="skip FastSAR's FFBP")
+    ap.add_argument("--peer-sizes", type=int, nargs="*", default=[2048], help="image sizes on the peer's collect")
+    ap.add_argument("--peer-exact", action="store_true", help="time FastSAR's exact BP (cubic x8) on the peer collect")
     args = ap.parse_args(argv)
-    print(f"numba {numba.__version__}, threads {numba.get_num_threads()}")
+    print(f"numba {numba.__version__}, threads {numba.get_num_threads()}, load average {os.getloadavg()[0]:.1f}")
     for npx in args.sizes:
         rc, grid, east = scene(npx)
         p = rc.n_pulses
@@ -143,6 +155,54 @@ def main(argv=None):
             print(f"    fastsar ffbp {t_p:7.2f} s wall, {c_p:7.2f} s CPU/thread ({work / t_p:9.3e}); sarnav / fastsar "
                   f"time {t_f / t_p:5.2f} wall, {c_f / c_p:5.2f} CPU (goal <= 2); fastsar error vs sarnav exact "
                   f"{gain_error_db(np.asarray(img_p)[sample], ref):6.1f} dB", flush=True)
+    for npx in args.peer_sizes:
+        peer_table(npx, args)
+
+
+def peer_table(npx: int, args) -> None:
+    """sarnav's FFBP and exact BP and FastSAR's on the peer's collect (module doc)."""
+    import peer_collect as pc
+
+    made = pc.peer_collect(npx)
+    if made is None:
+        print(f"peer collect {npx}^2: {pc.peer_available()}")
+        return
+    ph, _ = made
+    rc = phase_history_to_pulses(ph)
+    exact = pc.exact_sample(ph, npx)
+    sample = pc.sample_index(npx)
+    p = ph.n_pulses
+    work = npx * npx * p
+    grid, small = pc.plane_grid(npx), pc.plane_grid(32)
+    print(f"peer collect {npx}^2 x {p} pulses, {ph.data.shape[1]} frequency samples; sarnav pulses "
+          f"{rc.data.shape[1]} range samples (fs/B {C / (2 * (rc.slant_range[1] - rc.slant_range[0])) / rc.metadata['stored_band_hz']:.2f})",
+          flush=True)
+    sub = slice(0, min(args.exact_pulses, p))
+    rc_sub = PulseData(rc.data[sub], rc.slant_range, rc.pulse_times[sub], rc.positions[sub], None, True,
+                       wavelength=rc.wavelength)
+    backproject(rc_sub, small)
+    t_e, _, _ = timed(lambda: backproject(rc_sub, grid), 1)
+    t_e *= p / rc_sub.n_pulses
+    print(f"  {'sarnav exact BP auto':26s} {t_e:8.2f} s {work / t_e:9.3e} px-pulse/s (timed on {rc_sub.n_pulses} "
+          f"pulses, scaled)  error vs exact: see bench_bpa.py", flush=True)
+    for kernel in ("kaiser6", "cubic"):
+        kw = dict(bandwidth=rc.metadata["stored_band_hz"], kernel=kernel)
+        ffbp(rc, small, **kw)
+        t_f, _, img = timed(lambda: ffbp(rc, grid, **kw), 1)
+        print(f"  {'sarnav ffbp ' + kernel:26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
+              f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.1f}); "
+              f"{t_e / t_f:5.1f}x sarnav's exact BP", flush=True)
+    if args.no_fastsar or pc.peer_available() is not None:
+        print("  fastsar skipped" + ("" if args.no_fastsar else f": {pc.peer_available()}"))
+        return
+    peer = [("fastsar ffbp", dict(algorithm="ffbp"))]
+    if args.peer_exact:
+        peer.append(("fastsar bp cubic x8", dict(algorithm="bp", interp="cubic")))
+    for name, kw in peer:
+        pc.fastsar_image(ph, 32, **kw)
+        t_p, img = pc.timed(lambda: pc.fastsar_image(ph, npx, **kw))
+        print(f"  {name:26s} {t_p:8.2f} s {work / t_p:9.3e} px-pulse/s  error vs exact "
+              f"{pc.gain_error_db(np.asarray(img)[sample], exact):7.1f} dB", flush=True)
 
 
 if __name__ == "__main__":

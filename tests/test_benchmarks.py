@@ -1,6 +1,7 @@
 """The benchmark scripts still run against the library (they are not part of the timed suite: one tiny call each of
 the ones that build their own inputs from library types; bench_rda broke silently when PulseData lost its radar
-fallback in issue 25)."""
+fallback in issue 25). bench_bpa and bench_ffbp also run on the peer's simulated collect (FastSAR, optional): once
+as installed, once with fastsar made unimportable (the peer's collect and columns skipped with a note)."""
 
 import subprocess
 import sys
@@ -14,7 +15,22 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 @pytest.mark.parametrize("script, args", [
     ("bench_rda.py", ["--sizes", "64x256", "--repeat", "1"]),
     ("bench_echoes.py", ["--pulses", "16", "--targets", "2"]),
+    ("bench_bpa.py", ["--size", "32", "--pulses", "32", "--rounds", "1", "--no-table", "--peer-sizes", "64"]),
+    ("bench_ffbp.py", ["--sizes", "128", "--exact-pulses", "16", "--check", "32", "--peer-sizes", "64"]),
 ])
 def test_benchmark_runs(script, args):
-    done = subprocess.run([sys.executable, str(BENCH / script), *args], capture_output=True, text=True, timeout=300)
+    done = subprocess.run([sys.executable, str(BENCH / script), *args], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+@pytest.mark.parametrize("script, args", [
+    ("bench_bpa.py", ["--size", "32", "--pulses", "32", "--rounds", "1", "--no-table", "--peer-sizes", "64"]),
+    ("bench_ffbp.py", ["--sizes", "128", "--exact-pulses", "16", "--check", "32", "--peer-sizes", "64"]),
+])
+def test_benchmark_runs_without_the_peer(script, args):
+    code = ("import runpy, sys; sys.modules['fastsar'] = None; sys.path.insert(0, sys.argv[1]); "
+            "sys.argv = sys.argv[2:]; runpy.run_path(sys.argv[0], run_name='__main__')")
+    done = subprocess.run([sys.executable, "-c", code, str(BENCH), str(BENCH / script), *args], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "fastsar not installed" in done.stdout

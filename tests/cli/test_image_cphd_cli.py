@@ -84,10 +84,13 @@ def test_written_cphd_passes_the_checker_and_reads_back_to_the_image_formed_from
     _, default = read_collect(a / "collect.cphd")
     grid = image_grid(default, float(SPACING), tuple(float(v) for v in EXTENT.split(",")))
     pts = ecef_to_ned(grid.points(), scen.origin_llh(cfg))
-    from_memory = backproject(rc, PointGrid(pts)).data
+    from_memory = backproject(rc, PointGrid(pts), interpolation="precise").data
     from_file = np.load(b / "image.npz")["data"]
     assert from_file.shape == grid.shape == (54, 47)
-    assert error_db(from_file, from_memory) < -120.0
+    # the command reads the pulses at fs/B = 4 (exact chirp-z) and its default interpolation is within -60 dB of the
+    # exact image (issue 28; tests/imaging/test_cphd_accuracy.py); the memory image interpolates the simulated
+    # pulses with "precise": the two agree to -84 dB, where a wrong geometry or phase would give ~0 dB
+    assert error_db(from_file, from_memory) < -70.0
     m = json.loads((b / "metrics.json").read_text())
     assert m["algorithm"] == "bpa" and m["n_pulses"] == rc.n_pulses and m["files"] == ["image.nitf"]
 

@@ -110,12 +110,12 @@ def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
 
     with pytest.raises(ConfigError, match="^beta: a windowed kernel needs"):
         kernel_spectrum("kaiser6", 0.1)
-    # "auto" is resolved once for all pulses (fs / B = 2: FFT x4 then linear) and gives that mode's image exactly
+    # "auto" is resolved once for all pulses (fs / B = 2: FFT x3 then Lagrange) and gives that mode's image exactly
     from sarnav.imaging.backprojection import resolve_interpolation
 
-    assert resolve_interpolation(rc, "auto", 8, BW) == ("upsample", 4)
+    assert resolve_interpolation(rc, "auto", 8, BW) == ("upsample-lagrange", 3)
     a = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="auto")
-    b = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="upsample", upsample=4)
+    b = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="upsample-lagrange", upsample=3)
     assert np.array_equal(a.data, b.data)
 
 

@@ -60,7 +60,7 @@ def test_default_at_fs_over_b_1p2_places_peaks_and_correlates(frac):
     assert ((r_want - rc.slant_range[0]) / cell) % 1.0 == pytest.approx(frac)
     grid = SlantGrid([0, 0, -ALT], [1, 0, 0], target, np.arange(-24, 24) * 0.2 + 0.03,
                      r_want + np.arange(-24, 24) * 0.2 + 0.05)
-    assert resolve_interpolation(rc, "auto", 4) == ("upsample", 4)
+    assert resolve_interpolation(rc, "auto", 4) == ("upsample-lagrange", 5)     # -60 dB first (issue 28)
     img = backproject(rc, grid)                                  # the default
     ref = exact(rc, grid, target)
     corr = abs(np.vdot(img.data, ref)) / (np.linalg.norm(img.data) * np.linalg.norm(ref))
@@ -75,9 +75,12 @@ def test_default_at_fs_over_b_1p2_places_peaks_and_correlates(frac):
     assert abs(index_to_coordinate(lin.x, peak_location(lin)[1]) - r_want) > cell / 20
 
 
-def test_auto_uses_linear_on_oversampled_data_and_the_error_model_is_ordered():
+def test_auto_uses_lagrange_or_linear_on_oversampled_data_and_the_error_model_is_ordered():
     rc = data(np.array([0.0, EAST, 0.0]), 8.0 * BW, n=1200)
-    assert resolve_interpolation(rc, "auto", 4)[0] == "linear"
+    assert resolve_interpolation(rc, "auto", 4)[0] == "lagrange"              # -77.5 dB predicted at fs/B 8
+    rc = data(np.array([0.0, EAST, 0.0]), 24.0 * BW, n=3600)
+    assert resolve_interpolation(rc, "auto", 4)[0] == "linear"                # -60 dB needs fs/B >~ 22
     for os_ in (1.25, 2.0, 4.0):
-        e = [interpolation_error(k, os_) for k in KERNELS]
-        assert e[0] > e[1] > e[2]
+        e = dict((k, interpolation_error(k, os_)) for k in KERNELS)
+        assert e["nearest"] > e["linear"] > e["cubic"]
+        assert os_ < 2 or e["cubic"] > e["lagrange"]

@@ -28,8 +28,10 @@ def test_round_trip_is_exact_on_the_original_axis_with_per_pulse_reference_range
     assert ph.data.shape[1] >= 1.2 * rc.data.shape[1]               # CPHD FX oversampling >= 1.2
     back = phase_history_to_pulses(ph, rc.slant_range, wavelength=LAM)
     assert np.max(np.abs(back.data - rc.data)) < 1e-8 * np.max(np.abs(rc.data))
-    default = phase_history_to_pulses(ph)                            # default axis = the original one
-    np.testing.assert_allclose(default.slant_range, rc.slant_range, rtol=0, atol=1e-9)
+    default = phase_history_to_pulses(ph)                  # default axis: the original one sampled 4x as finely
+    np.testing.assert_allclose(default.slant_range[::4], rc.slant_range, rtol=0, atol=1e-9)
+    assert default.slant_range.size == 4 * (rc.slant_range.size - 1) + 1
+    assert np.max(np.abs(default.data[:, ::4] - rc.data)) < 1e-8 * np.max(np.abs(rc.data))
     assert default.params is None and default.carrier_wavelength == pytest.approx(LAM, rel=1e-12)
 
 

@@ -15,8 +15,15 @@ specified) — ``interpolation=``:
 * ``"nearest"``: the closest sample;
 * ``"linear"``: two-tap linear;
 * ``"cubic"``: four-tap Keys cubic convolution (a = -1/2, Keys 1981);
+* ``"lagrange"``: four-tap cubic Lagrange (error O(h^4): the accurate one on oversampled data);
 * ``"upsample"``: band-limited FFT zero-padding of every pulse by ``upsample`` (default 4) and then
-  linear interpolation on the finer grid.
+  linear interpolation on the finer grid;
+* ``"upsample-lagrange"``: the same FFT upsampling, then cubic Lagrange;
+* ``"precise"``: the high-accuracy mode: ``"upsample-lagrange"`` with the factor chosen from the data's
+  oversampling fs/B so that the predicted error is <= :data:`PRECISE_MAX_ERROR` (-80 dB; ``"lagrange"``
+  alone when the data are oversampled enough);
+* ``"auto"`` (default): accuracy first, speed second: the cheapest of linear, Lagrange and
+  upsample-Lagrange x2..x32 whose predicted error is <= :data:`AUTO_MAX_ERROR` (-60 dB).
 
 docs/backprojection.md gives the measured accuracy of each against exact band-limited (sinc)
 interpolation. Samples outside the receive window are zero: a pixel whose range falls outside
@@ -27,7 +34,7 @@ Implementation (docs/backprojection.md "Speed"): numba ``prange`` over blocks of
 along a row is an exact quadratic in the column index, so no pixel coordinates are read); per pulse
 a vectorised float64 pass computes the range (one square root), the sample index and weight and the
 fractional cycle ``f`` of ``2R/lambda``; a vectorised float32 pass turns f into exp(j 2 pi f); a
-scalar pass gathers the complex64 samples (two pulses per pass for nearest and linear) and
+scalar pass gathers the complex64 samples (two pulses per pass for nearest, linear and Lagrange) and
 accumulates in float32 over ``pulse_block`` pulses, each partial sum added to the float64 image.
 Geometry is float64: ``f`` is reduced to [-1/2, 1/2) in float64 (error ~1e-16 * 2R/lambda cycles,
 1e-11 for R = 2 km at X band) before it is rounded to float32; exp(j 2 pi f) comes from quarter-wave
@@ -50,18 +57,24 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import GroundGrid, PlaneGrid, SlantGrid, as_grid
 from sarnav.imaging.interpolation_error import interpolation_error
-from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, cis32, gather,
-                                    gather_pair, keys_cubic, range_tap, upsample_pulses)
+from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, UPSAMPLED, cis32,
+                                    gather, gather_pair, gather_pair_lagrange, point_kernel, range_tap,
+                                    upsample_pulses)
 
 __all__ = ["backproject", "backproject_numpy", "backproject_points", "backproject_fan", "resolve_interpolation",
            "data_oversampling", "plane_of", "PHASE_F32_MAX_ERROR",
-           "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR",
+           "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR", "PRECISE_MAX_ERROR",
            "bpa_fan_kernel", "check_pulses", "check_interpolation", "wavelength_of", "grid_points", "sar_image"]
 
-INTERPOLATIONS = ("nearest", "linear", "cubic", "upsample", "auto")
-#: "auto" picks the cheapest of linear / upsample x2..x16 whose predicted error (flat band, linear
-#: kernel at fs/B * factor, sarnav.imaging.interpolation_error) is at most this (-35 dB)
-AUTO_MAX_ERROR = 10.0 ** -3.5
+INTERPOLATIONS = ("nearest", "linear", "cubic", "lagrange", "upsample", "upsample-lagrange", "precise", "auto")
+#: "auto" picks the cheapest of linear / lagrange / upsample-lagrange x2..x32 whose predicted error (flat band at
+#: fs/B * factor, per-sample error of the kernel: sarnav.imaging.interpolation_error) is at most this (-60 dB)
+AUTO_MAX_ERROR = 1e-6
+#: "precise" picks the smallest upsampling whose predicted Lagrange error is at most this (-80 dB: <= -75 dB measured
+#: with margin, docs/backprojection.md)
+PRECISE_MAX_ERROR = 1e-8
+#: largest FFT upsampling "auto" and "precise" choose
+_MAX_FACTOR = 32
 #: pixels per parallel work item (a block of contiguous pixels: the row stays in L1 cache)
 DEFAULT_BLOCK = 512
 #: pulses per pass over the image (their samples stay in the L2 cache)
@@ -105,13 +118,14 @@ def _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shi
 @numba.njit(fastmath=True, cache=True, inline="always")
 def _work_arrays(n):  # pragma: no cover - compiled
     """A work item's arrays for n pixels: float32 accumulators (zero), per-pulse tap positions and phase factors of
-    two pulses (``range_tap``, ``cis32``) and the cubic weights (4, n) (``gather``)."""
+    two pulses (``range_tap``, ``cis32``) and the cubic weights of two pulses (8, n) (``gather``,
+    ``gather_pair_lagrange``)."""
     idx, idx2 = np.empty(n, np.uint32), np.empty(n, np.uint32)
     wgt, wgt2 = np.empty(n, np.float32), np.empty(n, np.float32)
     cph, cph2 = np.empty(n, np.float32), np.empty(n, np.float32)
     sph, sph2 = np.empty(n, np.float32), np.empty(n, np.float32)
     return (np.zeros(n, np.float32), np.zeros(n, np.float32), idx, wgt, cph, sph, idx2, wgt2, cph2, sph2,
-            np.empty((4, n), np.float32))
+            np.empty((8, n), np.float32))
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
@@ -124,8 +138,8 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
     (their samples stay in L2 cache) summed in float32, each group's sum added to the float64
     output; pixels in parallel blocks of ``block``. Per pulse: a vectorised float64 pass (range, sample
     index and weight, fractional cycle: ``range_tap``), a vectorised float32 pass (phase factor: ``cis32``,
-    16 lanes on AVX-512), a scalar pass of gathers (``gather``; two pulses at a time for nearest and
-    linear, ``gather_pair``).
+    16 lanes on AVX-512), a scalar pass of gathers (``gather``; two pulses at a time for nearest,
+    linear and Lagrange, ``gather_pair``, ``gather_pair_lagrange``).
     """
     m_total = px.size
     n_pulses = ant.shape[0]
@@ -144,8 +158,12 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
                 if mode != 2 and k + 1 < k_stop:
                     _pass_points(px, py, pz, i0, n, ant, k + 1, u_offset, inv_dr, u_max, shift, two_over_lambda,
                                  idx2, wgt2, cph2, sph2)
-                    gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
-                                 acc_i)
+                    if mode == 3:
+                        gather_pair_lagrange(data[k], data[k + 1], n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w4,
+                                             acc_r, acc_i)
+                    else:
+                        gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
+                                    acc_i)
                     k += 2
                 else:
                     gather(data[k], mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i)
@@ -201,8 +219,12 @@ def bpa_fan_kernel(origins, e_cols, nx, ant, data, u_offset, inv_dr, u_max, two_
                 if mode != 2 and k + 1 < k_stop:
                     _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k + 1, u_offset, inv_dr, u_max, shift,
                               two_over_lambda, idx2, wgt2, cph2, sph2)
-                    gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
-                                 acc_i)
+                    if mode == 3:
+                        gather_pair_lagrange(data[k], data[k + 1], n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w4,
+                                             acc_r, acc_i)
+                    else:
+                        gather_pair(data[k], data[k + 1], mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r,
+                                    acc_i)
                     k += 2
                 else:
                     gather(data[k], mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i)
@@ -278,17 +300,22 @@ def data_oversampling(rc: PulseData, bandwidth: float | None = None) -> float:
 
 
 def resolve_interpolation(rc: PulseData, interpolation: str, upsample: int, bandwidth: float | None = None):
-    """(mode, upsample) actually used: "auto" -> "linear" when the data are oversampled enough
-    (fs/B >~ 5.6), else "upsample" with the smallest factor 2, 4, 8, 16 meeting ``AUTO_MAX_ERROR``."""
-    if interpolation != "auto":
+    """(mode, upsample) actually used. "auto": "linear" when the data are oversampled enough for
+    ``AUTO_MAX_ERROR`` (fs/B >~ 22), else "lagrange" (fs/B >~ 4.9), else "upsample-lagrange" with the smallest
+    integer factor (<= 32) meeting it (fs/B = 1 -> x5, 2 -> x3); "precise": the same with ``PRECISE_MAX_ERROR``
+    and Lagrange only (fs/B = 1 -> x9, 2 -> x5, >= 12: Lagrange alone)."""
+    if interpolation not in ("auto", "precise"):
         return interpolation, upsample
     os_ = data_oversampling(rc, bandwidth)
-    if interpolation_error("linear", os_) <= AUTO_MAX_ERROR:
+    limit = AUTO_MAX_ERROR if interpolation == "auto" else PRECISE_MAX_ERROR
+    if interpolation == "auto" and interpolation_error("linear", os_) <= limit:
         return "linear", upsample
-    for factor in (2, 4, 8, 16):
-        if interpolation_error("linear", os_ * factor) <= AUTO_MAX_ERROR:
-            return "upsample", factor
-    return "upsample", 16
+    if interpolation_error("lagrange", os_) <= limit:
+        return "lagrange", upsample
+    for factor in range(2, _MAX_FACTOR + 1):
+        if interpolation_error("lagrange", os_ * factor) <= limit:
+            return "upsample-lagrange", factor
+    return "upsample-lagrange", _MAX_FACTOR
 
 
 def check_interpolation(interpolation: str, upsample: int) -> int:
@@ -304,7 +331,7 @@ def _prepare(rc, positions, interpolation, upsample, wavelength, dtype=np.comple
     upsample = check_interpolation(interpolation, upsample)
     data, rng, pos = check_pulses(rc, positions)
     lam = wavelength_of(rc, wavelength)
-    if interpolation == "upsample":
+    if interpolation in UPSAMPLED:
         data, rng = upsample_pulses(data, rng, upsample, dtype)
     return data, rng, pos, lam
 
@@ -324,7 +351,7 @@ def sar_image(g, values: np.ndarray, rc: PulseData, lam: float, interpolation: s
     y, x, y_name, x_name = g.axes()
     meta = {"algorithm": algorithm, "wavelength": lam, "interpolation": interpolation,
             "n_pulses": int(rc.n_pulses)}
-    if interpolation == "upsample":
+    if interpolation in UPSAMPLED:
         meta["upsample"] = int(upsample)
     meta.update(g.metadata())
     return SarImage(values, np.asarray(y, dtype=np.float64), np.asarray(x, dtype=np.float64), y_name, x_name, meta)
@@ -475,11 +502,13 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto"
         ``(Ny, Nx, 3)`` / ``(M, 3)`` float64 array of pixel positions (NED, m).
     positions : (P, 3) antenna positions used for focusing (NED, m); default ``rc.positions``. Pass
         the navigation estimate to form the image the navigation system would see.
-    interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys) or "upsample" (FFT
-        ×``upsample`` then linear). "auto" chooses from the data's oversampling fs/B
-        (:func:`resolve_interpolation`): linear when its predicted error is <= -35 dB (fs/B >~ 5.6),
-        else upsample ×2/4/8/16 (fs/B = 1.2 -> ×4, error ~ -35 dB); docs/backprojection.md gives
-        each mode's error.
+    interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys), "lagrange" (cubic Lagrange),
+        "upsample" (FFT ×``upsample`` then linear), "upsample-lagrange" (FFT ×``upsample`` then Lagrange) or
+        "precise" (high accuracy, <= -75 dB). "auto" chooses from the data's oversampling fs/B
+        (:func:`resolve_interpolation`) for accuracy first (predicted <= -60 dB), speed second: fs/B = 1.2
+        -> upsample-lagrange ×5, fs/B = 2 -> ×3; "precise" for <= -80 dB predicted (fs/B = 1.2 -> ×8, 2 -> ×5);
+        docs/backprojection.md
+        gives each mode's measured error.
     bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.bandwidth`` or estimated
         from the pulses' power spectrum.
     wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
@@ -554,6 +583,6 @@ def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = 
         elif mode == 1:
             s = row[j] * (1.0 - w) + row[j + 1] * w
         else:
-            s = sum(keys_cubic(d - w) * row[j + d] for d in (-1, 0, 1, 2))
+            s = sum(point_kernel("cubic" if mode == 2 else "lagrange", d - w) * row[j + d] for d in (-1, 0, 1, 2))
         out += np.where(valid, s * np.exp(1j * 4.0 * np.pi * r / lam), 0.0)
     return sar_image(g, out.reshape(pts.shape[:-1]), rc, lam, interpolation, upsample, "bpa-numpy")

@@ -59,7 +59,7 @@ def form_collect_image(rc: PulseData, grid, algorithm: str = "bpa", window=None,
     w = as_window(window or "none", window_field)
     if w.name != "none":
         rc = rc.__class__(**{**rc.__dict__, "data": rc.data * w.samples(rc.n_pulses)[:, None]})
-    img = backproject(rc, grid) if algorithm == "bpa" else ffbp(rc, grid)
+    img = backproject(rc, grid) if algorithm == "bpa" else ffbp(rc, grid, bandwidth=(rc.metadata or {}).get("stored_band_hz"))
     img.metadata["window"] = w.label
     return img
 

@@ -55,8 +55,8 @@ from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, b
                                            plane_of, resolve_interpolation, sar_image, wavelength_of)
 from sarnav.imaging.interpolation_error import (WINDOWED, interpolation_error_2d, kernel_values,
                                                 summed_interpolation_error)
-from sarnav.imaging.kernels import (GATHER_MODE, PAD, demodulate_parts, polar_tap, tabulate, taps_2d,
-                                    upsample_pulses)
+from sarnav.imaging.kernels import (GATHER_MODE, PAD, RANGE_KERNEL, UPSAMPLED, demodulate_parts, polar_tap,
+                                    tabulate, taps_2d, upsample_pulses)
 from sarnav.imaging.grid import as_grid
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
@@ -362,7 +362,7 @@ class _Former:
         """Range-interpolation-ready samples of pulses k0..k1 (one top-level subimage): FFT-upsampled once for the
         block (complex64, as ``backproject_fan`` does per call) and zero-padded for the kernel's taps."""
         data, rng = self.rc.data[k0:k1], self.rc.slant_range
-        if self.interpolation == "upsample":
+        if self.interpolation in UPSAMPLED:
             data, rng = upsample_pulses(data, rng, self.upsample, np.complex64)
         n = data.shape[1]
         padded = np.zeros((data.shape[0], n + 2 * PAD), dtype=np.complex64)
@@ -447,10 +447,10 @@ def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge, 
 def _range_error(rc, mode, factor, bw) -> float:
     """Predicted image error (linear) of the level-0 range interpolation (resolved ``mode``, upsampling ``factor``) of
     the pulses against band-limited interpolation: ``summed_interpolation_error`` (the part that survives the sum over
-    pulses) on the data's oversampling fs / B ("upsample": linear at fs / B x factor)."""
+    pulses) on the data's oversampling fs / B ("upsample": linear at fs / B x factor, "upsample-lagrange": Lagrange)."""
     os_data = data_oversampling(rc, bw)
-    if mode == "upsample":
-        return summed_interpolation_error("linear", os_data * factor)
+    if mode in UPSAMPLED:
+        return summed_interpolation_error(RANGE_KERNEL[mode], os_data * factor)
     return summed_interpolation_error(mode, os_data)
 
 
@@ -523,7 +523,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
                      cost=cost, kernel=kernel, data_error=_range_error(rc, interpolation, upsample, bw))
     dr = _C / (2.0 * bw * plan.oversample)
-    if interpolation == "upsample" and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
+    if interpolation in UPSAMPLED and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
         # zero samples past the receive window (no echo there) to a length the FFT upsampling does fast (1896 = 8 x 3 x
         # 79 bins take 3x the time of 1920)
         n = sfft.next_fast_len(data.shape[1])

@@ -12,7 +12,7 @@ the oversampling) has error ``mean_f eps(f)`` over that band; a separable 2-D ke
 2-D flat band has ``eps(fr, fu) = |1 - K(fr)K(fu)|^2 + sum_{(k1,k2) != 0} |K(fr+k1)|^2 |K(fu+k2)|^2``.
 
 Kernels (defined in :mod:`sarnav.imaging.kernels`): "nearest" (box), "linear" (triangle, K = sinc^2),
-"cubic" (Keys 1981, a = -1/2). The
+"cubic" (Keys 1981, a = -1/2), "lagrange" (4-point cubic Lagrange). The
 ``upsample`` mode of back-projection is "linear" at ``os * upsample`` (the FFT zero-padding is exact
 for a band-limited periodic pulse). FFBP also has "kaiser6": the 6-tap Kaiser-windowed sinc
 ``k(x) = sinc(x) I0(beta sqrt(1 - (x/3)^2)) / I0(beta)`` on |x| < 3 (interpolating: k(0) = 1, k(n) = 0),
@@ -55,9 +55,9 @@ def kernel_spectrum(name: str, f, beta: float | None = None) -> np.ndarray:
         return np.sinc(f)
     if name == "linear":
         return np.sinc(f) ** 2
-    # Keys cubic: numerical cosine transform on a fine grid (the kernel is piecewise cubic on [-2, 2])
+    # Keys or Lagrange cubic: numerical cosine transform on a fine grid (piecewise cubic kernels on [-2, 2])
     x = (np.arange(2000) + 0.5) / 1000.0               # midpoints on (0, 2] (error of the rule ~1e-8)
-    k = point_kernel("cubic", x)
+    k = point_kernel(name, x)
     return 2.0 * np.cos(2.0 * np.pi * np.multiply.outer(f, x)) @ k / 1000.0
 
 

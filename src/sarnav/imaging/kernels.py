@@ -3,7 +3,9 @@
 Kernels (distance x in samples; all interpolating: k(0) = 1, k(n) = 0 for the other integers n):
 
 * "nearest" (box), "linear" (triangle), "cubic": Keys (1981) cubic convolution, a = -1/2 (:func:`keys_cubic`),
-  all three by :func:`point_kernel`;
+  "lagrange": the 4-point cubic Lagrange interpolator (:func:`lagrange_cubic`; error O(h^4) where Keys' is O(h^3):
+  on oversampled data it is the more accurate of the two, -77.5 dB against -70.7 dB at fs/B = 8), all four by
+  :func:`point_kernel`;
 * Kaiser-windowed sinc of N taps, ``sinc(x) I0(beta sqrt(1 - (2x/N)^2)) / I0(beta)`` on |x| < N/2
   (:func:`windowed_sinc`): FFBP's "kaiser6" (:data:`WINDOWED`, beta from the oversampling:
   ``interpolation_error.kaiser_beta``) and the RDA's range-migration correction "sinc8" / "sinc16"
@@ -11,7 +13,7 @@ Kernels (distance x in samples; all interpolating: k(0) = 1, k(n) = 0 for the ot
 
 Users: back-projection (``backprojection``, FFBP's level 0 and ``offset_bpa``) interpolates each range-compressed
 pulse, zero-padded by :data:`PAD` samples at each end, at the fractional sample of a range (:func:`range_tap`) with
-nearest / linear / cubic (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MODE`) or FFT upsampling then linear
+nearest / linear / cubic / lagrange (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MODE`) or FFT upsampling then linear
 (:func:`upsample_pulses`); FFBP interpolates its polar images with a separable N x N kernel read from a table
 (:func:`tabulate`; :func:`polar_tap` locates a point, :func:`taps_2d` sums the taps); the RDA reads
 :func:`rcmc_kernel_table` in its compiled RCMC loop. Every interpolated sample is rotated by exp(j 2 pi f), f the
@@ -31,10 +33,10 @@ import numba
 import numpy as np
 import scipy.fft as sfft
 
-__all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE",
+__all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE", "RANGE_KERNEL", "UPSAMPLED",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
-           "rcmc_kernel_table", "upsample_pulses", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
-           "gather_pair", "polar_tap", "taps_2d"]
+           "rcmc_kernel_table", "upsample_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
+           "gather_pair", "gather_pair_lagrange", "polar_tap", "taps_2d"]
 
 # ---------------------------------------------------------------------------------------------
 # kernel definitions and tables (numpy)
@@ -42,7 +44,7 @@ __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", 
 #: Keys (1981) cubic-convolution parameter
 KEYS_A = -0.5
 #: piecewise-polynomial kernels of back-projection's range interpolation (:func:`point_kernel`)
-KERNELS = ("nearest", "linear", "cubic")
+KERNELS = ("nearest", "linear", "cubic", "lagrange")
 #: windowed-sinc kernels: name -> taps (beta from the oversampling, ``interpolation_error.kaiser_beta``)
 WINDOWED = {"kaiser6": 6}
 #: RCMC interpolation kernels of the RDA: name -> (taps, Kaiser beta); "none" skips RCMC.
@@ -59,13 +61,25 @@ def keys_cubic(x):
                     np.where(x < 2.0, a * x ** 3 - 5.0 * a * x ** 2 + 8.0 * a * x - 4.0 * a, 0.0))
 
 
+def lagrange_cubic(x):
+    """The 4-point cubic Lagrange interpolator as a kernel at distances x (support |x| < 2): the weights of the
+    cubic through the samples at -1, 0, 1, 2 (Schafer & Rabiner, Proc. IEEE 61(6) 1973, "A digital signal processing
+    approach to interpolation"): (1 - x^2)(2 - x)/2 on [0, 1], -(x - 1)(x - 2)(x - 3)/6 on [1, 2]."""
+    x = np.abs(x)
+    return np.where(x <= 1.0, 0.5 * (1.0 - x * x) * (2.0 - x),
+                    np.where(x < 2.0, -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0, 0.0))
+
+
 def point_kernel(name: str, x) -> np.ndarray:
-    """The kernel ``name`` of :data:`KERNELS` at distances x (float64): box (0.5 at |x| = 1/2), triangle or Keys."""
+    """The kernel ``name`` of :data:`KERNELS` at distances x (float64): box (0.5 at |x| = 1/2), triangle, Keys or
+    Lagrange."""
     ax = np.abs(np.asarray(x, dtype=np.float64))
     if name == "nearest":
         return np.where(ax < 0.5, 1.0, np.where(ax == 0.5, 0.5, 0.0))
     if name == "linear":
         return np.clip(1.0 - ax, 0.0, None)
+    if name == "lagrange":
+        return lagrange_cubic(ax)
     return keys_cubic(ax)
 
 
@@ -233,8 +247,13 @@ PHASE_F32_MAX_ERROR = _cis_error()
 
 #: zero samples added at each end of every pulse so that the cubic taps never leave the array
 PAD = 2
-#: the gather mode of each range interpolation ("upsample": linear on the upsampled pulses)
-GATHER_MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1}
+#: the gather mode of each range interpolation ("upsample": linear on the upsampled pulses, "upsample-lagrange":
+#: Lagrange on them)
+GATHER_MODE = {"nearest": 0, "linear": 1, "cubic": 2, "upsample": 1, "lagrange": 3, "upsample-lagrange": 3}
+#: the point kernel (:data:`KERNELS`) of each range interpolation, and those that FFT-upsample the pulses first
+RANGE_KERNEL = {"nearest": "nearest", "linear": "linear", "cubic": "cubic", "lagrange": "lagrange",
+                "upsample": "linear", "upsample-lagrange": "lagrange"}
+UPSAMPLED = ("upsample", "upsample-lagrange")
 
 
 @numba.njit(fastmath=True, cache=True, inline="always")
@@ -279,15 +298,18 @@ def gather(d, mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i):  # pragma: no cove
             acc_r[i] += sr * c - si * s
             acc_i[i] += sr * s + si * c
     else:
-        for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
-            w = wgt[i]
-            x1 = np.float32(1.0) + w
-            x2 = np.float32(1.0) - w
-            x3 = np.float32(2.0) - w
-            w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
-            w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
-            w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
-            w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+        if mode == 2:
+            for i in range(n):  # Keys kernel at distances 1+w, w, 1-w, 2-w (vectorised)
+                w = wgt[i]
+                x1 = np.float32(1.0) + w
+                x2 = np.float32(1.0) - w
+                x3 = np.float32(2.0) - w
+                w4[0, i] = ((a * x1 - 5.0 * a) * x1 + 8.0 * a) * x1 - 4.0 * a
+                w4[1, i] = ((a + 2.0) * w - (a + 3.0)) * w * w + 1.0
+                w4[2, i] = ((a + 2.0) * x2 - (a + 3.0)) * x2 * x2 + 1.0
+                w4[3, i] = ((a * x3 - 5.0 * a) * x3 + 8.0 * a) * x3 - 4.0 * a
+        else:
+            _lagrange_weights(wgt, n, w4, 0)
         for i in range(n):
             j = idx[i]
             sm = d[j - one]
@@ -300,6 +322,43 @@ def gather(d, mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i):  # pragma: no cove
             s = sph[i]
             acc_r[i] += sr * c - si * s
             acc_i[i] += sr * s + si * c
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def _lagrange_weights(wgt, n, w, r0):  # pragma: no cover - compiled
+    """Rows r0 .. r0 + 3 of w: the cubic Lagrange weights through the samples at -1, 0, 1, 2 for fractions wgt
+    (vectorised)."""
+    for i in range(n):
+        x = wgt[i]
+        xp = x + np.float32(1.0)
+        xm = x - np.float32(1.0)
+        x2 = x - np.float32(2.0)
+        w[r0, i] = -x * xm * x2 * np.float32(1.0 / 6.0)
+        w[r0 + 1, i] = xp * xm * x2 * np.float32(0.5)
+        w[r0 + 2, i] = -xp * x * x2 * np.float32(0.5)
+        w[r0 + 3, i] = xp * x * xm * np.float32(1.0 / 6.0)
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def gather_pair_lagrange(d, e, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w8, acc_r, acc_i):  # pragma: no cover
+    """:func:`gather` of two pulses with the Lagrange kernel (mode 3) in one pass over the pixels (weights of the
+    first pulse in rows 0-3 of the (8, n) work array ``w8``, of the second in rows 4-7)."""
+    _lagrange_weights(wgt, n, w8, 0)
+    _lagrange_weights(wgt2, n, w8, 4)
+    one = np.uint32(1)
+    two = np.uint32(2)
+    for i in range(n):
+        j = idx[i]
+        k = idx2[i]
+        a0, a1, a2, a3 = d[j - one], d[j], d[j + one], d[j + two]
+        b0, b1, b2, b3 = e[k - one], e[k], e[k + one], e[k + two]
+        sr = w8[0, i] * a0.real + w8[1, i] * a1.real + w8[2, i] * a2.real + w8[3, i] * a3.real
+        si = w8[0, i] * a0.imag + w8[1, i] * a1.imag + w8[2, i] * a2.imag + w8[3, i] * a3.imag
+        tr = w8[4, i] * b0.real + w8[5, i] * b1.real + w8[6, i] * b2.real + w8[7, i] * b3.real
+        ti = w8[4, i] * b0.imag + w8[5, i] * b1.imag + w8[6, i] * b2.imag + w8[7, i] * b3.imag
+        c, s, c2, s2 = cph[i], sph[i], cph2[i], sph2[i]
+        acc_r[i] += (sr * c - si * s) + (tr * c2 - ti * s2)
+        acc_i[i] += (sr * s + si * c) + (tr * s2 + ti * c2)
 
 
 @numba.njit(fastmath=True, cache=True, inline="always")

@@ -312,7 +312,7 @@ def read_collect_header(path, *, channel=None, pulses=None, tropo: str = "in-dat
     return c, collect_grid(c)
 
 
-def read_collect(path, range_axis=None, *, oversample: float = 1.0, filter=None, channel=None, pulses=None,
+def read_collect(path, range_axis=None, *, oversample: float = 4.0, filter=None, channel=None, pulses=None,
                  tropo: str = "in-data", budget: float | None = None) -> tuple[PulseData, PlaneGrid]:
     """Read an FX-domain CPHD into memory: (range-compressed PulseData in ECEF, default image grid).
 

@@ -23,7 +23,7 @@ from sarnav.imaging.collect_image import ALGORITHMS, CollectFigures, collect_ima
 from sarnav.imaging.ffbp import ffbp
 from sarnav.io.cphd_read import DEFAULT_BUDGET, CphdCollect, conversion_bytes
 from sarnav.signal.data import PulseData, SarImage
-from sarnav.signal.phase_history import default_range_axis, phase_history_to_pulses
+from sarnav.signal.phase_history import DEFAULT_OVERSAMPLE, default_range_axis, phase_history_to_pulses
 from sarnav.signal.windows import as_window
 
 __all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET", "read_sicd_geometry",
@@ -115,7 +115,7 @@ def _figures(c: CphdCollect, mid: PulseData) -> CollectFigures:
 
 
 def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, window_field: str = "window",
-                  filter=None, range_axis=None, oversample: float = 1.0, budget: float = DEFAULT_BUDGET,
+                  filter=None, range_axis=None, oversample: float = DEFAULT_OVERSAMPLE, budget: float = DEFAULT_BUDGET,
                   budget_field: str = "budget") -> tuple[SarImage, CollectFigures, dict]:
     """The image of the selected vectors of ``c`` (``io.cphd_read.open_collect``) on ``grid`` by ``algorithm``
     ("bpa" or "ffbp"), formed in blocks within ``budget`` bytes (module doc); the azimuth ``window`` over all the
