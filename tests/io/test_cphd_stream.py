@@ -58,7 +58,7 @@ def write_in_blocks(path, col: V.Collect, fmt: str = "CI4", block: int = 500):
     pytest.param(4.0, marks=pytest.mark.xfail(strict=True, reason="with the default 4x range axis (issue 28) the "
                                               "peak is 13.0 MiB against the estimate's 7.9: a fixed cost of ~5 MiB "
                                               "the plan does not count (negligible at the 1.5 GiB scale, "
-                                              "test_twenty_thousand_vectors)")),
+                                              "test_large_collect_is_imaged_within_1_5_gib)")),
 ])
 def test_small_collect_in_blocks_within_a_proportional_budget_equals_the_in_memory_image(tmp_path, oversample):
     """800 x 1024 vectors (1/200 of the large case): budget 8 MiB (1.5 GiB / 200 = 7.7 MiB)."""
