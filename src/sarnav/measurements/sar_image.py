@@ -49,7 +49,7 @@ from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
 __all__ = ["STAGES", "FAILURES", "ALGORITHMS", "FOCUS", "ImagingSettings", "AperturePasses", "ApertureMeasurements",
-           "ReferencePulses", "ApertureSource", "SubApertureImager", "focusing_track"]
+           "ReferencePulses", "ApertureSource", "SubApertureImager", "focusing_track", "one_blas_thread"]
 
 #: smallest relative step of the focusing speed for the focus sensitivity (SubApertureImager._focus_sensitivity)
 FOCUS_STEP = 0.003
@@ -57,6 +57,24 @@ FOCUS_STEP = 0.003
 NOISE_REALISATIONS = 4
 #: largest along-track half-size of a BPA search grid [m] (3 sigma of the filter's along-track uncertainty + chip)
 MAX_BPA_HALF_ALONG_M = 200.0
+#: the process's threadpoolctl controller, made on first use (one_blas_thread)
+_BLAS: list = []
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread (``threadpoolctl``). The extractor's matrix products are small
+    (the noise model's quadratic forms: 51 x 55 by 55 x 55 complex): on two threads each waits for the other, and
+    on a loaded 2-core machine that wait was 14-17 ms per product against 0.5 ms on one thread (measured; the
+    Monte Carlo workers limit their threads for the same reason, ``montecarlo.executors``). A product's numbers do
+    not depend on the thread count (OpenBLAS splits the output, not the sums; the navigate and campaign outputs were
+    compared bit for bit)."""
+    if not _BLAS:
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1, user_api="blas")
+
+
 def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
     """(P, 3) antenna positions at the pulse ``times`` that a back-projection along the estimated track focuses with:
     the estimate's position and velocity at the aperture centre, the velocity turned by the change of the heading of
@@ -260,13 +278,14 @@ class SubApertureImager:
         if map_targets is None:
             map_targets = np.broadcast_to(self.targets[u], (R, T, 3))
         out = ApertureMeasurements.empty(R, T)
-        for r in range(R):
-            ap = self.aperture(u, r)
-            out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all runs
-            sigma = None if speed_sigma is None else speed_sigma[r]
-            self._along_sigma = along_sigma
-            self._q_run = None if ap_q is None else ap_q[r]
-            self._measure_run(u, r, ap, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
+        with one_blas_thread():
+            for r in range(R):
+                ap = self.aperture(u, r)
+                out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all
+                sigma = None if speed_sigma is None else speed_sigma[r]
+                self._along_sigma = along_sigma
+                self._q_run = None if ap_q is None else ap_q[r]
+                self._measure_run(u, r, ap, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
         return out
 
     def _measure_run(self, u, r, ap, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
