@@ -44,6 +44,7 @@ from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_
 from sarnav.radar.params import RadarParams
 from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGES, ApertureMeasurements,
                                              AperturePasses, ApertureSource, ImagingSettings, ReferencePulses)
+from sarnav.measurements.read_ahead import ReadAhead
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
 from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
@@ -179,6 +180,7 @@ class SubApertureImager:
         self._noise_cache: dict[tuple, SeparableNoise] = {}
         self._along_sigma = None
         self._q_run = None
+        self._ahead: ReadAhead | None = None
 
     # --- the reference product --------------------------------------------------------------------
     def aperture(self, u: int, run: int) -> dict:
@@ -280,17 +282,40 @@ class SubApertureImager:
         out = ApertureMeasurements.empty(R, T)
         with one_blas_thread():
             for r in range(R):
-                ap = self.aperture(u, r)
+                ap, flight = self._fetch(u, r)
+                if r == R - 1 and self._reads_ahead() and u + 1 < self.targets.shape[0]:
+                    self._ahead = ReadAhead(self._prepare, u + 1, 0)
                 out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all
                 sigma = None if speed_sigma is None else speed_sigma[r]
                 self._along_sigma = along_sigma
                 self._q_run = None if ap_q is None else ap_q[r]
-                self._measure_run(u, r, ap, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
+                self._measure_run(u, r, ap, flight, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
         return out
 
-    def _measure_run(self, u, r, ap, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
+    # --- reading ahead (measurements.read_ahead) --------------------------------------------------
+    def _prepare(self, u: int, r: int):
+        """What aperture u needs before the estimate: (reference entry, (in-flight pulses, their seconds))."""
+        ap = self.aperture(u, r)
+        return ap, self.source.flight(u, r)  # the in-flight acquisition
+
+    def _reads_ahead(self) -> bool:
+        """Whether the next aperture is prepared on a second thread: the source allows it (``read_ahead``: a
+        recording's files) and the chain is the RDA's (back-projection's numba kernels run threads of their own)."""
+        return bool(getattr(self.source, "read_ahead", False)) and self.settings.algorithm == "rda"
+
+    def _fetch(self, u: int, r: int):
+        """``_prepare(u, r)``, from the read-ahead when it prepared that aperture; a read-ahead of another one is
+        waited for and dropped (a source is used by one thread at a time)."""
+        ahead, self._ahead = self._ahead, None
+        if ahead is not None:
+            if ahead.key == (u, r):
+                return ahead.take()
+            ahead.join()
+        return self._prepare(u, r)
+
+    def _measure_run(self, u, r, ap, flight, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
         times = ap["times"]
-        rc, seconds = self.source.flight(u, r)  # the in-flight acquisition
+        rc, seconds = flight
         out.seconds[r, 0] += seconds
         if self.settings.algorithm == "bpa":
             p_hat = focusing_track(times, ap_t, p_run, v_run, self._q_run)
