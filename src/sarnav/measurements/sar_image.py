@@ -66,9 +66,11 @@ def one_blas_thread():
     """A context in which BLAS runs on one thread (``threadpoolctl``). The extractor's matrix products are small
     (the noise model's quadratic forms: 51 x 55 by 55 x 55 complex): on two threads each waits for the other, and
     on a loaded 2-core machine that wait was 14-17 ms per product against 0.5 ms on one thread (measured; the
-    Monte Carlo workers limit their threads for the same reason, ``montecarlo.executors``). A product's numbers do
-    not depend on the thread count (OpenBLAS splits the output, not the sums; the navigate and campaign outputs were
-    compared bit for bit)."""
+    Monte Carlo workers limit their threads for the same reason, ``montecarlo.executors``). It also makes the
+    extractor's numbers the same in every process: a product on two threads can differ from one thread's in its last
+    bit (seen once: one registration sigma of 20 in a 2-run, 5-s rda-nav campaign on the serial executor, 2e-16
+    relative), and the process workers run BLAS on one thread, so the serial executor, the workers and ``sarnav
+    navigate`` now agree bit for bit."""
     if not _BLAS:
         from threadpoolctl import ThreadpoolController
 
