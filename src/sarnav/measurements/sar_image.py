@@ -44,6 +44,7 @@ from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_
 from sarnav.radar.params import RadarParams
 from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGES, ApertureMeasurements,
                                              AperturePasses, ApertureSource, ImagingSettings, ReferencePulses)
+from sarnav.measurements.read_ahead import ReadAhead
 from sarnav.measurements.sar_product import (ProductReference, closest_approaches, predicted_amplitude,
                                              product_noise_power, rda_pixels)
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
@@ -51,7 +52,7 @@ from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
 __all__ = ["STAGES", "FAILURES", "ALGORITHMS", "FOCUS", "ImagingSettings", "AperturePasses", "ApertureMeasurements",
-           "ReferencePulses", "ApertureSource", "SubApertureImager", "focusing_track"]
+           "ReferencePulses", "ApertureSource", "SubApertureImager", "focusing_track", "one_blas_thread"]
 
 #: smallest relative step of the focusing speed for the focus sensitivity (SubApertureImager._focus_sensitivity)
 FOCUS_STEP = 0.003
@@ -59,6 +60,26 @@ FOCUS_STEP = 0.003
 NOISE_REALISATIONS = 4
 #: largest along-track half-size of a BPA search grid [m] (3 sigma of the filter's along-track uncertainty + chip)
 MAX_BPA_HALF_ALONG_M = 200.0
+#: the process's threadpoolctl controller, made on first use (one_blas_thread)
+_BLAS: list = []
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread (``threadpoolctl``). The extractor's matrix products are small
+    (the noise model's quadratic forms: 51 x 55 by 55 x 55 complex): on two threads each waits for the other, and
+    on a loaded 2-core machine that wait was 14-17 ms per product against 0.5 ms on one thread (measured; the
+    Monte Carlo workers limit their threads for the same reason, ``montecarlo.executors``). It also makes the
+    extractor's numbers the same in every process: a product on two threads can differ from one thread's in its last
+    bit (seen once: one registration sigma of 20 in a 2-run, 5-s rda-nav campaign on the serial executor, 2e-16
+    relative), and the process workers run BLAS on one thread, so the serial executor, the workers and ``sarnav
+    navigate`` now agree bit for bit."""
+    if not _BLAS:
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1, user_api="blas")
+
+
 def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
     """(P, 3) antenna positions at the pulse ``times`` that a back-projection along the estimated track focuses with:
     the estimate's position and velocity at the aperture centre, the velocity turned by the change of the heading of
@@ -163,6 +184,7 @@ class SubApertureImager:
         self._noise_cache: dict[tuple, SeparableNoise] = {}
         self._along_sigma = None
         self._q_run = None
+        self._ahead: ReadAhead | None = None
 
     # --- the reference product --------------------------------------------------------------------
     def aperture(self, u: int, run: int) -> dict:
@@ -302,18 +324,42 @@ class SubApertureImager:
         if map_targets is None:
             map_targets = np.broadcast_to(self.targets[u], (R, T, 3))
         out = ApertureMeasurements.empty(R, T)
-        for r in range(R):
-            ap = self.aperture(u, r)
-            out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all runs
-            sigma = None if speed_sigma is None else speed_sigma[r]
-            self._along_sigma = along_sigma
-            self._q_run = None if ap_q is None else ap_q[r]
-            self._measure_run(u, r, ap, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
+        with one_blas_thread():
+            for r in range(R):
+                ap, flight = self._fetch(u, r)
+                if r == R - 1 and self._reads_ahead() and u + 1 < self.targets.shape[0]:
+                    self._ahead = ReadAhead(self._prepare, u + 1, 0)
+                out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all
+                sigma = None if speed_sigma is None else speed_sigma[r]
+                self._along_sigma = along_sigma
+                self._q_run = None if ap_q is None else ap_q[r]
+                self._measure_run(u, r, ap, flight, ap_t, ap_p[r], ap_v[r], sigma, map_targets[r], out)
         return out
 
-    def _measure_run(self, u, r, ap, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
+    # --- reading ahead (measurements.read_ahead) --------------------------------------------------
+    def _prepare(self, u: int, r: int):
+        """What aperture u needs before the estimate: (reference entry, (in-flight pulses, their seconds))."""
+        ap = self.aperture(u, r)
+        return ap, self.source.flight(u, r)  # the in-flight acquisition
+
+    def _reads_ahead(self) -> bool:
+        """Whether the next aperture is prepared on a second thread: the source allows it (``read_ahead``: a
+        recording's files) and the chain is the RDA's (back-projection's numba kernels run threads of their own)."""
+        return bool(getattr(self.source, "read_ahead", False)) and self.settings.algorithm == "rda"
+
+    def _fetch(self, u: int, r: int):
+        """``_prepare(u, r)``, from the read-ahead when it prepared that aperture; a read-ahead of another one is
+        waited for and dropped (a source is used by one thread at a time)."""
+        ahead, self._ahead = self._ahead, None
+        if ahead is not None:
+            if ahead.key == (u, r):
+                return ahead.take()
+            ahead.join()
+        return self._prepare(u, r)
+
+    def _measure_run(self, u, r, ap, flight, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
         times = ap["times"]
-        rc, seconds = self.source.flight(u, r)  # the in-flight acquisition
+        rc, seconds = flight
         out.seconds[r, 0] += seconds
         if self.settings.algorithm == "bpa":
             p_hat = focusing_track(times, ap_t, p_run, v_run, self._q_run)

@@ -47,6 +47,8 @@ class RecordedApertures:
     same data).
     """
 
+    read_ahead = True  # the extractor may read aperture u + 1 on a second thread (measurements.read_ahead)
+
     def __init__(self, root, apertures: Sequence[ApertureInfo], radar: RadarParams, origin, noise_power: float,
                  radar_clock_offset: float = 0.0, runs: int = 1, product=None):
         self.root, self.apertures, self.radar = Path(root), tuple(apertures), radar
