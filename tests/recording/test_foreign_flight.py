@@ -175,10 +175,12 @@ def test_twenty_foreign_recordings_are_consistent(twenty):
     Measured: MEASURED."""
     n = min(len(x) for x in twenty["nees"])  # epochs differ by a step where a sample sits on an epoch's edge
     ne = nees_statistics(np.array([x[:n] for x in twenty["nees"]]), len(REALISED))
+    print(f"NEES {ne['time_average']:.2f} in {ne['band']}, final errors outside 3 sigma: {twenty['outside']}")
     lo, hi = ne["band"]
     assert lo <= ne["time_average"] <= hi, ne
     for nis, dof in ((twenty["nis"], twenty["dof"]), (twenty["gnis"], twenty["gdof"])):
         st = nis_statistics(np.array(nis), np.array(dof))
+        print(f"NIS per dof {st['per_dof']:.3f} in {st['per_dof_band']}")
         assert st["per_dof_band"][0] <= st["per_dof"] <= st["per_dof_band"][1], st
     assert twenty["outside"] <= 1
 
