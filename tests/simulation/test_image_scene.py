@@ -85,7 +85,7 @@ def test_collect_image_of_the_same_pulses_is_the_straight_track_bpa_image(point)
     """form_collect_image back-projects the pulses at their own (true) positions: on the straight track's slant grid
     it matches focus_straight_block's BPA image with the true speed (the same positions)."""
     p, _ = point
-    bpa = run(dataclasses.replace(p, algorithm="bpa", window="hamming"))
+    bpa = run(dataclasses.replace(p, algorithm="bpa", window="hamming", bpa_interpolation="auto"))  # the CPHD default
     rc = bpa.pulses
     grid = SlantGrid(origin=np.asarray(p.start_ned), direction=[1.0, 0.0, 0.0], look_point=[0.0, 1e3, 0.0],
                      along_track=V * rc.pulse_times, slant_range=rc.slant_range)

@@ -235,7 +235,7 @@ def read_dem(path, band: int = 1) -> Dem:
 
 
 def _as_affine(transform):
-    from affine import Affine
+    from rasterio.transform import Affine
 
     if isinstance(transform, Affine):
         coef = tuple(transform)[:6]
@@ -337,7 +337,7 @@ def write_plane_geotiff(path, data, grid, *, spacing: float | None = None, crs=N
     fc = (on_plane @ grid.col_direction - cols[0]) / dc
     out = map_coordinates(amp, [fr, fc], order=1, mode="constant", cval=np.nan, prefilter=False)
     out = np.where((fr >= 0) & (fr <= rows.size - 1) & (fc >= 0) & (fc <= cols.size - 1), out, np.nan)
-    from affine import Affine
+    from rasterio.transform import Affine
 
     return write_geotiff(path, out.reshape(h, w).astype(np.float32), crs, Affine(ps, 0.0, x0, 0.0, -ps, y1),
                          nodata=float("nan"), tags={"SARNAV_PLANE_HAE_M": f"{centre[2]:.3f}",

@@ -94,7 +94,7 @@ def write_geotiff(path, data, west: float, north: float, dx: float, dy: float, c
     """Write ``data`` (H, W) as a float32 north-up GeoTIFF: pixel (0, 0)'s corner at (west, north) in ``crs``,
     pixel size (dx, dy) (degrees for EPSG:4326), nodata NaN."""
     rio = _rasterio()
-    from affine import Affine
+    from rasterio.transform import Affine
 
     data = np.asarray(data, dtype=np.float32)
     with rio.open(Path(path), "w", driver="GTiff", height=data.shape[0], width=data.shape[1], count=1,

@@ -15,6 +15,7 @@ import math
 from pathlib import Path
 
 from sarnav.errors import ConfigError
+from sarnav.imaging.backprojection import INTERPOLATIONS
 from sarnav.imaging.straight_block import ALGORITHMS, AUTOFOCUS
 from sarnav.radar.params import RadarParams
 from sarnav.scenarios.fields import known_keys
@@ -129,7 +130,7 @@ def _check(cfg: dict) -> None:
     _choice(cfg, "image", "autofocus", AUTOFOCUS)
     if cfg["image"]["autofocus"] != "none" and cfg["image"]["algorithm"] != "rda":
         raise ConfigError("image.autofocus", "autofocus works on RDA images; set image.algorithm = \"rda\"")
-    _choice(cfg, "image", "bpa_interpolation", ("nearest", "linear", "cubic", "upsample"))
+    _choice(cfg, "image", "bpa_interpolation", INTERPOLATIONS)
 
 
 def origin_llh(cfg: dict) -> list[float]:
