@@ -23,7 +23,8 @@ PROJECT = PYPROJECT["project"]
 DIST_OF = {"skimage": "scikit-image", "netCDF4": "netcdf4", "dask": "dask", "distributed": "dask",
            "setuptools_scm": "setuptools-scm"}
 #: modules that a feature needs only with an extra: module -> extra (setuptools-scm: a checkout's live version)
-OPTIONAL = {"skimage": "registration", "dask": "dask", "distributed": "dask", "setuptools_scm": "test", "rasterio": "geo"}
+OPTIONAL = {"skimage": "registration", "dask": "dask", "distributed": "dask", "setuptools_scm": "test", "rasterio": "geo",
+            "rosbags": "ros"}
 
 
 def _dist_name(requirement: str) -> str:
@@ -81,7 +82,7 @@ def test_every_import_is_declared():
 
 def test_the_test_extra_pulls_every_extra_the_tests_need():
     test = PROJECT["optional-dependencies"]["test"]
-    assert "sarnav[dask,registration,geo]" in test
+    assert "sarnav[dask,registration,geo,ros]" in test
     assert {"pytest", "pytest-xdist", "cf-units", "setuptools-scm"} <= {_dist_name(r) for r in test}
 
 

@@ -8,12 +8,8 @@ Every error raised for bad user input names the field and the valid range, e.g.
 from __future__ import annotations
 
 
-class SarnavError(Exception):
-    """Base class for errors caused by user input; the CLI prints ``str(err)`` and exits 2."""
-
-
-class ConfigError(SarnavError, ValueError):
-    """A scenario / parameter value is missing, unknown, of the wrong type or out of range."""
+class _Named:
+    """``field: message`` errors: both kept as attributes, the text ``f"{field}: {message}"``."""
 
     def __init__(self, field: str, message: str):
         self.field = field
@@ -24,31 +20,23 @@ class ConfigError(SarnavError, ValueError):
         return (type(self), (self.field, self.message))
 
 
-class InputDataError(SarnavError, ValueError):
+class SarnavError(Exception):
+    """Base class for errors caused by user input; the CLI prints ``str(err)`` and exits 2."""
+
+
+class ConfigError(_Named, SarnavError, ValueError):
+    """A scenario / parameter value is missing, unknown, of the wrong type or out of range."""
+
+
+class InputDataError(_Named, SarnavError, ValueError):
     """An input array is malformed (wrong shape, NaN, missing samples)."""
 
-    def __init__(self, field: str, message: str):
-        self.field = field
-        self.message = message
-        super().__init__(f"{field}: {message}")
 
-    def __reduce__(self):
-        return (type(self), (self.field, self.message))
-
-
-class RunFault(Exception):
+class RunFault(_Named, Exception):
     """A run stopped by a fault of the machine, not of its input: a dead worker process, a full disk, an unwritable
     file, a lost dask scheduler. What was stored is kept and consistent; the message names the cause and the repair
     (a campaign: the same command with ``--resume``). The CLI prints ``sarnav: error: <where>: <message>`` and exits
     with status 3 (docs/cli.md)."""
-
-    def __init__(self, field: str, message: str):
-        self.field = field
-        self.message = message
-        super().__init__(f"{field}: {message}")
-
-    def __reduce__(self):
-        return (type(self), (self.field, self.message))
 
 
 def disk_message(err: OSError) -> str:

@@ -9,8 +9,9 @@ an altimeter at each whole second; GNSS fixes (position and velocity) for the fi
 velocity taken from the first; one point scatterer on the ground per 1-s aperture about 1.8 km to the right; the
 in-flight pulses echoed from the true track, the reference pass 20 m to the left along a trusted track. ``MAP_SIGMA``
 is the 1-sigma of an error in the reference pass's stated positions (its image, and so the point's anchor and map
-position, move with it; docs/recording.md §6): 0 here, a surveyed reference (with 0.3 m the innovations did not
-show the error and NIS fell to ~0.5: under investigation, see the issue 26 note). The radar and IMU clocks are offset from the recording time.
+position, move with it; docs/recording.md §6): 0.3 m here, stated in the manifest as the product's
+geolocation 1-sigma; the reference pass's data are compensated along its stated (erroneous) track, as a radar
+does. The radar and IMU clocks are offset from the recording time.
 """
 
 from __future__ import annotations

@@ -172,7 +172,9 @@ def test_twenty_foreign_recordings_are_consistent(twenty):
     """Issue 26 over 20 recordings, each reference kind: the mean NEES (the 16 realised states) inside its 95 % band,
     the pooled NIS per dof of the SAR/altimeter updates and of the GNSS updates inside theirs, final position errors
     inside 3 sigma (all but at most 1 of the 60 axis values: 0.16 expected outside for a consistent filter).
-    Measured: MEASURED."""
+    Measured (2026-12-04, band [13.62, 18.57] for NEES, [0.90, 1.11] SAR NIS/dof, [0.89, 1.12] GNSS NIS/dof):
+    cphd-pass NEES 13.74, SAR NIS/dof 1.003, GNSS 1.087, 0 of 60 outside 3 sigma; orthoimage NEES 14.37, 1.006,
+    1.084, 0 of 60."""
     n = min(len(x) for x in twenty["nees"])  # epochs differ by a step where a sample sits on an epoch's edge
     ne = nees_statistics(np.array([x[:n] for x in twenty["nees"]]), len(REALISED))
     print(f"NEES {ne['time_average']:.2f} in {ne['band']}, final errors outside 3 sigma: {twenty['outside']}")

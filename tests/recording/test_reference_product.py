@@ -269,6 +269,8 @@ def test_twenty_runs_with_reference_b_are_consistent(tmp_path):
     NEES over the runs and the pooled NIS per dof inside their 95 % bands; final position errors inside 3 sigma (all
     but at most 1 of the 60 axis values)."""
     ne, ni, final = _consistency(tmp_path, range(RUNS))
+    print(f"NEES {ne['time_average']:.2f} in {ne['band']}, NIS per dof {ni['per_dof']:.3f} in {ni['per_dof_band']}, "
+          f"final |error|/sigma max {final.max():.2f}, above 3: {int(np.sum(final > 3.0))}")
     assert ne["band"][0] <= ne["time_average"] <= ne["band"][1], ne
     assert ni["per_dof_band"][0] <= ni["per_dof"] <= ni["per_dof_band"][1], ni
     assert np.sum(final > 3.0) <= 1

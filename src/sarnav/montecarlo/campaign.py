@@ -175,7 +175,7 @@ def run_campaign(
         done = _verified_runs(out, n_runs, stamp) if keep else set()
         seeds = run_seeds(seed, n_runs)
         todo = [i for i in range(n_runs) if i not in done]
-        chunks = ChunkPlan(todo, runner.workers, size=chunk_size)
+        chunks = ChunkPlan(todo, runner.workers, size=chunk_size, probe=kind.probe_chunk)
         _simulate_missing(out, runner, own_runner, kind, canonical, chunks, seeds, n_runs, len(done),
                           cfg["scenario"]["name"], quiet, stamp)
         ds, summary = _assemble(out, kind, cfg, canonical, text, n_runs, seed, stamp)

@@ -38,6 +38,10 @@ class ScenarioKind(ABC):
     kind: str = ""
     #: whether scenarios of this kind carry the ``[campaign] runs, seed`` table (single-image kinds do not)
     needs_campaign: bool = True
+    #: runs in each worker's first chunk (``seeding.ChunkPlan``): 1 by default; a kind whose chunk costs about the
+    #: same for 1 or 50 runs (one vectorised pass over the runs) states more, so that its probe is not a whole pass
+    #: spent on one run
+    probe_chunk: int = 1
 
     @abstractmethod
     def validate(self, cfg: dict) -> None:

@@ -33,7 +33,8 @@ def run_seeds(seed: int, n_runs: int) -> list[np.random.SeedSequence]:
 class ChunkPlan:
     """Chunks sized by work. A chunk of n runs costs about ``a + b n`` seconds (``a``: what a kind does once per
     chunk, e.g. a batched kind's vectorised set-up; ``b``: each run). Each worker's first chunk has
-    :data:`PROBE_CHUNK` run(s); the cost of every finished chunk is recorded, and ``a``, ``b`` are fitted by least
+    ``probe`` runs (:data:`PROBE_CHUNK`; a kind that batches its runs into one vectorised pass states more,
+    ``ScenarioKind.probe_chunk``, at most an even share of the runs per worker); the cost of every finished chunk is recorded, and ``a``, ``b`` are fitted by least
     squares over the chunks of different sizes (the workers' first chunks, which also pay one-off costs such as
     compilation, only while no other chunk has ended; with one size only: ``a = 0``). A later chunk has the runs that
     fill ``target_s`` seconds, or more where ``a`` would otherwise exceed a tenth of the chunk's time (batched kinds: the batching is what makes them fast), at most :data:`MAX_CHUNK` runs and :data:`GROWTH` times the largest chunk
@@ -47,12 +48,15 @@ class ChunkPlan:
     """
 
     def __init__(self, run_ids: Sequence[int], workers: int = 1, size: int | None = None,
-                 target_s: float = TARGET_CHUNK_SECONDS):
+                 target_s: float = TARGET_CHUNK_SECONDS, probe: int = PROBE_CHUNK):
         if size is not None and size < 1:
             raise ValueError(f"chunk_size: must be >= 1, got {size}")
+        if not 1 <= probe <= MAX_CHUNK:
+            raise ValueError(f"probe: must be in [1, {MAX_CHUNK}], got {probe}")
         self._todo = list(run_ids)
         self._pos = 0
         self.workers, self.size, self.target_s = max(1, int(workers)), size, float(target_s)
+        self.probe = min(int(probe), max(1, math.ceil(len(self._todo) / self.workers)))  # an even share at most
         self._probes = self.workers if size is None else 0
         self._warm: list[tuple[int, float]] = []  # (runs, seconds) of chunks a worker ran after its first
         self._cold: list[tuple[int, float]] = []  # the same of each worker's first chunk
@@ -81,7 +85,7 @@ class ChunkPlan:
         fit = self.cost()
         if self._probes > 0 or fit is None:
             self._probes = max(0, self._probes - 1)
-            return PROBE_CHUNK
+            return self.probe
         a, b = fit
         efficient = math.ceil(round(9.0 * a / b, 6))  # a is at most a tenth of such a chunk's time
         n = max(int((self.target_s - a) / b), efficient, 1)

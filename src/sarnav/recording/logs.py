@@ -15,6 +15,7 @@ import sarkit.wgs84 as wgs84
 
 from sarnav.errors import InputDataError
 from sarnav.io.frames import ecef_to_ned
+from sarnav.recording.imu_formats import read_imu_columns, to_frd
 from sarnav.recording.tables import choose_columns, read_columns
 
 __all__ = ["IMU_COLUMNS", "ImuLog", "AltimeterLog", "GnssLog", "TruthLog", "ReferencePoints", "read_imu",
@@ -68,12 +69,14 @@ class ImuLog:
         return self.time - 0.5 * dt, self.dv / dt[:, None], self.dtheta / dt[:, None]
 
 
-def read_imu(path, name: str, kind: str, clock_offset: float, rate_hz: float) -> ImuLog:
-    """The IMU log ``path`` (``name`` in errors) of ``kind`` ("rates" / "increments"); its times + ``clock_offset``."""
-    cols = read_columns(path, name, IMU_COLUMNS[kind], time_column="time_s")
+def read_imu(path, name: str, kind: str, clock_offset: float, rate_hz: float, body_axes: str = "FRD",
+             topic: str | None = None) -> ImuLog:
+    """The IMU log ``path`` (``name`` in errors; CSV, netCDF / HDF5 or a ROS bag: ``imu_formats``) of ``kind``
+    ("rates" / "increments") in ``body_axes`` ("FRD" / "FLU"); its times + ``clock_offset``, its samples in FRD."""
+    cols = read_imu_columns(path, name, IMU_COLUMNS[kind], topic)
     t = cols["time_s"] + clock_offset
     names = IMU_COLUMNS[kind][1:]
-    a, g = _stack(cols, names[:3]), _stack(cols, names[3:])
+    a, g = to_frd(body_axes, _stack(cols, names[:3])), to_frd(body_axes, _stack(cols, names[3:]))
     if kind == "rates":
         return ImuLog(t, kind, accel=a, gyro=g, rate_hz=rate_hz)
     return ImuLog(t, kind, dv=a, dtheta=g, rate_hz=rate_hz)

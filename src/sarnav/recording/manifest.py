@@ -22,6 +22,7 @@ from sarnav.radar.params import RadarParams
 from sarnav.recording.fields import MANIFEST, Table
 from sarnav.recording.noise import compressed_noise_gain
 from sarnav.rotations import euler_to_quat, quat_normalize
+from sarnav.recording.imu_formats import BODY_AXES
 from sarnav.sensors.imu import GRADE_THREE_SIGMA, ImuGrade, ImuSpec
 from sarnav.tomlio import parse_toml
 
@@ -69,13 +70,15 @@ class LocalFrame:
 
 @dataclass(frozen=True)
 class ImuInfo:
-    """The IMU log (``file``, ``samples``: "rates" or "increments") and its error model (``spec``, 1-sigma SI;
-    ``rate_hz``: the nominal sample rate), body axes forward-right-down."""
+    """The IMU log (``file``, ``samples``: "rates" or "increments"; its format: ``recording.imu_formats``) and its
+    error model (``spec``, 1-sigma SI; ``rate_hz``: the nominal sample rate); samples read as body axes FRD."""
 
     file: str
     samples: str
     spec: ImuSpec
     rate_hz: float
+    body_axes: str = "FRD"  # the log's axes: "FRD", or "FLU" (ROS REP-103), turned to FRD on reading
+    topic: str | None = None  # a ROS bag's sensor_msgs/Imu topic (None: its only one)
 
 
 @dataclass(frozen=True)
@@ -197,8 +200,8 @@ def parse_manifest(doc: dict) -> Manifest:
     if version != FORMAT_VERSION:
         raise ConfigError(head.field("version"), f"this sarnav reads version {FORMAT_VERSION}, got {version}")
     plat = Table(top.get("platform", {}), "platform", ("name", "lever_arm_m"))
-    imu = _imu(Table(top.get("imu"), "imu", ("file", "samples", "body_axes", "grade", "rate_hz", "tau_accel",
-                                             "tau_gyro") + IMU_OVERRIDES))
+    imu = _imu(Table(top.get("imu"), "imu", ("file", "samples", "body_axes", "topic", "grade", "rate_hz",
+                                             "tau_accel", "tau_gyro") + IMU_OVERRIDES))
     apertures = _apertures(top.get("aperture", []))
     radar, noise = _radar(top.get("radar", None), bool(apertures))
     reference = _reference(top.get("reference", None), apertures)
@@ -229,9 +232,9 @@ def _frame(t: Table) -> LocalFrame:
 
 def _imu(t: Table) -> ImuInfo:
     axes = t.string("body_axes", default="FRD")
-    if axes != "FRD":
-        raise ConfigError(t.field("body_axes"), f"must be 'FRD' (x forward, y right, z down), got {axes!r}: rotate the "
-                          "samples into these axes first")
+    if axes not in BODY_AXES:
+        raise ConfigError(t.field("body_axes"), f"must be 'FRD' (x forward, y right, z down) or 'FLU' (x forward, y "
+                          f"left, z up: ROS REP-103), got {axes!r}: rotate the samples into one of these first")
     name = t.string("grade")
     if name != "custom" and name not in GRADE_THREE_SIGMA:
         raise ConfigError(t.field("grade"), f"must be one of {sorted(GRADE_THREE_SIGMA)} or 'custom', got {name!r}")
@@ -243,7 +246,8 @@ def _imu(t: Table) -> ImuInfo:
         three.append(t.number(key, 0.0, 1e4, default=b))
     grade = ImuGrade.from_three_sigma(name, *three)
     spec = ImuSpec(grade, t.positive("tau_accel", "s", 1e9), t.positive("tau_gyro", "s", 1e9))
-    return ImuInfo(t.path("file"), t.string("samples", SAMPLE_KINDS), spec, t.positive("rate_hz", "Hz", MAX_IMU_RATE))
+    return ImuInfo(t.path("file"), t.string("samples", SAMPLE_KINDS), spec, t.positive("rate_hz", "Hz", MAX_IMU_RATE),
+                   axes, t.string("topic", default=None) if t.has("topic") else None)
 
 
 def _altimeter(data) -> AltimeterInfo | None:

@@ -109,7 +109,8 @@ def read_recording(folder) -> Recording:
     if not folder.is_dir():
         raise InputDataError(str(folder), "is not a folder (a recording is a folder holding flight.toml)")
     m = read_manifest(folder / MANIFEST)
-    imu = read_imu(folder / m.imu.file, m.imu.file, m.imu.samples, m.time.imu_clock_offset, m.imu.rate_hz)
+    imu = read_imu(folder / m.imu.file, m.imu.file, m.imu.samples, m.time.imu_clock_offset, m.imu.rate_hz,
+                   m.imu.body_axes, m.imu.topic)
     alt = None if m.altimeter is None else read_altimeter(folder / m.altimeter.file, m.altimeter.file,
                                                           float(m.frame.origin[2]))
     gnss = None if m.gnss_file is None else read_gnss(folder / m.gnss_file, m.gnss_file, m.frame.origin)
