@@ -34,7 +34,7 @@ def gained(a, ref):
 def images(tmp_path_factory):
     root = tmp_path_factory.mktemp("formats")
     out = {}
-    for fmt in ("CF8", "CF16", "CI2", "CI4", "CI8"):
+    for fmt in ("CF8", "CF16", "CI2", "CI4", "CI8", "CI16"):
         for sgn in (-1, 1):
             path = root / f"{fmt}{sgn:+d}.cphd"
             V.write(path, V.Collect(), fmt, sgn)
@@ -42,7 +42,7 @@ def images(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("fmt", ["CF8", "CF16", "CI2", "CI4", "CI8"])
+@pytest.mark.parametrize("fmt", ["CF8", "CF16", "CI2", "CI4", "CI8", "CI16"])
 @pytest.mark.parametrize("sgn", [-1, 1])
 def test_every_format_and_sign_gives_the_same_image(images, fmt, sgn):
     ref = images["CF8", -1]

@@ -21,7 +21,7 @@ C = 299792458.0
 NS = "http://api.nsgreg.nga.mil/schema/cphd/1.0.1"
 REF = (34.0, -118.0, 10.0)
 FC = 9.6e9
-INT_BITS = {"CI2": 8, "CI4": 16, "CI8": 32}
+INT_BITS = {"CI2": 8, "CI4": 16, "CI8": 32, "CI16": 64}
 
 
 def enu_basis(llh=REF):

@@ -21,6 +21,7 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.backprojection import backproject, data_oversampling, resolve_interpolation
 from sarnav.imaging.collect_image import ALGORITHMS, CollectFigures, collect_image_metrics
 from sarnav.imaging.ffbp import ffbp
+from sarnav.imaging.kernels import UPSAMPLED
 from sarnav.io.cphd_read import DEFAULT_BUDGET, CphdCollect, conversion_bytes
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.phase_history import DEFAULT_OVERSAMPLE, default_range_axis, phase_history_to_pulses
@@ -72,11 +73,7 @@ def stream_plan(c: CphdCollect, m: int, pixels: int, algorithm: str, upsample: i
     [bytes] (``upsample``: back-projection's FFT upsampling factor, None when it interpolates the samples directly).
     ConfigError naming ``budget_field`` when not even the smallest block fits."""
     budget = _check_budget(budget, budget_field)
-    up = _FFBP_UPSAMPLE if algorithm == "ffbp" else (upsample or 0)
-    # the block's pulses (M complex128) stay while the next stage runs: the read and conversion, then the former's
-    # complex64 copy, its FFT upsampling (spectrum, up x M, in place) and its padded copy (up x M)
-    per = 16 * m + max(conversion_bytes(c.n_samples, m, c.raw_itemsize), 32 * m + 24 * up * m)
-    fixed = _FIXED_BYTES + _PIXEL_BYTES[algorithm] * pixels + 8 * c.pvp.nbytes
+    per, fixed = _costs(c, m, pixels, algorithm, upsample)
     least = 2 if algorithm == "ffbp" else 1
     fit = int((budget - fixed) // per)
     if fit < min(least, c.n_pulses):
@@ -86,6 +83,22 @@ def stream_plan(c: CphdCollect, m: int, pixels: int, algorithm: str, upsample: i
     n_blocks = math.ceil(c.n_pulses / max(fit, least))
     block = math.ceil(c.n_pulses / n_blocks)
     return StreamPlan(block, n_blocks, per, fixed, budget)
+
+
+def _costs(c: CphdCollect, m: int, pixels: int, algorithm: str, upsample: int | None) -> tuple[int, int]:
+    """(bytes per vector of a block, bytes fixed whatever the block) of imaging ``c`` on ``m`` range samples."""
+    up = _FFBP_UPSAMPLE if algorithm == "ffbp" else (upsample or 0)
+    # the block's pulses (M complex128) stay while the next stage runs: the read and conversion, then the former's
+    # complex64 copy, its FFT upsampling (spectrum, up x M, in place) and its padded copy (up x M)
+    per = 16 * m + max(conversion_bytes(c.n_samples, m, c.raw_itemsize), 32 * m + 24 * up * m)
+    return per, _FIXED_BYTES + _PIXEL_BYTES[algorithm] * pixels + 8 * c.pvp.nbytes
+
+
+def band_vectors(c: CphdCollect, m: int, pixels: int, algorithm: str, budget: float) -> int:
+    """How many middle vectors the band is estimated from: :data:`_BAND_VECTORS`, fewer when the budget cannot hold
+    them with the image (their read is a block of its own, before the plan is known)."""
+    per, fixed = _costs(c, m, pixels, algorithm, None)
+    return int(max(1, min(_BAND_VECTORS, c.n_pulses, (budget - fixed) // per)))
 
 
 def _check_aperture(c: CphdCollect) -> None:
@@ -127,14 +140,15 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
     _check_aperture(c)
     axis = default_range_axis(c.header(), oversample) if range_axis is None else np.asarray(range_axis, np.float64)
     p = c.n_pulses
-    k0 = max(0, p // 2 - _BAND_VECTORS // 2)
-    mid = _pulses(c, k0, min(p, k0 + _BAND_VECTORS), axis, filter)        # the band, once for all blocks
+    pixels = int(np.prod(grid.shape))
+    n_band = band_vectors(c, axis.size, pixels, algorithm, _check_budget(budget, budget_field))
+    k0 = max(0, p // 2 - n_band // 2)
+    mid = _pulses(c, k0, min(p, k0 + n_band), axis, filter)        # the band, once for all blocks
     figures = _figures(c, mid)
     mode, up = ("upsample", _FFBP_UPSAMPLE) if algorithm == "ffbp" else \
         resolve_interpolation(mid, "auto", 4, figures.bandwidth)
     del mid
-    pixels = int(np.prod(grid.shape))
-    plan = stream_plan(c, axis.size, pixels, algorithm, up if mode == "upsample" else None, budget,
+    plan = stream_plan(c, axis.size, pixels, algorithm, up if mode in UPSAMPLED else None, budget,
                        budget_field=budget_field)
     w = as_window(window or "none", window_field)
     weights = w.samples(p) if w.name != "none" else None
