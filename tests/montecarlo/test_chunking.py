@@ -107,3 +107,21 @@ def test_kill_9_after_the_first_chunks_loses_at_most_one_chunk_per_worker(tmp_pa
     assert r.returncode == 0, r.stderr
     run_campaign(cfg, tmp_path / "ref", TOY, executor="serial", quiet=True)
     _same(tmp_path / "ref", out, VARS + ("truth_x_final",))
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="found while measuring issue 32 (2026-12-04): a run of rda-nav batched behind "
+                   "another run differs from the same run alone by ~1e-13 relative (last bits of error, sigma, NIS; "
+                   "the oracle mode and telemetry are bit-identical), so rda-nav's results depend on the chunking at "
+                   "that level; the operation has not been located")
+def test_an_rda_nav_run_is_the_same_alone_or_second_in_a_batch():
+    import sarnav.scenarios.rda_nav as rn
+    import sarnav.simulation.rda_nav as sim
+    from sarnav.montecarlo.seeding import run_seeds
+    from sarnav.scenarios.config import load_scenario
+
+    prm = rn.parse(load_scenario("rda-nav", ["trajectory.duration=6"], runs=3))
+    seeds = run_seeds(5, 3)
+    batch = sim.run(prm, seeds[:2], [0, 1])
+    alone = sim.run(prm, [seeds[1]], [1])[0]
+    for name in ("error", "sigma", "nis"):
+        np.testing.assert_array_equal(getattr(alone, name), getattr(batch[1], name))

@@ -362,7 +362,7 @@ def _nan(rows):
     (_edit("flight.toml", "rate_hz =", "rate ="), "flight.toml:imu.rate: unknown key (known: file,"),
     (_edit("flight.toml", f"rate_hz = {IMU_RATE}", "rate_hz = -100.0"), "flight.toml:imu.rate_hz: must be"),
     (_edit("flight.toml", 'grade = "tactical"', 'grade = "superb"'), "flight.toml:imu.grade: must be one of"),
-    (_edit("flight.toml", 'body_axes = "FRD"', 'body_axes = "FLU"'), "flight.toml:imu.body_axes: must be 'FRD'"),
+    (_edit("flight.toml", 'body_axes = "FRD"', 'body_axes = "ENU"'), "flight.toml:imu.body_axes: must be 'FRD'"),
     (_edit("flight.toml", "[time]\nepoch = 2026-03-01T12:00:00Z", "[time]\nepoch = 2026-03-01T12:00:00"),
      "flight.toml:time.epoch: must be a date-time with its UTC offset"),
     (_edit("flight.toml", "start_s = 1.5", "start_s = 0.4"), "flight.toml:aperture[1].start_s: must be after"),

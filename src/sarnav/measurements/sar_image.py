@@ -186,6 +186,13 @@ class SubApertureImager:
         self._q_run = None
         self._ahead: ReadAhead | None = None
 
+    def share_noise_models(self, store: dict) -> None:
+        """Keep the receiver-noise models (``_noise_model``, ~90 ms a chip) in ``store``, a dict the caller keeps,
+        e.g. across the chunks of runs a campaign's worker simulates with the same parameters: a model depends only
+        on the parameters, the sub-aperture and the target, never on the runs, so sharing it changes no number. (The
+        reference chips are not shared: a flight's reference images take hundreds of MB.)"""
+        self._noise_cache = store
+
     # --- the reference product --------------------------------------------------------------------
     def aperture(self, u: int, run: int) -> dict:
         """The reference chips of sub-aperture u for run ``run`` (cached under the source's key) and the seconds spent

@@ -26,7 +26,9 @@ seed (``scene.clutter_per_run``, default) or from ``scene.seed``.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import pickle
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -250,16 +252,33 @@ class _Sar:
             record["capture"] = am.capture
 
 
+#: the noise models of the last parameters this process imaged with (``_shared_store``)
+_SHARED: dict = {}
+
+
+def _shared_store(prm: RdaNavParams) -> dict:
+    """The noise models the imagers of one campaign share in this process (a worker's chunks, one after another:
+    without it each chunk paid the reference set-up again, which made small chunks slow): keyed by the parameters'
+    pickled bytes, only the latest kept (a few MB)."""
+    key = hashlib.sha256(pickle.dumps(prm, protocol=4)).hexdigest()
+    if _SHARED.get("key") != key:
+        _SHARED.clear()
+        _SHARED["key"] = key
+    return _SHARED.setdefault("store", {})
+
+
 def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
     if not (prm.sar_enabled and prm.measurement == "image"):
         return None
     seeds = fl.extra  # the per-run clutter seeds (also keying the in-flight receiver noise)
     targets = world.reference_targets(prm)
-    return simulated_imager(
+    imager = simulated_imager(
         radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=world.scene_factory(prm, targets),
         reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
         noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
         reference_truth=world.reference_track(prm), settings=prm.imaging, capture_aperture=capture_aperture)
+    imager.share_noise_models(_shared_store(prm))
+    return imager
 
 
 def run(prm: RdaNavParams, seeds, run_ids=None, observer=None) -> list[RunRecord]:
