@@ -217,7 +217,9 @@ def test_a_full_disk_while_writing_results_nc(tmp_path, capsys, toy, monkeypatch
 
     monkeypatch.setattr(campaign, "write_results", write_results)
     monkeypatch.setattr(campaign.shutil, "disk_usage", lambda p: Usage)
+    before = _tree(root)
     _one_line(capsys, main(argv), 3, "results.nc: cannot write the results: No space left on device", "--resume")
+    assert _outside(_tree(root), out, root) == _outside(before, out, root)
     assert not [p for p in out.rglob("*") if ".tmp-" in p.name]
     assert len(store.stored_runs(out)) == 6 and not (out / "results.nc").exists()
     monkeypatch.undo()
@@ -230,8 +232,69 @@ def test_a_full_disk_while_drawing_figures(tmp_path, capsys, toy, monkeypatch):
 
     root, argv = toy
     monkeypatch.setattr(figures, "write_campaign_figures", _enospc)
+    before = _tree(root)
     _one_line(capsys, main([a for a in argv if a != "--no-figures"]), 3, "No space left on device", "sarnav figures")
+    assert _outside(_tree(root), tmp_path / "out", root) == _outside(before, tmp_path / "out", root)
     _same_results(root / "ref", tmp_path / "out")  # the results are complete
+
+
+def test_a_full_disk_when_the_folder_or_the_manifest_is_written(tmp_path, capsys, toy, monkeypatch):
+    """The two stages left: the output folder's manifest at the start (nothing to resume: the line names the folder)
+    and the final manifest (every product written: the line names it and --resume completes the campaign)."""
+    root, argv = toy
+    out = tmp_path / "out"
+    real = store.write_manifest
+    before = _tree(root)
+    monkeypatch.setattr(store, "write_manifest", _enospc)
+    _one_line(capsys, main(argv), 3, "cannot write in the output folder: No space left on device")
+    assert _outside(_tree(root), out, root) == _outside(before, out, root)
+
+    def final_fails(out_, manifest):
+        if manifest.get("complete"):
+            _enospc()
+        return real(out_, manifest)
+
+    shutil.rmtree(out)
+    monkeypatch.setattr(store, "write_manifest", final_fails)
+    _one_line(capsys, main(argv), 3, "cannot write the manifest: No space left on device", "--resume")
+    assert len(store.stored_runs(out)) == 6
+    monkeypatch.setattr(store, "write_manifest", real)
+    assert main(argv + ["--resume"]) == 0
+    _same_results(root / "ref", out)
+    assert _outside(_tree(root), out, root) == _outside(before, out, root)
+
+
+def test_a_lost_dask_cluster_is_one_line_and_resume_finishes(tmp_path, capsys, toy, monkeypatch):
+    """A dask fault (the scheduler's connection closed) on the second chunk: one line naming the cluster and
+    --resume, exit 3, the first chunk's runs kept; --resume on the local processes gives the uninterrupted results."""
+    pytest.importorskip("distributed")
+    from distributed.comm.core import CommClosedError
+
+    from sarnav.montecarlo import executors
+
+    root, argv = toy
+    out = tmp_path / "out"
+    real, calls = executors._result, []
+
+    class Lost:
+        def result(self):
+            raise CommClosedError("in <TCP (closed) ConnectionPool.gather local=tcp://127.0.0.1>: Stream is closed")
+
+    def result(fut, ids, executor):
+        calls.append(executor)
+        return real(Lost() if len(calls) == 2 else fut, ids, executor)
+
+    monkeypatch.setattr(executors, "_result", result)
+    dask_argv = [a for a in argv if a != "serial"]
+    dask_argv[dask_argv.index("--executor") + 1:dask_argv.index("--executor") + 1] = ["dask"]
+    dask_argv += ["--workers", "1"]
+    line = _one_line(capsys, main(dask_argv), 3, "--executor dask: the dask cluster failed", "CommClosedError",
+                     "--resume")
+    assert calls[:2] == ["dask", "dask"], line
+    assert len(store.stored_runs(out)) == 2 and not (out / "results.nc").exists()
+    monkeypatch.setattr(executors, "_result", real)
+    assert main(argv + ["--resume"]) == 0
+    _same_results(root / "ref", out)
 
 
 def test_stale_temporary_files_are_removed_at_the_next_start(tmp_path, capsys, toy):

@@ -95,7 +95,9 @@ class ChunkPlan:
         if warm_sizes == {n} and n < MAX_CHUNK and a + b * (n + 1) <= 1.5 * self.target_s:
             n += 1  # one size cannot tell a from b: one run more (if still a chunk of about target_s), to learn a
         share = math.ceil(self.remaining / self.workers)
-        return max(1, min(n, max(share, min(efficient, MAX_CHUNK))))
+        # the tail is split evenly between the workers, but not below what keeps the batching: the fitted efficient
+        # size, and a batched kind's probe size (its a cannot be fitted while every chunk has the probe's size)
+        return max(1, min(n, max(share, min(efficient, MAX_CHUNK), self.probe)))
 
     def next_chunk(self) -> list[int] | None:
         """The run ids of the next chunk, or None when every run has been handed out."""
