@@ -126,8 +126,9 @@ _CHILD = textwrap.dedent("""
 @pytest.mark.slow
 def test_large_collect_is_imaged_within_1_5_gib(tmp_path):
     """20,000 x 8,192 CI4 (655 MB of samples; 2.6 GB as complex128): a fresh process images it with the default
-    budget (1 GiB); its peak RSS, libraries included, stays under 1.5 GiB; the image of its first 2,000 vectors equals
-    the in-memory read's."""
+    budget (1 GiB); its peak RSS, libraries included, stays under 1.5 GiB; the image of its first 500 vectors equals
+    the in-memory read's (500: on the default 4x range axis an in-memory read of 2,000 is estimated at 13 GiB).
+    Measured 2026-12-04 on the default axis: 137 blocks of 146 vectors, peak RSS 1.020 GiB, traced 0.288 GiB."""
     col = V.Collect(n_pulses=LARGE[0], n_samples=LARGE[1], scss_jitter=0.0)
     path = tmp_path / "large.cphd"
     write_in_blocks(path, col)
@@ -139,8 +140,8 @@ def test_large_collect_is_imaged_within_1_5_gib(tmp_path):
     print(f"20000 x 8192: peak RSS {r['rss'] / 2**30:.3f} GiB, traced {r['traced'] / 2**30:.3f} GiB, {r['stream']}")
     assert r["rss"] < LARGE_RSS and r["traced"] < DEFAULT_BUDGET
     assert np.max(np.abs(np.subtract(r["peak"], (40.0, 40.0)))) < 0.05
-    c = open_collect(path, pulses=(0, 2000))
+    c = open_collect(path, pulses=(0, 500))
     img = image_collect(c, GRID, budget=64 * 2**20)[0]
-    rc, _ = read_collect(path, pulses=(0, 2000), budget=8 * 2**30)
+    rc, _ = read_collect(path, pulses=(0, 500), budget=8 * 2**30)
     ref = backproject(rc, GRID, interpolation=img.metadata["interpolation"], upsample=img.metadata.get("upsample", 4))
     assert error_db(img.data, ref.data) < -100.0

@@ -91,6 +91,10 @@ def directional_sigma(P, block: slice, direction):
     """(R,) 1-sigma of a 3-vector block of the error state along ``direction`` (R, 3) (normalised here),
     sqrt(u^T P_bb u), e.g. the forward-speed uncertainty along the estimated velocity."""
     d = np.asarray(direction, dtype=float)
-    u = d / np.linalg.norm(d, axis=1, keepdims=True)
+    u = d / np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
     Pb = np.asarray(P)[:, block, block]
-    return np.sqrt(np.einsum("ri,rij,rj->r", u, Pb, u))
+    # written out term by term (elementwise over the runs, no reduction): einsum's and norm's reductions round by
+    # the batch's size and memory alignment, which made a run's last bits depend on the runs batched with it
+    t = u[:, :, None] * Pb * u[:, None, :]
+    q = t[:, 0, 0] + t[:, 0, 1] + t[:, 0, 2] + t[:, 1, 0] + t[:, 1, 1] + t[:, 1, 2] + t[:, 2, 0] + t[:, 2, 1] + t[:, 2, 2]
+    return np.sqrt(q)
