@@ -1,7 +1,8 @@
 """The IMU log in every format (docs/recording.md §3, recording.imu_formats): files written here with netCDF4, h5py
 and rosbags as other software writes them (never by sarnav), read as the CSV twin; a recording navigates the same
 whatever its IMU log's format; bad files are one line naming the variable or message; corrupt CSV and netCDF logs
-(hypothesis) are one line or a correct read, never a traceback."""
+(hypothesis: 20 files per format by default, 200 under ``-m slow``) are one line or a correct read, never a
+traceback."""
 
 from __future__ import annotations
 
@@ -223,10 +224,6 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 
-def _examples(request) -> int:
-    return 200 if request.config.getoption("-m", default="") and "slow" in request.config.getoption("-m") else 20
-
-
 def _corrupt(data: bytes, flips, cut) -> bytes:
     b = bytearray(data)
     for pos, val in flips:
@@ -244,14 +241,15 @@ def _check(path: Path, name: str):
     assert np.all(np.isfinite(log.accel)) and np.all(np.isfinite(log.gyro)) and np.all(np.diff(log.time) > 0)
 
 
+@pytest.mark.parametrize("examples", [20, pytest.param(200, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("name", ["imu.csv", "imu.nc"])
-def test_corrupt_logs_are_one_line_or_a_correct_read(tmp_path_factory, request, name):
+def test_corrupt_logs_are_one_line_or_a_correct_read(tmp_path_factory, name, examples):
     folder = tmp_path_factory.mktemp("corrupt")
     t, a, g = _samples(30)
     (_write_csv if name == "imu.csv" else _write_nc)(folder / name, t, a, g)
     clean = (folder / name).read_bytes()
 
-    @settings(max_examples=_examples(request), deadline=None, suppress_health_check=list(HealthCheck),
+    @settings(max_examples=examples, deadline=None, suppress_health_check=list(HealthCheck),
               derandomize=True)
     @given(flips=st.lists(st.tuples(st.integers(0, 10**6), st.integers(0, 255)), max_size=8),
            cut=st.integers(0, 64))
