@@ -441,3 +441,35 @@ def test_kill_9_of_a_worker_at_random_moments(tmp_path, trial):
     assert "Traceback" not in err.decode()
     assert not _wait_gone(workers)
     _resume_equals_uninterrupted(tmp_path, cfg, cmd)
+
+
+@pytest.mark.skipif(not LINUX, reason="needs Linux /proc")
+def test_kill_9_of_the_main_process_of_a_dask_campaign_leaves_no_process(tmp_path):
+    """The dask executor's local cluster (its nannies and workers) is gone within 5 s of a kill -9 of the main
+    process too, and --resume finishes the campaign."""
+    pytest.importorskip("distributed")
+    cfg, cmd = _campaign(tmp_path, delay=0.3)
+    cmd = cmd + ["--executor", "dask"]
+    proc = _start(cmd)
+    out = tmp_path / "out"
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None and not store.stored_runs(out):
+            time.sleep(0.05)
+        family, todo = [], [proc.pid]
+        while todo:  # the nannies and their workers: every descendant
+            kids = child_pids(todo.pop())
+            family += kids
+            todo += kids
+        assert family, "no cluster process found"
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    left = _wait_gone(family)
+    for p in left:
+        os.kill(p, signal.SIGKILL)
+    assert not left, f"alive 5 s after the main process died: {left}"
+    _resume_equals_uninterrupted(tmp_path, cfg, cmd)
