@@ -234,7 +234,7 @@ def _corrupt(data: bytes, flips, cut) -> bytes:
 
 def _check(path: Path, name: str):
     try:
-        log = read_imu(path, name, "rates", 0.0, 100.0)
+        log = read_imu(path, name, "rates", 0.0, 100.0, body_axes="FLU" if name.endswith(".bag") else "FRD")
     except (InputDataError, ConfigError) as err:
         assert "\n" not in str(err)
         return
@@ -242,11 +242,12 @@ def _check(path: Path, name: str):
 
 
 @pytest.mark.parametrize("examples", [20, pytest.param(200, marks=pytest.mark.slow)])
-@pytest.mark.parametrize("name", ["imu.csv", "imu.nc"])
+@pytest.mark.parametrize("name", ["imu.csv", "imu.nc", "imu.bag"])
 def test_corrupt_logs_are_one_line_or_a_correct_read(tmp_path_factory, name, examples):
     folder = tmp_path_factory.mktemp("corrupt")
     t, a, g = _samples(30)
-    (_write_csv if name == "imu.csv" else _write_nc)(folder / name, t, a, g)
+    writer = {"imu.csv": _write_csv, "imu.nc": _write_nc, "imu.bag": WRITERS["imu.bag"]}[name]
+    writer(folder / name, t, a, g)
     clean = (folder / name).read_bytes()
 
     @settings(max_examples=examples, deadline=None, suppress_health_check=list(HealthCheck),

@@ -155,6 +155,28 @@ def _ros_reader():
     return AnyReader, get_typestore(Stores.ROS2_HUMBLE)
 
 
+def _read_messages(reader, conns, values: np.ndarray, name: str, topic: str) -> int:
+    """The messages of ``conns`` into ``values`` (rows: time, accel xyz, gyro xyz); how many were read."""
+    k = 0
+    try:
+        for conn, _, raw in reader.messages(connections=conns):
+            if k >= values.shape[0]:
+                raise InputDataError(f"{name}:{topic}", f"holds more messages than its index's {values.shape[0]}")
+            try:
+                m = reader.deserialize(raw, conn.msgtype)
+                a, g = m.linear_acceleration, m.angular_velocity
+                values[k] = (m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, a.x, a.y, a.z, g.x, g.y, g.z)
+            except Exception as err:  # a damaged message: its deserializer's own error
+                raise InputDataError(f"{name}:{topic}[{k}]", f"cannot be decoded ({type(err).__name__})") from None
+            k += 1
+    except InputDataError:
+        raise
+    except Exception as err:  # a damaged chunk, index or database: rosbags' (or sqlite's) own error
+        raise InputDataError(f"{name}:{topic}", f"cannot be read after message {k} ({type(err).__name__}: "
+                             f"{str(err)[:120]})") from None
+    return k
+
+
 def _ros_columns(path: Path, name: str, columns, topic: str | None):
     AnyReader, typestore = _ros_reader()
     if not path.exists():
@@ -181,17 +203,7 @@ def _ros_columns(path: Path, name: str, columns, topic: str | None):
             raise InputDataError(f"{name}:{topic}", f"its index claims {count} messages in {size} bytes (a "
                                  f"sensor_msgs/Imu message takes at least {_MIN_IMU_MESSAGE_BYTES} bytes)")
         values = np.empty((count, 7))
-        k = 0
-        for conn, _, raw in reader.messages(connections=conns):
-            if k >= count:
-                raise InputDataError(f"{name}:{topic}", f"holds more messages than its index's {count}")
-            try:
-                m = reader.deserialize(raw, conn.msgtype)
-                a, g = m.linear_acceleration, m.angular_velocity
-                values[k] = (m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, a.x, a.y, a.z, g.x, g.y, g.z)
-            except Exception as err:  # a damaged message: its deserializer's own error
-                raise InputDataError(f"{name}:{topic}[{k}]", f"cannot be decoded ({type(err).__name__})") from None
-            k += 1
+        k = _read_messages(reader, conns, values, name, topic)
     finally:
         reader.close()
     names = list(columns)
