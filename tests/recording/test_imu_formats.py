@@ -198,7 +198,8 @@ def test_bad_bags_are_one_line_naming_the_topic_or_the_key(tmp_path, monkeypatch
     assert _error(tmp_path / "bad.bag", "bad.bag").startswith("bad.bag: is not a readable ROS bag")
     t[4] = t[2]
     _write_bag(tmp_path / "back.bag", t, a, g, ros1=True)
-    assert _error(tmp_path / "back.bag", "back.bag").startswith("back.bag:/imu/data[3]:header.stamp: 10.019288319 duplicates")
+    msg = _error(tmp_path / "back.bag", "back.bag")
+    assert msg.startswith("back.bag:/imu/data[3]:header.stamp: 10.019288319 duplicates")
     monkeypatch.setitem(__import__("sys").modules, "rosbags.highlevel", None)  # the extra not installed
     msg = _error(tmp_path / "two", "two")
     assert msg.startswith("imu.file: needs the optional package rosbags") and "pip install 'sarnav[ros]'" in msg
