@@ -258,3 +258,18 @@ def test_export_command_errors(tmp_path, capsys, args, message):
 def test_export_refuses_other_kinds(tmp_path, capsys):
     assert main(["export", "telemetry", "--run", "0", "--out", str(tmp_path / "t")]) == 2
     assert "scenario.kind: export writes the kinds ['rda-nav'], got 'telemetry'" in capsys.readouterr().err
+
+
+def test_export_shows_its_progress_on_a_terminal(tmp_path, capsys, monkeypatch):
+    """On a terminal (stderr a tty) `sarnav export` tells each interval as it is written; piped, it says nothing."""
+    import sys
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert main(["export", "rda-nav", "--set", "trajectory.duration=2.0", "--runs", "2", "--run", "1",
+                 "--out", str(tmp_path / "rec")]) == 0
+    err = capsys.readouterr().err
+    assert "export: interval 1/2 written" in err and "export: interval 2/2 written" in err
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    assert main(["export", "rda-nav", "--set", "trajectory.duration=2.0", "--runs", "2", "--run", "1",
+                 "--out", str(tmp_path / "rec2")]) == 0
+    assert "export:" not in capsys.readouterr().err

@@ -28,6 +28,10 @@ def add_parser(subparsers) -> None:
     p.set_defaults(handler=run)
 
 
+def _progress(u: int, n: int) -> None:
+    print(f"\rexport: interval {u + 1}/{n} written\033[K", end="", file=sys.stderr, flush=True)
+
+
 def run(args) -> int:
     from sarnav.errors import ConfigError
     from sarnav.montecarlo.seeding import run_seeds
@@ -50,9 +54,14 @@ def run(args) -> int:
     prm = get_kind(kind).parse(cfg)
     check_exportable(prm)
     out = prepare_folder(args.out, args.overwrite)
-    done = export_rda_nav(prm, out, run_seeds(seed, runs)[args.run_id], run=args.run_id, runs=runs,
-                          campaign_seed=seed, scenario_name=name, scenario_text=dump_toml(cfg),
-                          reference=args.reference)
+    tty = sys.stderr.isatty() and not args.quiet
+    try:
+        done = export_rda_nav(prm, out, run_seeds(seed, runs)[args.run_id], run=args.run_id, runs=runs,
+                              campaign_seed=seed, scenario_name=name, scenario_text=dump_toml(cfg),
+                              reference=args.reference, progress=_progress if tty else None)
+    finally:
+        if tty:
+            print(file=sys.stderr)
     if not args.quiet:
         apertures = sum(f.startswith("apertures/") for f in done.files)
         print(f"{name}: run {args.run_id} of seed {seed} -> {out} ({len(done.files)} files, {apertures} apertures)")

@@ -61,16 +61,18 @@ class Export:
 
 def export_rda_nav(prm: rda_nav.RdaNavParams, out, seed: np.random.SeedSequence, *, run: int, runs: int,
                    campaign_seed: int, scenario_name: str, scenario_text: str,
-                   epoch: datetime.datetime = DEFAULT_EPOCH, reference: str = "cphd-pass") -> Export:
+                   epoch: datetime.datetime = DEFAULT_EPOCH, reference: str = "cphd-pass", progress=None) -> Export:
     """Fly run ``run`` (its seed ``seed``: ``montecarlo.seeding.run_seeds(campaign_seed, runs)[run]``) and write it
     to the folder ``out`` as a recording (module docstring). ``scenario_text``: the scenario as TOML. ``reference``:
-    "cphd-pass" (reference (a)) or "orthoimage" (reference (b), ``simulation.export_ortho``)."""
+    "cphd-pass" (reference (a)) or "orthoimage" (reference (b), ``simulation.export_ortho``). ``progress(u, n)``:
+    called after each of the n intervals is written (the CLI's progress line)."""
     check_exportable(prm)
     if reference not in REFERENCE_KINDS:
         raise ConfigError("--reference", f"must be one of {list(REFERENCE_KINDS)}, got {reference!r}")
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     rec = _Recorder(prm, folder, epoch)
+    rec.progress = progress
     if reference == "orthoimage":
         rec.ortho = geolocation_errors(seed, prm.n_updates, prm.scene["geolocation_sigma"])
     record = rda_nav.run(prm, [seed], [run], observer=rec)[0]
@@ -125,6 +127,7 @@ class _Recorder:
         self.imu, self.bias, self.alt, self.apertures, self.points, self.offsets = [], [], [], [], [], []
         self.files: list[str] = []
         self.ortho = None  # reference (b): (U, 3) each tile's geolocation error
+        self.progress = None  # progress(u, n) after each interval
 
     def start(self, fl, sar) -> None:
         if fl.R != 1:
@@ -137,6 +140,11 @@ class _Recorder:
             sar.imager.source = _Tap(sar.imager.source)
 
     def interval(self, u: int, fl, z_alt, sar) -> None:
+        self._interval(u, fl, z_alt, sar)
+        if self.progress is not None:
+            self.progress(u, self.prm.n_updates)
+
+    def _interval(self, u: int, fl, z_alt, sar) -> None:
         t, nu, om, ba, bg = fl.imu_block
         first = 0 if u == 0 else 1  # a block starts with the previous block's last sample
         self.imu.append((t[first:], nu[0, first:], om[0, first:]))
