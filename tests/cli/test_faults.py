@@ -387,6 +387,16 @@ def test_a_dead_worker_is_one_line_and_resume_finishes(tmp_path):
     _resume_equals_uninterrupted(tmp_path, cfg, cmd)
 
 
+def _reap(proc) -> None:
+    """Wait for the (killed) main process; kill it if it is still running (a failed test leaves nothing behind)."""
+    try:
+        proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+
+
 def _kill_main_at(tmp_path, after: float):
     cfg, cmd = _campaign(tmp_path)
     proc = _start(cmd)
@@ -395,11 +405,8 @@ def _kill_main_at(tmp_path, after: float):
         time.sleep(after)
         family = child_pids(proc.pid)
         os.kill(proc.pid, signal.SIGKILL)
-        proc.communicate(timeout=30)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        _reap(proc)
     left = _wait_gone(family + workers)  # every process of the campaign: workers, resource tracker
     for p in left:  # do not leave them to the next test
         os.kill(p, signal.SIGKILL)
@@ -463,11 +470,8 @@ def test_kill_9_of_the_main_process_of_a_dask_campaign_leaves_no_process(tmp_pat
             todo += kids
         assert family, "no cluster process found"
         os.kill(proc.pid, signal.SIGKILL)
-        proc.communicate(timeout=30)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        _reap(proc)
     left = _wait_gone(family)
     for p in left:
         os.kill(p, signal.SIGKILL)
