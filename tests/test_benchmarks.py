@@ -15,6 +15,8 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 @pytest.mark.parametrize("script, args", [
     ("bench_rda.py", ["--sizes", "64x256", "--repeat", "1"]),
     ("bench_echoes.py", ["--pulses", "16", "--targets", "2"]),
+    ("bench_rda_nav.py", ["--runs", "2", "--duration", "2"]),
+    ("bench_campaign.py", ["--runs", "10", "--seconds", "1", "--loop-runs", "2"]),
     ("bench_bpa.py", ["--size", "32", "--pulses", "32", "--rounds", "1", "--no-table", "--peer-sizes", "64"]),
     ("bench_ffbp.py", ["--sizes", "128", "--exact-pulses", "16", "--check", "32", "--peer-sizes", "64"]),
 ])

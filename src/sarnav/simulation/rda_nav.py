@@ -267,6 +267,11 @@ def _shared_store(prm: RdaNavParams) -> dict:
     return _SHARED.setdefault("store", {})
 
 
+def forget_shared_noise_models() -> None:
+    """Drop the noise models kept for the next chunk (``_shared_store``): a benchmark timing a cold chunk."""
+    _SHARED.clear()
+
+
 def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
     if not (prm.sar_enabled and prm.measurement == "image"):
         return None
