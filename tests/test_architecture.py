@@ -286,3 +286,37 @@ def test_one_kalman_update():
             elif isinstance(node, ast.Attribute) and node.attr in forms and ast.unparse(node.value).endswith("update"):
                 bad.append(f"{mod}: calls {ast.unparse(node)}")
     assert not bad, "\n".join(bad)
+
+
+#: the one module that writes a Kalman gain (the Joseph and correlated forms that ``filters.update.fuse`` applies)
+GAIN_HOME = "filters/ekf.py"
+
+
+def _gain_assignments(source: str) -> list[str]:
+    """Assignments of a Kalman gain in ``source``: a target named ``K`` or ``*gain*`` whose value calls
+    ``inv`` or ``solve`` (``K = P @ H.T @ np.linalg.inv(S)``)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Assign):
+            continue
+        names = [t.id for t in node.targets if isinstance(t, ast.Name)]
+        calls = {c.func.attr if isinstance(c.func, ast.Attribute) else getattr(c.func, "id", "")
+                 for c in ast.walk(node.value) if isinstance(c, ast.Call)}
+        if any(n == "K" or "gain" in n.lower() for n in names) and calls & {"inv", "solve", "pinv", "lstsq"}:
+            out.append(ast.unparse(node))
+    return out
+
+
+def test_the_kalman_gain_is_written_once():
+    """The gain is computed in ``filters/ekf.py`` only (issue 25): the particle filters' Gaussian update, the
+    pulse-grid Kalman filter, the MEKF and the navigator all reach it through ``filters.update.fuse``."""
+    bad = [f"{f.relative_to(SRC)}: {a}" for f in sorted(SRC.rglob("*.py")) if str(f.relative_to(SRC)) != GAIN_HOME
+           for a in _gain_assignments(f.read_text())]
+    assert not bad, "\n".join(bad)
+    assert _gain_assignments((SRC / GAIN_HOME).read_text()), "the rule no longer sees the gain where it lives"
+
+
+def test_the_gain_rule_sees_a_hand_written_gain():
+    """The rule flags the form ``filters/grid_particle.update_gaussian`` had before it used ``fuse``."""
+    assert _gain_assignments("K = P @ np.swapaxes(H, -1, -2) @ np.linalg.inv(S)\n")
+    assert not _gain_assignments("K = B / T\nS = np.linalg.solve(A, b)\n")

@@ -82,3 +82,24 @@ def test_fusion_gain_with_sar_fixes_against_gps():
         assert single / r["mean"] > 1.05, (src, r)
         assert 0.8 < r["mean"] / r["sir"] < 1.25, (src, r)
     assert out["sar"]["mean"] > 2 * out["gps"]["mean"]  # 1-Hz SAR fixes aid less than 20 Hz GPS here
+
+
+def test_the_world_is_rda_navs():
+    """One rda-nav world for every kind that flies it (issue 25): multi-imu-sar-fix's reference targets and the
+    scene of a sub-aperture (flight and reference pass, one world and per-run clutter) are rda-nav's, drawn by
+    ``simulation.rda_nav_world`` from the same [scene] values, for the rda-nav scenario's flight."""
+    from sarnav.scenarios.rda_nav import default_config, parse
+    from sarnav.simulation import rda_nav_world
+
+    prm = parse(default_config())
+    setup = SarFixSetup(duration=prm.trajectory.duration)
+    assert setup.scene_seed == prm.scene["seed"] and tuple(setup.ground_range) == tuple(prm.scene["ground_range"])
+    ours, theirs = reference_targets(setup), rda_nav_world.reference_targets(prm)[:, 0]
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-9)
+    mine = rda_nav_world.scene_factory(setup.world, ours[:, None])
+    rdas = rda_nav_world.scene_factory(prm, rda_nav_world.reference_targets(prm))
+    for u, clutter_seed in ((0, None), (17, 12345)):
+        a, b = mine(u, clutter_seed), rdas(u, clutter_seed)
+        for x, y in ((a.flight, b.flight), (a.reference, b.reference)):
+            np.testing.assert_allclose(x.positions, y.positions, rtol=0, atol=1e-9)
+            np.testing.assert_array_equal(x.amplitudes, y.amplitudes)

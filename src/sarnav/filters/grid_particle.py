@@ -40,7 +40,9 @@ from sarnav.filters.particles import (
     tempering_exponent,
     weighted_covariance,
 )
+from sarnav.filters.prediction import Prediction
 from sarnav.filters.pulse_grid import GridFilter, ImuStream, NavFrame
+from sarnav.filters.update import fuse
 from sarnav.frames.earth import WGS84_A, WGS84_E2
 from sarnav.frames.wgs84 import geodetic_difference_ned, ned_offset_to_geodetic
 from sarnav.rotations import quat_to_dcm
@@ -339,11 +341,8 @@ class GridParticleFilter(GridFilter):
         P = np.einsum("rn,rni,rnj->rij", w, d, d)
         zh, H = linearize(m[:, :3], m[:, 3:])
         Rm = np.broadcast_to(np.asarray(meas_cov, dtype=float), (x.shape[0],) + np.shape(meas_cov)[-2:])
-        S = H @ P @ np.swapaxes(H, -1, -2) + Rm
-        K = P @ np.swapaxes(H, -1, -2) @ np.linalg.inv(S)
-        m1 = m + np.einsum("rij,rj->ri", K, np.asarray(z, dtype=float) - zh)
-        A = np.eye(6) - K @ H
-        P1 = A @ P @ np.swapaxes(A, -1, -2) + K @ Rm @ np.swapaxes(K, -1, -2)  # Joseph form
+        up = fuse(P, Prediction(zh, H, Rm), z).update  # the one Kalman update (Joseph form), state [p, v]
+        m1, P1 = m + up.dx, up.P
         jitter = lambda C: C + (1e-12 * np.trace(C, axis1=-2, axis2=-1)[:, None, None] + 1e-300) * np.eye(6)  # noqa: E731
         L1 = np.linalg.cholesky(jitter(0.5 * (P1 + np.swapaxes(P1, -1, -2))))
         e = np.stack([g.standard_normal((self.n, 6)) for g in self.rngs])

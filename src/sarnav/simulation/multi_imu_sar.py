@@ -52,13 +52,12 @@ from sarnav.filters.layout import ErrorStateLayout
 from sarnav.filters.pulse_grid import FixStream, ImuStream, NavFrame, uniform_times
 from sarnav.ins.state import NavState
 from sarnav.measurements.sar import SarCrossRangeMeasurement, SarRangeMeasurement
-from sarnav.measurements.sar_image import AperturePasses
 from sarnav.measurements.telemetry import AltimeterMeasurement
 from sarnav.radar.params import RadarParams
 from sarnav.radar.presets import nav_paper_sim
-from sarnav.radar.scene import Scene, beside_track, clutter_beside_track, point_targets
 from sarnav.rotations import quat_to_dcm
 from sarnav.sensors.lever_arm import lever_arm_specific_force, rate_derivative
+from sarnav.simulation import rda_nav_world
 from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.record import RunRecord
 from sarnav.simulation.fusion_records import SOURCE_ATTRS, SourceRecords, run_records, source_records
@@ -126,6 +125,16 @@ class SarFixSetup:
         return int(np.floor(self.duration + 1e-9))
 
     @property
+    def world(self) -> rda_nav_world.WorldFlight:
+        """rda-nav's world for this flight (``simulation.rda_nav_world``): point targets, one reference reflector
+        per sub-aperture, ``clutter`` Rayleigh scatterers, the reference pass the same pass (rda-nav's default)."""
+        scene = {"type": "points", "seed": self.scene_seed, "ground_range": tuple(self.ground_range),
+                 "toc_jitter": self.toc_jitter, "targets_per_image": 1, "clutter": self.clutter,
+                 "reflector_amplitude": self.reflector_amplitude, "clutter_per_run": self.clutter_per_run,
+                 "reference_offset": (0.0, 0.0), "geolocation_sigma": (0.0, 0.0, 0.0)}
+        return rda_nav_world.WorldFlight(self.trajectory(), scene, self.radar, self.n_apertures)
+
+    @property
     def sensor_names(self) -> list[str]:
         """The filters' names: ``sensor1`` .. ``sensor<n_adis>`` (the ADIS units), then ``novatel``."""
         return [f"sensor{s + 1}" for s in range(self.n_adis)] + ["novatel"]
@@ -137,27 +146,8 @@ class SarFixSetup:
 
 def reference_targets(setup: SarFixSetup) -> np.ndarray:
     """(U, 3) one geolocated reference target per sub-aperture on the ground right of the track, TOC at the
-    aperture centre +- ``toc_jitter`` (rda-nav's world, drawn from ``scene_seed``)."""
-    rng = np.random.default_rng(np.random.SeedSequence(setup.scene_seed))
-    k = np.arange(setup.n_apertures)
-    toc = k + 0.5 + rng.uniform(-setup.toc_jitter, setup.toc_jitter, k.size)
-    gr = rng.uniform(*setup.ground_range, k.size)
-    traj = setup.trajectory()
-    return beside_track(traj.state(np.array([0.0])).position[0], traj.heading, traj.speed, toc, gr)
-
-
-def _scene_factory(setup: SarFixSetup, targets):
-    origin = setup.trajectory().state(np.array([0.0])).position[0]
-
-    def scene_for(u: int, clutter_seed: int | None) -> Scene:
-        key = [setup.scene_seed, 1, u] if clutter_seed is None else [clutter_seed, 2, u]
-        rng = np.random.default_rng(np.random.SeedSequence(key))
-        clutter = clutter_beside_track(rng, origin, 0.0, setup.speed, u, (0.1, 0.9), setup.ground_range,
-                                       setup.clutter)
-        scene = point_targets(targets[u][None, :], setup.reflector_amplitude) + clutter
-        return AperturePasses(scene, scene)  # the reference pass is the same pass (rda-nav's default)
-
-    return scene_for
+    aperture centre +- ``toc_jitter``: rda-nav's world (``rda_nav_world.reference_targets``, ``scene_seed``)."""
+    return rda_nav_world.reference_targets(setup.world)[:, 0]
 
 
 def _rig_imu(traj, times, lever, model, rngs) -> ImuStream:
@@ -370,7 +360,7 @@ def _one_run(setup: SarFixSetup, seed):
     if setup.fix_source == "sar":
         cseed = int(rngs_for([seed], 50)[0].integers(2**63))
         imager = simulated_imager(radar=setup.radar, truth=traj, targets=targets,
-                                   scene_for=_scene_factory(setup, targets),
+                                   scene_for=rda_nav_world.scene_factory(setup.world, targets[:, None]),
                                    reflector_amplitude=setup.reflector_amplitude, snr_db=setup.snr_db,
                                    reference_seed=setup.scene_seed, noise_seeds=[cseed],
                                    clutter_seeds=[cseed] if setup.clutter_per_run else None)

@@ -139,8 +139,8 @@ class RdaNavParams:
         """``near_range`` and ``n_range_samples`` of the receive window that follows the geometry, before the radar
         exists (for the parser): the slant ranges of every scatterer the sub-apertures may image on the flight over
         ``scene`` (``rda_nav_world.slant_range_span``, widened by ``margin`` [m]) plus the pulse's half-extent cT/4."""
-        flight = SimpleNamespace(trajectory=trajectory, scene=scene, radar=SimpleNamespace(look_side=look_side),
-                                 n_updates=int(math.floor(trajectory.duration + 1e-9)))
+        flight = world.WorldFlight(trajectory, scene, SimpleNamespace(look_side=look_side),
+                                   int(math.floor(trajectory.duration + 1e-9)))
         return world.receive_window({"pulse_length": pulse_length, "sample_rate": sample_rate},
                                     world.slant_range_span(flight, margin))
 

@@ -7,6 +7,9 @@ scene keys are documented in docs/scenarios/rda-nav.md §1 (G4, G5) and §4 (sce
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from sarnav.errors import ConfigError
@@ -16,12 +19,25 @@ from sarnav.radar.params import window_over
 from sarnav.radar.scene import Scene, beside_trajectory, clutter_beside_trajectory, point_targets, slant_ranges
 from sarnav.trajectory.offset import OffsetTrack
 
-__all__ = ["SCENE_TYPES", "terrain_of", "swath_extent", "reference_targets", "scene_factory", "reference_track", "map_errors",
+__all__ = ["WorldFlight", "SCENE_TYPES", "terrain_of", "swath_extent", "reference_targets", "scene_factory", "reference_track", "map_errors",
            "slant_range_span", "CLUTTER_MARGIN_M"]
 
 SCENE_TYPES = ("points", "terrain")
 #: ground-range margin of the distributed clutter around each reference target [m] (covers the search window)
 CLUTTER_MARGIN_M = 15.0
+
+
+@dataclass(frozen=True)
+class WorldFlight:
+    """What the world reads of a flight (``RdaNavParams`` is one; every kind that flies rda-nav's world builds one,
+    e.g. ``multi-imu-sar``): the true ``trajectory``, the ``scene`` dict of rda-nav's ``[scene]`` table (the keys
+    ``scenarios.rda_nav`` parses; the functions below read those they need), a ``radar`` with a ``look_side`` and the
+    number of 1-s sub-apertures ``n_updates``."""
+
+    trajectory: Any
+    scene: dict
+    radar: Any
+    n_updates: int
 
 
 def terrain_of(prm) -> HillTerrain | None:
