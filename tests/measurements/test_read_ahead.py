@@ -68,23 +68,49 @@ def test_a_failed_read_ahead_raises_in_the_caller():
 
 
 def test_a_read_ahead_of_another_aperture_is_dropped(recording):
-    """The navigator asks for aperture 2 while aperture 1 is being read ahead: the extractor waits for that read to
-    end (a source is used by one thread at a time), drops it and prepares aperture 2 itself."""
+    """The navigator asks for aperture 2 while aperture 1 is being read ahead (it skipped 1): the extractor waits for
+    that read to end, drops it and prepares aperture 2 itself; a read-ahead of the aperture asked for is taken."""
     rec = read_recording(recording)
     imager = rec.imager(read_navigate_settings(rec).imaging)
-    busy, calls = [], []
+    calls = []
 
     def prepare(u, r):
-        assert not busy, "the source is used by two threads at once"
-        busy.append(u)
         time.sleep(0.05)
         calls.append((u, threading.current_thread().name))
-        busy.pop()
         return u
 
     imager._prepare = prepare
-    imager._ahead = ReadAhead(imager._prepare, 1, 0)
+    imager._ahead = {(1, 0): ReadAhead(imager._prepare, 1, 0)}
     assert imager._fetch(2, 0) == 2
-    assert calls == [(1, "sarnav-read-ahead-1"), (2, threading.current_thread().name)]
-    imager._ahead = ReadAhead(imager._prepare, 3, 0)
-    assert imager._fetch(3, 0) == 3 and imager._ahead is None
+    assert calls == [(1, "sarnav-read-ahead-1"), (2, threading.current_thread().name)] and not imager._ahead
+    imager._ahead = {(3, 0): ReadAhead(imager._prepare, 3, 0), (4, 0): ReadAhead(imager._prepare, 4, 0)}
+    assert imager._fetch(3, 0) == 3 and list(imager._ahead) == [(4, 0)]  # the one ahead of 3 is kept
+
+
+def test_the_source_reads_two_apertures_at_once_and_keeps_each_its_own(recording):
+    """Two read-ahead threads load different apertures of one recording at the same time: each gets its own pulses
+    (the same arrays as a serial read), and the source keeps only the last few apertures."""
+    rec = read_recording(recording)
+    src = rec.source(1)
+    serial = {u: src.flight(u, 0)[0].data.copy() for u in range(3)}
+    src = rec.source(1)
+    jobs = [ReadAhead(lambda u, r: src.flight(u, r)[0].data, u, 0) for u in (0, 1, 2)]
+    for u, job in zip((0, 1, 2), jobs):
+        assert np.array_equal(job.take(), serial[u])
+    assert len(src._loaded) <= src.read_ahead + 2
+
+
+def test_depth_two_starts_the_next_two_apertures(recording, monkeypatch):
+    """At aperture 0 the extractor starts reading apertures 1 and 2 (``RecordedApertures.read_ahead`` = 2), none
+    past the last aperture, and none at all when the source reads no aperture ahead."""
+    rec = read_recording(recording)
+    imager = rec.imager(read_navigate_settings(rec).imaging)
+    started = []
+    monkeypatch.setattr(sar_image, "ReadAhead", lambda prepare, u, r: started.append(u) or (u, r))
+    imager._read_ahead_from(0)
+    imager._read_ahead_from(1)
+    assert started == [1, 2]
+    monkeypatch.setattr(RecordedApertures, "read_ahead", 0)
+    imager._ahead.clear()
+    imager._read_ahead_from(0)
+    assert started == [1, 2]

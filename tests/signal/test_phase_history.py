@@ -68,3 +68,18 @@ def test_bad_input_named_errors():
         PhaseHistory(ph.data, ph.fx0, ph.fx_step, bad, ph.ref_range, ph.pulse_times, ph.toa)
     with pytest.raises(InputDataError, match="^range_axis"):
         phase_history_to_pulses(ph, np.array([1.0, 2.0, 2.5]))
+
+
+@pytest.mark.parametrize("shape", [(), (7,), (100, 2458), (3, 4, 5)])
+def test_frac_phase_is_exp_of_the_fractional_cycles(shape):
+    """The numba twiddle equals numpy's exp(j 2 pi (c - round(c))) to rounding (the formula it replaced), for any
+    shape, cycles of any size (the pre-twiddle's reach 1e4 cycles) and a non-contiguous input."""
+    from sarnav.signal.phase_history import _frac_phase
+
+    c = np.random.default_rng(3).uniform(-2e4, 2e4, shape)
+    want = np.exp(2j * np.pi * (c - np.round(c)))
+    got = _frac_phase(c)
+    assert got.shape == np.shape(c) and got.dtype == np.complex128
+    np.testing.assert_allclose(got, want, rtol=0, atol=4e-16)
+    if c.ndim == 2:
+        np.testing.assert_allclose(_frac_phase(c.T), want.T, rtol=0, atol=4e-16)

@@ -182,9 +182,8 @@ class SubApertureImager:
         self.n_pulses = int(round(self.radar.prf))
         self._cache: dict = {}
         self._noise_cache: dict[tuple, SeparableNoise] = {}
-        self._along_sigma = None
-        self._q_run = None
-        self._ahead: ReadAhead | None = None
+        self._along_sigma = self._q_run = None
+        self._ahead: dict[tuple[int, int], ReadAhead] = {}  # (aperture, run) -> its read-ahead, under way or done
 
     def share_noise_models(self, store: dict) -> None:
         """Keep the receiver-noise models (``_noise_model``, ~90 ms a chip) in ``store``, a dict the caller keeps,
@@ -270,7 +269,10 @@ class SubApertureImager:
         imgs = []
         for t in range(NOISE_REALISATIONS):
             rng = np.random.default_rng(np.random.SeedSequence([self.reference_seed, 5, u, k, t]))
-            unit = (rng.standard_normal(raw.data.shape) + 1j * rng.standard_normal(raw.data.shape)) / math.sqrt(2.0)
+            unit = np.empty(raw.data.shape, dtype=np.complex128)  # (a + j b) / sqrt 2, without its temporaries
+            unit.real = rng.standard_normal(raw.data.shape)
+            unit.imag = rng.standard_normal(raw.data.shape)
+            unit /= math.sqrt(2.0)
             imgs.append(form(range_compress(replace(raw, data=unit))))
         model = SeparableNoise.from_images(np.stack(imgs), chip_columns)
         return replace(model, power=model.power * ref.amplitude**2 / 10.0 ** (ref.snr_db / 10.0))
@@ -334,8 +336,8 @@ class SubApertureImager:
         with one_blas_thread():
             for r in range(R):
                 ap, flight = self._fetch(u, r)
-                if r == R - 1 and self._reads_ahead() and u + 1 < self.targets.shape[0]:
-                    self._ahead = ReadAhead(self._prepare, u + 1, 0)
+                if r == R - 1:
+                    self._read_ahead_from(u)
                 out.seconds[r, 0] += ap["seconds"] / (R if ap["shared"] else 1)  # a shared reference: once for all
                 sigma = None if speed_sigma is None else speed_sigma[r]
                 self._along_sigma = along_sigma
@@ -349,19 +351,26 @@ class SubApertureImager:
         ap = self.aperture(u, r)
         return ap, self.source.flight(u, r)  # the in-flight acquisition
 
-    def _reads_ahead(self) -> bool:
-        """Whether the next aperture is prepared on a second thread: the source allows it (``read_ahead``: a
-        recording's files) and the chain is the RDA's (back-projection's numba kernels run threads of their own)."""
-        return bool(getattr(self.source, "read_ahead", False)) and self.settings.algorithm == "rda"
+    def _reads_ahead(self) -> int:
+        """How many apertures are prepared ahead, each on a thread of its own: the source's ``read_ahead`` (a
+        recording's files: 2; 0 or absent: none) when the chain is the RDA's (back-projection's numba kernels run
+        threads of their own)."""
+        return max(int(getattr(self.source, "read_ahead", 0)), 0) if self.settings.algorithm == "rda" else 0
+
+    def _read_ahead_from(self, u: int) -> None:
+        """Start the read-aheads of apertures u + 1 .. u + depth not under way yet."""
+        for v in range(u + 1, min(u + 1 + self._reads_ahead(), self.targets.shape[0])):
+            if (v, 0) not in self._ahead:
+                self._ahead[(v, 0)] = ReadAhead(self._prepare, v, 0)
 
     def _fetch(self, u: int, r: int):
-        """``_prepare(u, r)``, from the read-ahead when it prepared that aperture; a read-ahead of another one is
-        waited for and dropped (a source is used by one thread at a time)."""
-        ahead, self._ahead = self._ahead, None
-        if ahead is not None:
-            if ahead.key == (u, r):
-                return ahead.take()
-            ahead.join()
+        """``_prepare(u, r)``, from the read-ahead when one prepared that aperture; read-aheads of apertures at or
+        before u that are not asked for (the navigator skipped them) are waited for and dropped."""
+        job = self._ahead.pop((u, r), None)
+        for key in [k for k in self._ahead if k[0] <= u]:
+            self._ahead.pop(key).join()
+        if job is not None:
+            return job.take()
         return self._prepare(u, r)
 
     def _measure_run(self, u, r, ap, flight, ap_t, p_run, v_run, speed_sigma, map_targets, out) -> None:
