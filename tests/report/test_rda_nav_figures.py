@@ -46,3 +46,30 @@ def test_campaign_writes_image_and_ablation_figures(tmp_path):
     assert (figs / "position_3sigma_with_without_sar.png").stat().st_size > 10_000
     ds = xr.open_dataset(out / "results.nc")
     assert ds.attrs["complete"] in (1, True, "true", "True")
+
+
+def test_the_figure_functions_draw_their_inputs(tmp_path, monkeypatch):
+    """``report.rda_nav_figures`` on its own: the ablation plot's curves are 3 sigma of the input, the image grid
+    shows each image in dB re its peak (floor -40 dB); both write a PNG."""
+    from sarnav.report import rda_nav_figures as rf
+    from sarnav.signal.data import SarImage
+
+    saved = {}
+    real = rf.save_png
+    monkeypatch.setattr(rf, "save_png", lambda fig, path: saved.setdefault("fig", fig) and real(fig, path))
+    t = np.linspace(0.0, 5.0, 6)
+    s_with, s_without = np.full((6, 3), 0.5), np.outer(np.arange(1, 7), [1.0, 2.0, 3.0])
+    out = rf.plot_sar_ablation(t, s_with, t, s_without, tmp_path / "ablation.png")
+    assert (tmp_path / "ablation.png").stat().st_size > 1000 and str(out).endswith("ablation.png")
+    for i, ax in enumerate(saved.pop("fig").axes):
+        a, b = ax.get_lines()[:2]
+        np.testing.assert_allclose(a.get_ydata(), 3 * s_with[:, i])
+        np.testing.assert_allclose(b.get_ydata(), 3 * s_without[:, i])
+    amp = np.zeros((4, 5), complex)
+    amp[1, 2], amp[3, 4] = 10.0, 1e-4  # 0 dB and -100 dB (floored at -40)
+    img = SarImage(amp, np.arange(4.0), 100.0 + np.arange(5.0))
+    cap = {"reference": img, "before": img, "after": img, "correlation": (np.ones((3, 3)), np.arange(3.0),
+           np.arange(3.0)), "run": 0, "aperture": 2, "speed_hat": 10.0, "autofocus_speed": 10.01, "used": "mapdrift"}
+    rf.plot_aperture_images(cap, tmp_path / "images.png")
+    shown = saved["fig"].axes[0].get_images()[0].get_array()
+    assert shown[1, 2] == 0.0 and shown[3, 4] == -40.0 and shown.min() == -40.0

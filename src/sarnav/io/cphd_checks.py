@@ -68,7 +68,7 @@ def check_pvps(pvp: np.ndarray, start: int) -> None:
         if name in pvp.dtype.names:
             dt = pvp.dtype[name]
             want = (3,) if name.endswith("Pos") else ()
-            if dt.shape != want or dt.base.kind != "f":
+            if dt.shape != want or dt.base.kind != "f" or dt.base.itemsize != 8:  # F8 (CPHD 1.0 Table 10-2)
                 raise InputDataError(f"cphd.PVP.{name}", f"must be {'X=F8;Y=F8;Z=F8;' if want else 'F8'}, got a "
                                      f"{dt.base} field of shape {dt.shape}")
     for name in _FINITE_PVPS:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sarnav.errors import InputDataError
 from sarnav.filters import delayed, second_order, update
 from sarnav.filters.prediction import Prediction, stack_predictions
 from sarnav.ins import NavState
@@ -104,6 +105,9 @@ class SarAiding:
         ``map_sigma`` (T, 3) N E D [m], default the settings' ``geolocation_sigma`` for every target), each referred
         to its own TOC ``eta[:, k]`` and mapped to the update epoch (the process noise shared between two targets' TOC
         intervals is not correlated across pairs: docs §3)."""
+        if map_sigma is not None and not np.all(np.isfinite(np.asarray(map_sigma, dtype=np.float64))):
+            raise InputDataError("map_sigma", "the map's geolocation 1-sigma must be finite [m] (NaN would switch "
+                                 "its noise off)")
         D = ([self.D] * self.T if map_sigma is None
              else [np.diag(np.asarray(s, dtype=np.float64) ** 2) for s in np.asarray(map_sigma).reshape(self.T, 3)])
         return stack_predictions([self._predict_one(navigator, iv, eta[:, k], map_targets[:, k], k, D[k])

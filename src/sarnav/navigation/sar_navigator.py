@@ -54,7 +54,7 @@ class AidedUpdate:
     """What one update did, per run (R runs, T pairs): ``fused`` (residual, residual_sigma (R, m), NIS, dof: the
     navigator's ``Fused``), ``z`` (R, m) the measurements (altimeter first, then range, cross-range of each pair),
     ``status`` (R, T) why each pair was not fused (``sar_aiding.REJECTIONS`` index, 0: fused; None without pairs),
-    ``rejected`` (R,) the first pair's non-zero code (0: all fused), ``pairs_fused`` (R,), ``seconds`` the wall time
+    ``rejected`` (R,) the first non-zero code among the pairs (0: all fused), ``pairs_fused`` (R,), ``seconds`` the wall time
     of the prediction per run."""
 
     fused: Fused

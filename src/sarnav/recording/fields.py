@@ -1,10 +1,12 @@
-"""Typed readers of the manifest's tables (``flight.toml``): every bad or missing key is one line naming the file and
-the key, ``flight.toml:imu.rate_hz: must be finite and > 0 Hz, got -100.0``. The recording's own family of readers
-(the scenario layer's, ``scenarios.fields``, sit above this package and name scenario keys)."""
+"""Typed readers of the manifest's tables (``flight.toml``): every bad or missing key is one line naming the file,
+the key and the valid range, ``flight.toml:imu.rate_hz: must be a finite number in (0, 10000] Hz, got -100.0``. The
+recording's own family of readers (the scenario layer's, ``scenarios.fields``, sit above this package and name
+scenario keys)."""
 
 from __future__ import annotations
 
 import datetime
+import math
 from pathlib import PurePosixPath
 
 import numpy as np
@@ -47,11 +49,12 @@ class Table:
         return _number(self.field(key), self.get(key, default), lo, hi, unit)
 
     def positive(self, key: str, unit: str = "", hi: float = 1e12, default=_MISSING) -> float:
-        """A finite number > 0 and <= hi."""
-        v = _number(self.field(key), self.get(key, default), None, hi, unit)
-        if not v > 0:
-            raise ConfigError(self.field(key), f"must be > 0{(' ' + unit) if unit else ''}, got {v!r}")
-        return v
+        """A finite number > 0 and <= hi; the error states the range (0, hi]."""
+        v = self.get(key, default)
+        u = f" {unit}" if unit else ""
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and 0 < v <= hi):
+            raise ConfigError(self.field(key), f"must be a finite number in (0, {hi:g}]{u}, got {v!r}")
+        return float(v)
 
     def integer(self, key: str, lo: int, hi: int, default=_MISSING) -> int:
         v = self.get(key, default)

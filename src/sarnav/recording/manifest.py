@@ -4,7 +4,7 @@ The IMU, radar and initial-uncertainty tables use the project's one vocabulary (
 ``[imu]`` grade or 3-sigma figures, ``[radar]`` fields in the units of their keys, ``[initial]`` 3-sigma values);
 the recording adds what a flown sensor has and a simulated one need not state: the time system and the clocks'
 offsets, the local frame's geodetic origin, the lever arm, the files. Every bad, missing or unknown key is one line
-naming the file and the key (``flight.toml:radar.prf_hz: must be finite and > 0 Hz, got 0.0``).
+naming the file and the key (``flight.toml:imu.rate_hz: must be a finite number in (0, 10000] Hz, got 0.0``).
 """
 
 from __future__ import annotations

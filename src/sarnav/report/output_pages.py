@@ -5,6 +5,7 @@ scenario text stored in ``image.npz``). Each function returns (title, body HTML)
 from __future__ import annotations
 
 import csv
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -94,7 +95,7 @@ def image_page(p: Path, given: str) -> tuple[str, str]:
         try:
             with np.load(p / "image.npz", allow_pickle=False) as z:
                 toml = str(z["scenario_toml"]) if "scenario_toml" in z.files else ""
-        except (OSError, ValueError) as err:
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:  # truncated, empty or not a zip
             raise ConfigError(given, f"image.npz cannot be read ({err})") from None
     body += H.section("Scenario", H.pre(toml or "(not stored)"))
     return f"sarnav image: {metrics.get('scenario', p.name)}", body

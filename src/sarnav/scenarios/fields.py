@@ -37,7 +37,10 @@ def bounded_positive(field: str, value, unit: str = "", lo: float | None = None,
     ``tau_*``, at least :data:`MIN_CORRELATION_TIME`), else ConfigError naming ``field``."""
     lo = (MIN_CORRELATION_TIME if _is_correlation_time(field) else POSITIVE_RANGE[0]) if lo is None else lo
     hi = POSITIVE_RANGE[1] if hi is None else hi
-    v = require_positive(field, value, unit)
+    try:
+        v = require_positive(field, value, unit)
+    except ConfigError as err:  # zero, negative, NaN or not a number: say the valid range too
+        raise ConfigError(field, f"{err.message}; valid range [{lo:g}, {hi:g}]{(' ' + unit) if unit else ''}") from None
     if not lo <= v <= hi:
         raise ConfigError(field, f"must be in [{lo:g}, {hi:g}]{(' ' + unit) if unit else ''}, got {v!r}")
     return v

@@ -14,7 +14,8 @@ class OffsetTrack:
     """``base`` shifted by ``across`` [m] horizontally to the right of its velocity and by ``up`` [m] upward, at the
     same times: ``p(t) = p_base(t) + across w(t) - up e_D`` with w the horizontal unit normal right of v_base(t). For
     a straight track it is the parallel track; on a turn the offset follows the normal (the speed then differs from
-    the base's by a factor 1 + across x turn rate / V). Velocity by a central difference of the positions
+    the base's by a factor 1 - across x turn rate / V: a positive turn rate turns right, so an offset to the
+    right lies inside the turn). Velocity by a central difference of the positions
     (``dt`` [s]); attitude that of the base. Only :meth:`state` is offered (the echoes and the reference image need
     nothing else)."""
 
