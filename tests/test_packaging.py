@@ -20,7 +20,7 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 PROJECT = PYPROJECT["project"]
 
 #: import name -> distribution name, where they differ
-DIST_OF = {"skimage": "scikit-image", "netCDF4": "netcdf4", "dask": "dask", "distributed": "dask",
+DIST_OF = {"PIL": "pillow", "skimage": "scikit-image", "netCDF4": "netcdf4", "dask": "dask", "distributed": "dask",
            "setuptools_scm": "setuptools-scm"}
 #: modules that a feature needs only with an extra: module -> extra (setuptools-scm: a checkout's live version)
 OPTIONAL = {"skimage": "registration", "dask": "dask", "distributed": "dask", "setuptools_scm": "test", "rasterio": "geo",

@@ -10,7 +10,8 @@ NAME = "navigate"
 DESCRIPTION = ("Run the SAR-aided navigator on a flight recording (docs/recording.md): the initial state of the "
                "manifest, then INS + altimeter + image-derived range and cross-range updates, each image formed along "
                "the navigator's own estimated track. Writes trajectory.nc, trajectory.csv, trajectory.geojson, "
-               "trajectory.kml, updates.csv, with truth errors.csv, report.html and navigate.json (docs/navigate.md).")
+               "trajectory.kml, updates.csv, with truth errors.csv, report.html, navigate.json, and images/ (a PNG of "
+               "every in-flight image formed; with --sicd its SICD too) (docs/navigate.md).")
 
 
 def add_parser(subparsers) -> None:
@@ -24,6 +25,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace navigate's outputs found in --out")
     p.add_argument("--quiet", action="store_true", help="no summary line")
     p.add_argument("--no-report", action="store_true", help="do not draw report.html (its figures take seconds)")
+    p.add_argument("--sicd", action="store_true", help="also write each in-flight image as OUT/images/"
+                   "aperture_NNN.sicd (SICD NITF on the navigator's estimated track; docs/navigate.md)")
     p.set_defaults(handler=run)
 
 
@@ -44,7 +47,8 @@ def run(args) -> int:
     tty = sys.stderr.isatty()
     try:
         doc = run_navigate(rec, args.out, settings, progress=_progress if tty else None, overwrite=args.overwrite,
-                           describe={"config": args.config, "set": list(args.overrides)}, report=not args.no_report)
+                           describe={"config": args.config, "set": list(args.overrides), "sicd": args.sicd},
+                           report=not args.no_report, sicd=args.sicd)
     finally:
         if tty:
             print(file=sys.stderr)

@@ -129,7 +129,12 @@ class ApertureMeasurements:
     that statistical linearisation included in ``sigma``;
     status : (R, T) 0 = measured, else the index of the reason in :data:`FAILURES`;
     autofocus_dk : (R,) mapdrift FM-rate correction [Hz/s]; speed : (R,) the speed the images were focused with [m/s];
-    seconds : (R, len(STAGES)) time per stage; capture : images of the first run when asked.
+    seconds : (R, len(STAGES)) time per stage; capture : images of the first run when asked; images : with
+    ``SubApertureImager.keep_images``, per target k of the first run whose in-flight image was formed (``keep``),
+    the image registered (``image``: RDA a ``SarImage``, rows = pulses, columns = slant range; BPA the complex
+    array on ``grid``, the NED ground grid with ``centre``, ``along``, ``across``, ``da``, ``dg``, ``shape``), the
+    range-compressed pulses it was formed from (``pulses``) and the estimated focusing track (``positions`` (P, 3)
+    NED: the pulses' own positions for RDA).
     """
 
     toc: np.ndarray
@@ -145,6 +150,13 @@ class ApertureMeasurements:
     speed: np.ndarray
     seconds: np.ndarray
     capture: dict | None = None
+    images: dict | None = None
+
+    def keep(self, on: bool, k: int, image, pulses, grid=None, positions=None) -> None:
+        """With ``on``, keep target k's in-flight image in ``images`` (class docstring; references, no copy)."""
+        if on:
+            self.images = {**(self.images or {}), k: {"image": image, "pulses": pulses, "grid": grid,
+                                                      "positions": pulses.positions if positions is None else positions}}
 
     @classmethod
     def empty(cls, runs: int, targets: int) -> "ApertureMeasurements":

@@ -172,6 +172,7 @@ class SubApertureImager:
     reference_seed: int
     settings: ImagingSettings = field(default_factory=ImagingSettings)
     capture_aperture: int | None = None
+    keep_images: bool = False  # keep every in-flight image of the first run registered (ApertureMeasurements.keep)
 
     def __post_init__(self):
         self.targets = np.asarray(self.targets, dtype=np.float64)
@@ -430,6 +431,7 @@ class SubApertureImager:
                 image = af.image
                 out.speed[r] = float(af.speed)
         t2 = time.perf_counter()
+        out.keep(self.keep_images and r == 0, k, image, sub)
         coarse, i1, j1 = self._coarse(np.abs(image.data), np.abs(ch["chip"]))
         row, col, info = self._fine(image.data, ch, i1, j1)
         out.toc[r, k] = times[0] + (row % self.n_pulses) / prf
@@ -474,6 +476,7 @@ class SubApertureImager:
         grid = _Grid(np.asarray(targ, dtype=np.float64), along, across, ref_grid.da, ref_grid.dg, shape)
         data = backproject(rc, grid.points(), positions=p_hat).data
         t1 = time.perf_counter()
+        out.keep(self.keep_images and r == 0, k, data, rc, grid, p_hat)
         coarse, i1, j1 = self._coarse(np.abs(data), np.abs(ch["chip"]), circular=False)
         row, col, _ = self._fine(data, ch, i1, j1, precision=False, circular=False)
         # formed again on the chip's lattice centred at the match, so that the final registration shift is a small

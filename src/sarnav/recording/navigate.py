@@ -19,7 +19,9 @@ it, a file that does not read) is skipped and recorded, never an abort.
 
 Results (:class:`Navigation`): the estimate and its covariance at every step epoch (every ``COV_STEP``), every
 update's residuals and NIS, every pair's measurement and status. ``navigate`` fills a :class:`Navigation` it is
-handed as it goes, so an interrupted run leaves what was done.
+handed as it goes, so an interrupted run leaves what was done. With ``images``, every in-flight image formed is
+handed to it as the run goes (``images(aperture, time, images)``, ``ApertureMeasurements.images``: the images
+registered, the pulses and the estimated track they were focused with); its failure is a notice, never an abort.
 """
 
 from __future__ import annotations
@@ -86,9 +88,10 @@ class Navigation:
     ``p, v, q, ba, bg, bm`` with its covariance ``P``; per update ``updates`` (dicts: time, aperture, z, residual,
     residual_sigma, nis, nis_dof, rejected, pairs_fused, seconds: wall time per stage: "propagate" the interval's
     INS and covariance, "images" the extractor's whole work, of which its ``STAGES`` "rda", "autofocus",
-    "registration" on the in-flight image, "update"); per aperture and point ``pairs`` (dicts: the update's time,
-    aperture, point, the image's toc, range, cross-range, sigma, correlation, ambiguity, status code, reason,
-    residual and its sigma); ``plan``; ``notices``; ``complete`` once every update is done."""
+    "registration" on the in-flight image, "update", "image_files" the ``images`` hook); per aperture and point
+    ``pairs`` (dicts: the update's time, aperture, point, the image's toc, range, cross-range, sigma, correlation,
+    ambiguity, status code, reason, residual and its sigma); ``plan``; ``notices``; ``complete`` once every update
+    is done."""
 
     layout: object = STATE_LAYOUT
     targets: int = 0
@@ -179,9 +182,10 @@ def _notices(out: Navigation, rec: Recording, plan: FlightPlan) -> None:
 
 
 def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=None,
-             into: Navigation | None = None) -> Navigation:
+             into: Navigation | None = None, images=None) -> Navigation:
     """Navigate the recording ``rec`` (module docstring) and return the :class:`Navigation` (``into``, filled as the
-    run goes, when given). ``progress(update, updates, navigation)`` is called after each update."""
+    run goes, when given). ``progress(update, updates, navigation)`` is called after each update; ``images(aperture,
+    time, images)`` with the in-flight images of each aperture imaged (module docstring)."""
     settings = NavigateSettings() if settings is None else settings
     out = Navigation() if into is None else into
     sar_on = settings.sar is not None and bool(rec.manifest.apertures)
@@ -191,6 +195,8 @@ def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=
     alt_sigma = None if rec.altimeter is None else rec.manifest.altimeter.sigma
     sn = SarNavigator(nv, alt_sigma, settings.sar if sar_on else None, max(out.targets, 1), image=True)
     imager = rec.imager(settings.imaging) if sar_on else None
+    if imager is not None:
+        imager.keep_images = images is not None
     _notices(out, rec, plan)
     t, nu, om = rec.imu.rates()
     out.record(t[plan.k0], nv.nav, nv.P)
@@ -205,7 +211,7 @@ def navigate(rec: Recording, settings: NavigateSettings | None = None, progress=
                           max_gap=settings.max_gap, bridge=plan.bridge(u))
         for s, (nav_s, P_s) in enumerate(iv.estimates[:-1]):
             out.record(iv.t[s + 1], nav_s, P_s)
-        _update(out, rec, sn, imager, plan, u, iv, time.perf_counter() - t0)
+        _update(out, rec, sn, imager, plan, u, iv, time.perf_counter() - t0, images)
         if plan.gnss[u] >= 0:
             _gnss_update(out, rec, nv, int(plan.gnss[u]), float(iv.t[-1]))
         out.record(iv.t[-1], nv.nav, nv.P)
@@ -228,9 +234,9 @@ def _gnss_update(out: Navigation, rec: Recording, nv: Navigator, k: int, t: floa
 
 
 def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: FlightPlan, u: int, iv,
-            seconds: float) -> None:
+            seconds: float, images=None) -> None:
     """Update u: the altimeter value at its epoch and the pairs of its aperture, fused and recorded (``seconds``:
-    the interval's INS and covariance)."""
+    the interval's INS and covariance); the aperture's images handed to ``images`` (``image_files``: its seconds)."""
     k_alt, ap = int(plan.altimeter[u]), int(plan.aperture[u])
     z_alt = None if k_alt < 0 else np.array([[rec.altimeter.altitude[k_alt]]])
     z_sar = eta = am = map_t = map_s = None
@@ -249,8 +255,12 @@ def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: Fli
     up = sn.update(iv, z_alt, z_sar, eta, map_t, map_s)
     if up is None:
         return
-    stages = {"propagate": seconds, "images": t1 - t0, **dict.fromkeys(STAGES[1:], 0.0),
-              "update": time.perf_counter() - t1}
+    t2 = time.perf_counter()
+    stages = {"propagate": seconds, "images": t1 - t0, **dict.fromkeys(STAGES[1:], 0.0), "update": t2 - t1,
+              "image_files": 0.0}
+    if images is not None and am is not None and am.images:
+        _hand_images(out, rec, images, ap, float(iv.t[-1]), am.images)
+        stages["image_files"] = time.perf_counter() - t2
     if am is not None:
         stages.update(zip(STAGES[1:], am.seconds[0, 1:].tolist()))
     out.updates.append({"time": float(iv.t[-1]), "aperture": ap, "altimeter": k_alt >= 0, "z": up.z[0],
@@ -268,6 +278,15 @@ def _update(out: Navigation, rec: Recording, sn: SarNavigator, imager, plan: Fli
                               "ambiguity": float(am.ambiguity[0, k]), "code": code, "reason": pair_status(code),
                               "residual": up.fused.residual[0, cols].copy(),
                               "residual_sigma": up.fused.residual_sigma[0, cols].copy()})
+
+
+def _hand_images(out: Navigation, rec: Recording, images, ap: int, t: float, formed: dict) -> None:
+    """``images(ap, t, formed)``; a failure (a full disk, a geometry a file cannot hold) is a notice."""
+    try:
+        images(ap, t, formed)
+    except (SarnavError, OSError, ValueError, ArithmeticError) as err:
+        out.notices.append(f"aperture {ap} ({rec.manifest.apertures[ap].file}): image files not written: "
+                           f"{type(err).__name__}: {err}")
 
 
 def _skip(out: Navigation, rec: Recording, aperture: int, t: float, reason: str) -> None:

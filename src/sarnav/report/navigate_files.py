@@ -12,7 +12,9 @@ and ``trajectory.kml`` (the track as a LineString in longitude, latitude, height
 ``updates.csv`` (one row per aperture and reference point) and, where the recording has truth, ``errors.csv``
 (truth minus estimate per error state, 1-sigma, NEES) and its consistency summary (NEES and NIS against their 95 %
 chi-square bands, ``analysis.consistency``) in ``navigate.json``; ``report.html`` (``report.navigate_html``, drawn
-from the other outputs) unless ``report=False``.
+from the other outputs) unless ``report=False``; ``images/`` (``report.navigate_images``: a PNG of every in-flight
+image formed, with ``sicd=True`` its SICD too, and images.csv), written as the run goes into ``images.partial/``,
+renamed with the rest at the end (an interrupted run leaves ``images.partial/``).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from sarnav.filters import error_state
 from sarnav.ins import NavState
 from sarnav.recording.navigate import REJECTIONS, SKIPPED, NavigateSettings, Navigation, navigate
 from sarnav.recording.tables import write_columns
+from sarnav.report.navigate_images import IMAGE_DIR, NavigateImages, remove_images
 from sarnav.rotations import dcm_to_euler, euler_to_quat, quat_to_dcm
 
 __all__ = ["run_navigate", "write_navigation", "prepare_output", "consistency", "TRAJECTORY_COLUMNS", "UPDATE_COLUMNS", "OUTPUT_FILES", "STATUS_FILE",
@@ -354,43 +357,50 @@ def _status(out: Path, doc: dict) -> None:
 def prepare_output(out, overwrite: bool = False) -> Path:
     """The output folder, created; one holding other files is refused (ConfigError ``--out``) unless
     ``overwrite``, which removes navigate's own files (OUTPUT_FILES, their .partial forms, navigate.json;
-    ``simulation.export.prepare_folder``)."""
+    ``simulation.export.prepare_folder``; the images it writes, ``report.navigate_images.remove_images``)."""
     from sarnav.simulation.export import prepare_folder
 
     own = [f for name in OUTPUT_FILES + (STATUS_FILE,) for f in (name, f"{name}.partial")]
+    if overwrite and Path(out).is_dir():
+        remove_images(out)
     return prepare_folder(out, overwrite, own, "navigate's outputs")
 
 
 def run_navigate(rec, out, settings: NavigateSettings | None = None, progress=None, overwrite: bool = False,
-                 describe: dict | None = None, report: bool = True) -> dict:
+                 describe: dict | None = None, report: bool = True, sicd: bool = False) -> dict:
     """Navigate ``rec`` into the folder ``out`` (module docstring); returns navigate.json's content.
     ``describe``: extra entries for navigate.json (the command line's settings); ``report``: write report.html
-    (``report.navigate_html``, from the other outputs)."""
+    (``report.navigate_html``, from the other outputs); ``sicd``: each in-flight image as SICD too."""
     out = prepare_output(out, overwrite)
     doc = {"complete": False, "recording": str(rec.folder), "sarnav_version": sarnav.__version__,
            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **(describe or {})}
     _status(out, doc)
-    nav, t0 = Navigation(), time.perf_counter()
+    nav, t0, images = Navigation(), time.perf_counter(), NavigateImages(out, rec, sicd)
     try:
-        navigate(rec, settings, progress, into=nav)
+        navigate(rec, settings, progress, into=nav, images=images)
         files = write_navigation(out, rec, nav, complete=True, suffix=".partial")
     except BaseException as exc:  # an interruption (Ctrl-C) or a failure: what was done, marked incomplete
         doc.update(interrupted=f"{type(exc).__name__}: {exc}".strip(), **_counts(nav, time.perf_counter() - t0))
         try:
+            folder = images.write_index()
+            doc.update(images=images.summary())
             if nav.time:
                 doc["files"] = write_navigation(out, rec, nav, complete=False, suffix=".partial")
-                doc["files"] += _report(out, doc, rec) if report else []
+                doc["files"] += ([f"{folder}/"] if folder else []) + (_report(out, doc, rec) if report else [])
         finally:
             _status(out, doc)
         raise
     est = nav.estimate()
     summary = consistency(nav, est, truth_errors(rec, est, nav.layout))
     doc.update(complete=True, files=[f.removesuffix(".partial") for f in files], consistency=summary,
-               notices=nav.notices, **_counts(nav, time.perf_counter() - t0))
+               notices=nav.notices, images=images.summary(), **_counts(nav, time.perf_counter() - t0))
+    images.write_index()
     files += _report(out, doc, rec) if report else []
     for name in files:
         os.replace(out / name, out / name.removesuffix(".partial"))
     doc["files"] = [f.removesuffix(".partial") for f in files]
+    if images.publish():
+        doc["files"].append(f"{IMAGE_DIR}/")
     _status(out, doc)
     return doc
 

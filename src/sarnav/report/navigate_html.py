@@ -158,6 +158,11 @@ def _run_section(o: NavigateOutputs) -> str:
     facts = {k: d.get(k) for k in ("recording", "complete", "interrupted", "started", "sarnav_version", "updates",
                                    "updates_planned", "epochs", "pairs_fused", "pairs_rejected", "pairs_skipped",
                                    "flight_seconds", "wall_seconds", "real_time_factor") if k in d}
+    im = d.get("images") or {}
+    if im:  # named, not linked: the page refers to nothing outside itself
+        where = "images/" if d.get("complete") is True else "images.partial/"
+        facts["in-flight images"] = (f"{im.get('png', 0)} PNG, {im.get('sicd', 0)} SICD in {where} (one per "
+                                     "aperture imaged; images.csv lists them)")
     body = H.kv_table(facts, "run (navigate.json; wall time and real-time factor exclude this page)")
     body += H.kv_table({"--config": d.get("config"), "--set": " ".join(d.get("set") or []) or "none"},
                        "settings given (defaults: the recording's scenario.toml, else rda-nav's; docs/navigate.md)")
