@@ -102,8 +102,6 @@ def test_number_refuses_non_numbers(value):
     assert err.field == "flight.toml:t.x" and f"got {value!r}" in err.message
 
 
-@pytest.mark.xfail(strict=True, reason="recording/fields.py: number() of a non-number says only 'must be a number "
-                   "[m]': the module promises the valid range in every error")
 def test_number_of_a_non_number_states_the_range():
     """The module docstring: every bad key names the valid range, also when the value is not a number."""
     err = _err(Table({"x": "abc"}, "t", ("x",)).number, "x", 0.0, 10.0, "m")

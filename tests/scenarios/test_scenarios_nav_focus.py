@@ -90,9 +90,6 @@ def test_receive_window_covers_the_default_reflectors():
     assert radar.far_range < r.max() + C * radar.pulse_length / 4 + RANGE_MARGIN + radar.range_bin_spacing + 1e-9
 
 
-@pytest.mark.xfail(strict=True, reason="nav_focus._radar takes the nearest range over the along-track separations "
-                   "(a - half, a + half, a) only: a reflector inside the aperture but off its centre passes its "
-                   "closest approach (separation 0) outside the receive window")
 def test_receive_window_covers_a_reflector_inside_a_long_aperture():
     """A reflector 25 m along track inside a 100-m aperture (10 m/s, 30000 pulses at 3 kHz): its closest approach
     (20.06 m) must lie within the receive window's whole-echo limits."""

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import ndimage
 
-from sarnav.errors import ConfigError
+from sarnav.errors import ConfigError, InputDataError
 from sarnav.frames.earth import ecef_to_eci, eci_to_ecef, ecef_to_geodetic, geodetic_to_ecef
 from sarnav.frames.gravity import local_gravity
 from sarnav.frames.wgs84 import ned_to_ecef_dcm
@@ -148,20 +148,40 @@ class ImageMeasurement:
     capture: dict | None = None
 
 
-def terrain_intersection(r, u, terrain, iterations: int = 12):
+def _height_above_terrain(r, u, terrain, s: float) -> tuple[float, np.ndarray]:
+    """(h_geodetic - h_DEM at r + s u [m], the local up unit vector (3,))."""
+    lat, lon, h = ecef_to_geodetic(r + s * u)
+    return float(h - terrain.height(lat, lon)), ned_to_ecef_dcm(lat, lon)[:, 2] * -1.0
+
+
+def terrain_intersection(r, u, terrain, iterations: int = 12, tolerance: float = 1e-6):
     """First point (3,) where the ray r + s u (ECEF, |u| = 1) meets the terrain surface (DEM over WGS-84): from the
-    ellipsoid intersection, Newton on s for h_geodetic(p) - h_DEM(p) = 0 (the ray's height falls at -u . up)."""
-    p = boresight_intersection(np.asarray(r, float)[None], np.asarray([[0, 0, 0], [0, 0, 0], u], float)[None])[0]
+    ellipsoid intersection, Newton on s for f(s) = h_geodetic(p) - h_DEM(p) = 0 with the ray's height rate u . up
+    (the DEM's slope left out: exact on flat ground, converging on gentle slopes); when that has not reached
+    ``tolerance`` [m] after ``iterations`` (slopes beyond ~45 deg), the secant method on f, which takes the slope
+    in, from the last two iterates. Raises ``InputDataError`` if neither converges."""
+    r, u = np.asarray(r, float), np.asarray(u, float)
+    p = boresight_intersection(r[None], np.asarray([[0, 0, 0], [0, 0, 0], u], float)[None])[0]
     s = float(np.linalg.norm(p - r))
+    prev = None
     for _ in range(iterations):
-        p = r + s * u
-        lat, lon, h = ecef_to_geodetic(p)
-        up = ned_to_ecef_dcm(lat, lon)[:, 2] * -1.0
-        f = float(h - terrain.height(lat, lon))
-        s -= f / float(u @ up)
-        if abs(f) < 1e-6:
+        f, up = _height_above_terrain(r, u, terrain, s)
+        prev, s = (s, f), s - f / float(u @ up)
+        if abs(f) < tolerance:  # the step that found it converged is kept (the point moves by < tolerance)
+            return r + s * u
+    f, _ = _height_above_terrain(r, u, terrain, s)
+    for _ in range(4 * iterations):  # secant continuation
+        if abs(f) < tolerance:
+            return r + s * u
+        (s0, f0), prev = prev, (s, f)
+        if f == f0:
             break
-    return r + s * u
+        s = s - f * (s - s0) / (f - f0)
+        f, _ = _height_above_terrain(r, u, terrain, s)
+    if abs(f) < tolerance:
+        return r + s * u
+    raise InputDataError("terrain", f"the line of sight does not meet the terrain to {tolerance:g} m "
+                         f"(|h - h_DEM| = {abs(f):.3g} m after {5 * iterations} iterations)")
 
 
 class SpacecraftImager:

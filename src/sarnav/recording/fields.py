@@ -110,5 +110,6 @@ class Table:
 
 def _number(field: str, value, lo, hi, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(field, f"must be a number{(' [' + unit + ']') if unit else ''}, got {value!r}")
+        rng = f" in [{-math.inf if lo is None else lo:g}, {math.inf if hi is None else hi:g}]" if (lo, hi) != (None, None) else ""
+        raise ConfigError(field, f"must be a number{rng}{(' [' + unit + ']') if unit else ''}, got {value!r}")
     return require_finite(field, value, lo, hi, unit)  # a TOML number: the range check of every reader

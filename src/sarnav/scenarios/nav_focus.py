@@ -52,7 +52,9 @@ def _radar(cfg, reflectors, height, speed, n_pulses) -> RadarParams:
     preset, fields = radar_fields(cfg)
     first = make_radar(preset, fields)
     half = 0.5 * speed * n_pulses / first.prf
-    ranges = [math.sqrt(g * g + height * height + d * d) for a, g in reflectors for d in (a - half, a + half, a)]
+    # along-track separations: the aperture's ends, its centre and, for a reflector inside it, closest approach (0)
+    ranges = [math.sqrt(g * g + height * height + d * d) for a, g in reflectors
+              for d in (a - half, a + half, a) + ((0.0,) if a - half <= 0.0 <= a + half else ())]
     window = first.receive_window((min(ranges), max(ranges)), RANGE_MARGIN)
     if window["near_range"] <= 0.0:
         raise ConfigError("scene.ground_range_m", f"the nearest reflector ({min(ranges):.3g} m) is within the pulse "
