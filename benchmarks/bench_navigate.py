@@ -76,8 +76,10 @@ def _navigate(folder, out):
 
 
 def _loop(folder, read_ahead: bool = True):
-    """(wall s, CPU s of all threads, the Navigation) of the navigation loop alone."""
-    RecordedApertures.read_ahead = read_ahead
+    """(wall s, CPU s of all threads, the Navigation) of the navigation loop alone; without reading ahead:
+    ``RecordedApertures.read_ahead`` = 0 for the call (its own depth, 2, otherwise)."""
+    depth = RecordedApertures.read_ahead
+    RecordedApertures.read_ahead = depth if read_ahead else 0
     try:
         rec = read_recording(folder)
         settings = read_navigate_settings(rec)
@@ -85,7 +87,7 @@ def _loop(folder, read_ahead: bool = True):
         nav = navigate(rec, settings)
         return time.perf_counter() - t0, time.process_time() - c0, nav
     finally:
-        RecordedApertures.read_ahead = True
+        RecordedApertures.read_ahead = depth
 
 
 #: run by ``--baseline`` in a subprocess with the other tree's src first on the path: its loop and command times

@@ -83,3 +83,20 @@ def test_frac_phase_is_exp_of_the_fractional_cycles(shape):
     np.testing.assert_allclose(got, want, rtol=0, atol=4e-16)
     if c.ndim == 2:
         np.testing.assert_allclose(_frac_phase(c.T), want.T, rtol=0, atol=4e-16)
+
+
+def test_ramp_multiply_is_x_times_the_exp_of_its_linear_phase():
+    """The blocked ramp twiddle equals x exp(j 2 pi frac(a_k + b_k j)) of every sample (numpy) to the rounding of the
+    cycles (ramps to 1e3 cycles: ~1e-12 relative), for lengths that are not a multiple of the block, and in place."""
+    from sarnav.signal.phase_history import RAMP_BLOCK, _ramp_multiply
+
+    rng = np.random.default_rng(5)
+    for cols in (1, RAMP_BLOCK - 1, RAMP_BLOCK, 3 * RAMP_BLOCK + 7, 2458):
+        x = rng.standard_normal((6, cols)) + 1j * rng.standard_normal((6, cols))
+        a, b = rng.uniform(-1e3, 1e3, 6), rng.uniform(-0.4, 0.4, 6)
+        c = a[:, None] + b[:, None] * np.arange(cols)
+        want = x * np.exp(2j * np.pi * (c - np.round(c)))
+        np.testing.assert_allclose(_ramp_multiply(x, a, b), want, rtol=0, atol=2e-11 * np.abs(x).max())
+        y = x.copy()
+        assert _ramp_multiply(y, a, b, out=y) is y
+        np.testing.assert_allclose(y, want, rtol=0, atol=2e-11 * np.abs(x).max())

@@ -187,10 +187,9 @@ class SubApertureImager:
         self._ahead: dict[tuple[int, int], ReadAhead] = {}  # (aperture, run) -> its read-ahead, under way or done
 
     def share_noise_models(self, store: dict) -> None:
-        """Keep the receiver-noise models (``_noise_model``, ~90 ms a chip) in ``store``, a dict the caller keeps,
-        e.g. across the chunks of runs a campaign's worker simulates with the same parameters: a model depends only
-        on the parameters, the sub-aperture and the target, never on the runs, so sharing it changes no number. (The
-        reference chips are not shared: a flight's reference images take hundreds of MB.)"""
+        """Keep the receiver-noise models (``_noise_model``, ~45 ms a chip) in ``store``, a dict the caller keeps
+        (a campaign's worker across its chunks): a model depends on the parameters, the sub-aperture and the target,
+        never on the runs, so sharing it changes no number. (The reference chips are not shared: hundreds of MB.)"""
         self._noise_cache = store
 
     # --- the reference product --------------------------------------------------------------------
@@ -221,8 +220,8 @@ class SubApertureImager:
         v_ref = np.linalg.norm(ref.velocities[len(times) // 2])
         if st.algorithm == "bpa":
             return self._reference_chip_bpa(u, k, ref, targ, eta, r0, v_ref)
-        image = range_doppler(_crop_range(rc_ref, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref)
-        prf = self.radar.prf
+        win = (r0 - st.search_half_range_m, r0 + st.search_half_range_m)  # the search window's slant ranges
+        image, prf = range_doppler(_crop_range(rc_ref, *win), v_ref), self.radar.prf
         fi, fj = (eta - times[0]) * prf, (r0 - image.x[0]) / image.dx
         i0, j0 = int(round(fi)), int(round(fj))
         hi = min(self.n_pulses // 4, max(4, int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref)
@@ -233,8 +232,8 @@ class SubApertureImager:
         if cols[0] < 0 or cols[-1] >= image.shape[1]:
             raise InputDataError("scene.ground_range_max", "reference chip leaves the reference image")
         if (u, k) not in self._noise_cache:  # the same for every run's scene: cached
-            self._noise_cache[(u, k)] = self._noise_model(u, k, raw_ref, ref, lambda rc: range_doppler(
-                _crop_range(rc, r0 - st.search_half_range_m, r0 + st.search_half_range_m), v_ref).data, cols.size)
+            self._noise_cache[(u, k)] = self._noise_model(
+                u, k, raw_ref, ref, lambda rc: range_doppler(_crop_range(rc, *win), v_ref).data, cols.size, win)
         return {"chip": image.data[np.ix_(rows, cols)], "anchor": (fi - i0, fj - j0), "rows": rows,
                 "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref}
 
@@ -262,11 +261,13 @@ class SubApertureImager:
         return {"chip": image.data, "anchor": (0.0, 0.0), "rows": np.arange(2 * hi + 1),
                 "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref, "grid": grid}
 
-    def _noise_model(self, u, k, raw, ref, form, chip_columns: int) -> SeparableNoise:
+    def _noise_model(self, u, k, raw, ref, form, chip_columns: int, window=None) -> SeparableNoise:
         """Receiver noise of a formed image (``imaging.registration.SeparableNoise``): the image-formation chain
         ``form(range-compressed pulses) -> image`` applied to NOISE_REALISATIONS realisations of unit white noise,
         scaled to the raw per-sample noise power of the source, ``amplitude^2 / 10^(snr/10)`` (``radar.echoes``). The model the predicted registration sigma rests on
-        (docs/scenarios/rda-nav.md §3): known from the radar and the processor, not fitted to the image."""
+        (docs/scenarios/rda-nav.md §3): known from the radar and the processor, not fitted to the image. ``window``
+        (r_lo, r_hi) [m]: the ranges ``form`` crops to, alone range-compressed (``range_compress(columns=)``)."""
+        cols = None if window is None else tuple(int(np.searchsorted(raw.slant_range, w)) for w in window)
         imgs = []
         for t in range(NOISE_REALISATIONS):
             rng = np.random.default_rng(np.random.SeedSequence([self.reference_seed, 5, u, k, t]))
@@ -274,7 +275,7 @@ class SubApertureImager:
             unit.real = rng.standard_normal(raw.data.shape)
             unit.imag = rng.standard_normal(raw.data.shape)
             unit /= math.sqrt(2.0)
-            imgs.append(form(range_compress(replace(raw, data=unit))))
+            imgs.append(form(range_compress(replace(raw, data=unit), columns=cols)))
         model = SeparableNoise.from_images(np.stack(imgs), chip_columns)
         return replace(model, power=model.power * ref.amplitude**2 / 10.0 ** (ref.snr_db / 10.0))
 
@@ -294,7 +295,7 @@ class SubApertureImager:
             hj = int(math.ceil(st.chip_half_range_m * r_a / g0 / dg))
             grid = _Grid(np.asarray(targ, dtype=np.float64), along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
             eta, rng = closest_approaches(grid.points(), times, p_hat)
-            rows, anchor, extra = np.arange(2 * hi + 1), (0.0, 0.0), {"grid": grid}
+            rows, anchor, extra, window = np.arange(2 * hi + 1), (0.0, 0.0), {"grid": grid}, None
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
             form = lambda pc: backproject(pc, wide.points(), positions=p_hat).data  # noqa: E731
         else:
@@ -302,12 +303,11 @@ class SubApertureImager:
                                                               / (speed / self.radar.prf)))))
             hj = int(math.ceil(st.chip_half_range_m / self.radar.range_bin_spacing))
             eta, rng, rows, anchor = rda_pixels(times, self.radar.prf, rc.slant_range, eta_a, r_a, hi, hj)
-            extra = {}
-            form = lambda pc: range_doppler(_crop_range(pc, r_a - st.search_half_range_m,  # noqa: E731
-                                                        r_a + st.search_half_range_m), speed).data
+            extra, window = {}, (r_a - st.search_half_range_m, r_a + st.search_half_range_m)
+            form = lambda pc: range_doppler(_crop_range(pc, *window), speed).data  # noqa: E731
         chip = predicted_amplitude(ref.product, times, p_hat, eta, rng, look, targ[2])
         if (u, k) not in self._noise_cache:
-            self._noise_cache[(u, k)] = self._noise_model(u, k, raw, ref, form, 2 * hj + 1)
+            self._noise_cache[(u, k)] = self._noise_model(u, k, raw, ref, form, 2 * hj + 1, window)
         noise = self._noise_cache[(u, k)]
         image = SarImage(chip.astype(np.complex128), np.arange(chip.shape[0]) * speed / self.radar.prf,
                          np.arange(chip.shape[1]) * self.radar.range_bin_spacing, "predicted_row", "predicted_column")

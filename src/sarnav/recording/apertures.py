@@ -77,6 +77,15 @@ class RecordedApertures:
         """The reference pass of aperture u (the same for every run), or its geocoded product (reference (b))."""
         return self._load(u, run)[1]
 
+    def reference_pass(self, u: int) -> PulseData:
+        """The reference pass's pulses of aperture u alone (reference (a); positions NED, the file's own pulse times):
+        for pictures of the reference, without reading the in-flight file."""
+        ap = self.apertures[u]
+        if self.product is not None or ap.reference is None:
+            raise InputDataError(f"aperture[{u}].reference", "the reference is a geocoded product (reference (b)), "
+                                 "not a pass of pulses")
+        return self._read(ap.reference)[0]
+
     def flight(self, u: int, run: int) -> tuple[PulseData, float]:
         """(the in-flight pulses of aperture u, seconds spent reading them)."""
         _, _, rc, seconds = self._load(u, run)

@@ -59,7 +59,8 @@ def pick_apertures(n_apertures: int, wanted, at_most: int) -> list[int]:
 
 def reference_tiles(rec, apertures, resolution_m: float | None = None) -> list[ReferenceTile]:
     """Amplitude images of the reference passes of ``apertures`` of the recording ``rec``: each back-projected
-    (``imaging.backprojection.backproject``, its default interpolation) along the pass's trusted positions onto a
+    (``imaging.backprojection.backproject``, linear interpolation: a picture, 4x cheaper than the default's
+    accuracy, invisible at the figure's 40-dB scale) along the pass's trusted positions onto a
     ground grid (down = the anchors' mean) covering the aperture's anchors plus ``TILE_MARGIN_M``; pixels a quarter
     of the slant-range resolution c/2B across (``resolution_m`` overrides it) and four times that along north,
     coarser when the tile would exceed ``MAX_TILE_PIXELS``."""
@@ -79,8 +80,8 @@ def reference_tiles(rec, apertures, resolution_m: float | None = None) -> list[R
         shape = tuple(int(n) for n in np.maximum(np.ceil((hi - lo) / d), 2))
         centre = 0.5 * (lo + hi)
         grid = GroundGrid.centered(centre[0], centre[1], d[0], shape, down=float(a[:, 2].mean()), spacing_east=d[1])
-        ref = src.reference(int(u), 0)
-        img = backproject(ref.pulses, grid, positions=ref.positions)
+        ref = src.reference_pass(int(u))
+        img = backproject(ref, grid, interpolation="linear")  # a picture: linear on the 4x range axis is ample
         tiles.append(ReferenceTile(int(u), grid.north, grid.east, np.abs(img.data)))
     return tiles
 
