@@ -92,3 +92,26 @@ def test_virtual_imu_removes_lever_arms_and_averages_noise():
     err = fv - f_ref
     assert np.std(err) == pytest.approx(0.01 / np.sqrt(3), rel=0.1)
     assert abs(np.mean(err)) < 1e-3
+
+
+def test_per_axis_sir_over_the_mean_has_a_ceiling_of_1_315_for_identical_sensors():
+    """T22's ceiling (docs/particles.md): three identical sensors with i.i.d. errors, weighted per axis by an exact
+    fix (sigma 1e-4 of theirs), make SIR pick the sensor nearest the truth on each axis; its RMS over the mean's is
+    sqrt(1/3) / sqrt(E[min of 3 chi2_1]) = 1.3149 (the integral of erfc(sqrt(x/2))^3), the most per-axis SIR can gain
+    over the mean; a fix as noisy as the sensors gains nothing (about 1), the source's further 2x is out of reach."""
+    from scipy import integrate, special
+
+    from sarnav.filters.fusion import mean_fuse, sir_fuse
+
+    e_min, _ = integrate.quad(lambda x: special.erfc(np.sqrt(x / 2.0)) ** 3, 0.0, np.inf)
+    ceiling = np.sqrt(1.0 / 3.0) / np.sqrt(e_min)
+    assert ceiling == pytest.approx(1.3149, abs=1e-4)
+    runs = 4000
+    rng = np.random.default_rng(22)
+    est = rng.standard_normal((runs, 3, 3))  # sensors' errors about the truth at 0 (sigma 1 per axis)
+    rngs = [np.random.default_rng(s) for s in range(runs)]
+    rms_mean = np.sqrt(np.mean(mean_fuse(est) ** 2))
+    exact = sir_fuse(est, np.zeros((runs, 3)), 1e-4, 20, rngs)
+    assert rms_mean / np.sqrt(np.mean(exact.estimate ** 2)) == pytest.approx(ceiling, rel=0.03)
+    noisy = sir_fuse(est, rng.standard_normal((runs, 3)), 1.0, 20, [np.random.default_rng(s) for s in range(runs)])
+    assert rms_mean / np.sqrt(np.mean(noisy.estimate ** 2)) < 1.1
