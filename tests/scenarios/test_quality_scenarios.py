@@ -146,7 +146,8 @@ def test_gpsd_search_reduced_sweep_claims(tmp_path):
     means = [np.mean([r["rho"] for r in rows if r["method"] == "source" and r["sigma"] == s and r["candidates"] > 1])
              for s in fs.table41_sigmas()]
     print("per-sigma mean rho of the thesis' search", np.round(means, 3))
-    assert 0.8 <= min(means) and max(means) <= 1.2                                         # T20-T21: around 1
+    # per-sigma mean rho near 1 (the thesis's T20 range 0.27-2.77 is not reached: docs/claims.md)
+    assert 0.8 <= min(means) and max(means) <= 1.2
     assert abs(np.mean(by["source-random"]) - 1.0) < 0.05
     # why the range is narrower than the thesis' [0.27, 2.77]: no correction the grid can make reaches it
     b = max(r["reach"] for r in rows if r["method"] == "source")

@@ -61,7 +61,8 @@ def test_path1_sensor_ordering_and_sir_gain_T17_T18():
     r = run_path1(runs=2, seed=3, duration=30.0, fix_sigma=0.05, n_particles=300)
     assert r.rmse["sensor3"] < r.rmse["sensor1"] < r.rmse["sensor2"]
     assert 2.0 <= r.rmse["mean"] / r.rmse["sir"] <= 4.5
-    assert r.rmse["mean"] < r.rmse["sensor1"]  # T19: the mean already improves on the individual sensors
+    # the mean beats sensor 1 (T19 not reproduced: sensor 3 beats the mean, docs/claims.md)
+    assert r.rmse["mean"] < r.rmse["sensor1"]
     assert r.rmse["sir"] > 0.5 * r.rmse["fix"]  # the weights' fix bounds what SIR can do (T16, T25)
 
 
