@@ -514,7 +514,9 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto"
     wavelength : carrier wavelength [m]; default ``rc.carrier_wavelength`` (``rc.wavelength``, else
         None): a ``PulseData`` needs no ``RadarParams`` to be back-projected.
     upsample : FFT oversampling factor for ``interpolation="upsample"`` (integer in [2, 64]).
-    block : pixels per parallel work item (tuning only; the result does not depend on it).
+    block : pixels per parallel work item (tuning only; the result does not depend on it beyond the float32
+        accumulation's last bits: a freshly compiled Lagrange row kernel differed by ~1e-6 relative between block
+        sizes, tests/imaging/test_backprojection.py).
     pulse_block : pulses per pass over the image (tuning only; changes only the float64 summation
         order). Results are deterministic and do not depend on the number of threads.
 
