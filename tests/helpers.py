@@ -83,3 +83,57 @@ def random_point_scene(npx: int, p: int, slant: float, px: float, n_targets: int
                           np.zeros(n_targets)])
     amp = rng.standard_normal(n_targets) + 1j * rng.standard_normal(n_targets)
     return pos, tg, amp, np.linalg.norm(tg[None] - pos[:, None], axis=2), east
+
+
+def keep_saved_figures(monkeypatch, module) -> list:
+    """The Figure objects ``module`` saves through its ``save_png`` (in order), still written by the real one: a
+    figure test reads the drawn data back from the artists."""
+    figs = []
+    real = module.save_png
+
+    def keep(fig, path, *a, **k):
+        figs.append(fig)
+        return real(fig, path, *a, **k)
+
+    monkeypatch.setattr(module, "save_png", keep)
+    return figs
+
+
+def assert_png(path, min_bytes: int = 2000) -> None:
+    """``path`` is a PNG file (its signature) of at least ``min_bytes``."""
+    from pathlib import Path
+
+    p = Path(path)
+    assert p.is_file() and p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > min_bytes
+
+
+def assert_one_line_error(capsys, code, *words) -> None:
+    """The CLI's exit ``code`` is 2 and stderr is one line ``sarnav: error: ...`` (no traceback) holding ``words``."""
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("sarnav: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
+    assert all(w in err for w in words), err
+
+
+def packaged_toml(name: str) -> dict:
+    """The packaged default configuration of scenario ``name`` read straight from its TOML file with ``tomllib`` (an
+    independent reading, beside ``scenarios.registry.packaged``)."""
+    import tomllib
+    from importlib import resources
+
+    return tomllib.loads(resources.files("sarnav.scenarios").joinpath("defaults", f"{name}.toml").read_text("utf-8"))
+
+
+def packaged_with(name: str, **changes) -> dict:
+    """``scenarios.registry.packaged(name)`` with ``table__key=value`` changes (``None`` deletes the key)."""
+    import copy
+
+    from sarnav.scenarios.registry import packaged
+
+    cfg = copy.deepcopy(packaged(name))
+    for k, v in changes.items():
+        table, key = k.split("__")
+        if v is None:
+            cfg[table].pop(key, None)
+        else:
+            cfg[table][key] = v
+    return cfg

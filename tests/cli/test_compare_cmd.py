@@ -5,16 +5,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
+from helpers import assert_one_line_error
 
 from sarnav.cli import compare_cmd
 from sarnav.cli.main import build_parser, main
 
 
-def _one_line(capsys, code, *words):
-    err = capsys.readouterr().err
-    assert code == 2 and err.startswith("sarnav: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
-    assert all(w in err for w in words), err
+_one_line = assert_one_line_error
 
 
 def test_arguments_and_default_out():

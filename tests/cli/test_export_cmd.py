@@ -5,6 +5,7 @@ any simulation: missing or malformed --run, a run outside the campaign, a kind i
 from __future__ import annotations
 
 import pytest
+from helpers import assert_one_line_error
 
 from sarnav.cli import export_cmd
 from sarnav.cli.main import build_parser, main
@@ -12,10 +13,7 @@ from sarnav.tomlio import dump_toml
 from toy_kind import toy_cfg
 
 
-def _one_line(capsys, code, *words):
-    err = capsys.readouterr().err
-    assert code == 2 and err.startswith("sarnav: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
-    assert all(w in err for w in words), err
+_one_line = assert_one_line_error
 
 
 def test_arguments_and_defaults():

@@ -4,15 +4,13 @@ is tested in tests/recording/."""
 from __future__ import annotations
 
 import pytest
+from helpers import assert_one_line_error
 
 from sarnav.cli import navigate_cmd
 from sarnav.cli.main import build_parser, main
 
 
-def _one_line(capsys, code, *words):
-    err = capsys.readouterr().err
-    assert code == 2 and err.startswith("sarnav: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
-    assert all(w in err for w in words), err
+_one_line = assert_one_line_error
 
 
 def test_arguments_and_defaults():

@@ -4,6 +4,7 @@ exit status 2; on a small toy campaign (tests/toy_kind.py)."""
 from __future__ import annotations
 
 import pytest
+from helpers import assert_one_line_error
 
 from sarnav.cli import report_cmd
 from sarnav.cli.main import build_parser, main
@@ -11,10 +12,7 @@ from sarnav.montecarlo.campaign import run_campaign
 from toy_kind import TOY, toy_cfg
 
 
-def _one_line(capsys, code, *words):
-    err = capsys.readouterr().err
-    assert code == 2 and err.startswith("sarnav: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
-    assert all(w in err for w in words), err
+_one_line = assert_one_line_error
 
 
 def test_argument():

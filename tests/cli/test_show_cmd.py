@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 
 import pytest
+from helpers import assert_one_line_error
 
 from sarnav.cli import show_cmd
 from sarnav.cli.main import build_parser, entry, main
@@ -14,10 +15,7 @@ from sarnav.tomlio import dump_toml, parse_toml
 from toy_kind import toy_cfg
 
 
-def _one_line(capsys, code, *words):
-    err = capsys.readouterr().err
-    assert code == 2 and err.startswith("sarnav: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
-    assert all(w in err for w in words), err
+_one_line = assert_one_line_error
 
 
 @pytest.fixture

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import assert_png, keep_saved_figures
 import xarray as xr
 from matplotlib.colors import to_rgba
 
@@ -18,20 +19,11 @@ from sarnav.report import quality_figures as qf
 
 @pytest.fixture
 def drawn(monkeypatch):
-    """The Figure objects the module saves (in order), still written through the real save_png."""
-    figs = []
-    real = qf.save_png
-
-    def keep(fig, path, *a, **k):
-        figs.append(fig)
-        return real(fig, path, *a, **k)
-
-    monkeypatch.setattr(qf, "save_png", keep)
-    return figs
+    """The Figure objects the module saves, still written through the real save_png."""
+    return keep_saved_figures(monkeypatch, qf)
 
 
-def _png(path):
-    assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 2000
+_png = assert_png
 
 
 def _rows(rng):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import assert_png, keep_saved_figures
 import xarray as xr
 
 from sarnav.report import source_figures as sf
@@ -16,20 +17,10 @@ from sarnav.report import source_figures as sf
 @pytest.fixture
 def drawn(monkeypatch):
     """The Figure objects the module saves, still written through the real save_png."""
-    figs = []
-    real = sf.save_png
-
-    def keep(fig, path, *a, **k):
-        figs.append(fig)
-        return real(fig, path, *a, **k)
-
-    monkeypatch.setattr(sf, "save_png", keep)
-    return figs
+    return keep_saved_figures(monkeypatch, sf)
 
 
-def _png(path):
-    p = Path(path)
-    assert p.is_file() and p.read_bytes()[:4] == b"\x89PNG" and p.stat().st_size > 2000
+_png = assert_png
 
 
 def test_source_rmse_lines_are_the_rms_over_runs(tmp_path, drawn):

@@ -6,12 +6,10 @@ ConfigError line naming the key. Parsing only: no run is simulated."""
 
 from __future__ import annotations
 
-import copy
 import math
-import tomllib
-from importlib import resources
 
 import pytest
+from helpers import packaged_toml, packaged_with
 
 from sarnav.errors import ConfigError
 from sarnav.radar.presets import nav_paper_sim
@@ -22,20 +20,12 @@ NAME = "multi-imu-sar-fix"
 
 
 def _toml() -> dict:
-    text = resources.files("sarnav.scenarios").joinpath("defaults", f"{NAME}.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
+    return packaged_toml(NAME)
 
 
 def _cfg(**changes) -> dict:
     """The packaged defaults with ``table__key=value`` changes (``None`` deletes the key)."""
-    cfg = copy.deepcopy(packaged(NAME))
-    for k, v in changes.items():
-        table, key = k.split("__")
-        if v is None:
-            cfg[table].pop(key, None)
-        else:
-            cfg[table][key] = v
-    return cfg
+    return packaged_with(NAME, **changes)
 
 
 def _error(**changes) -> ConfigError:

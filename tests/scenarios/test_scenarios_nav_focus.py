@@ -5,12 +5,10 @@ key and its range. Parsing only: no run is simulated."""
 
 from __future__ import annotations
 
-import copy
-import tomllib
-from importlib import resources
 
 import numpy as np
 import pytest
+from helpers import packaged_toml, packaged_with
 
 from sarnav.errors import ConfigError
 from sarnav.radar.presets import sun_ku_cart
@@ -22,17 +20,12 @@ NAME = "nav-source-focus"
 
 
 def _toml() -> dict:
-    text = resources.files("sarnav.scenarios").joinpath("defaults", f"{NAME}.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
+    return packaged_toml(NAME)
 
 
 def _cfg(**changes) -> dict:
-    """The packaged defaults with ``table__key=value`` changes."""
-    cfg = copy.deepcopy(packaged(NAME))
-    for k, v in changes.items():
-        table, key = k.split("__")
-        cfg[table][key] = v
-    return cfg
+    """The packaged defaults with ``table__key=value`` changes (``None`` deletes the key)."""
+    return packaged_with(NAME, **changes)
 
 
 def _error(**changes) -> ConfigError:
