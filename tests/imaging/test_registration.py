@@ -170,3 +170,18 @@ def test_mismatch_ratio_is_one_for_noise_and_large_for_a_decorrelated_pair():
     plain = magnitude_shift_precision(c, y2, (0.0, 0.0), (model, rows), (model, rows), mismatch=False)
     with_mm = magnitude_shift_precision(c, y2, (0.0, 0.0), (model, rows), (model, rows))
     assert np.all(np.array(with_mm) > 2.0 * np.array(plain))
+
+
+def test_separable_noise_from_images_equals_the_direct_sums():
+    """Row covariance and range correlation (one matrix product and one FFT) against the sums of their definition."""
+    from sarnav.imaging.registration import SeparableNoise
+
+    n = _correlated_noise(np.random.default_rng(8), (23, 40), 5)
+    model = SeparableNoise.from_images(n, 12)
+    T, P, N = n.shape
+    p0 = np.mean(np.abs(n) ** 2)
+    rows = np.array([[np.sum(n[:, i, :] * np.conj(n[:, k, :])) for k in range(P)] for i in range(P)]) / (T * N * p0)
+    rho = np.array([np.mean(n[:, :, :N - d] * np.conj(n[:, :, d:])) for d in range(12)]) / p0
+    np.testing.assert_allclose(model.rows, rows, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(model.rho, rho, rtol=0, atol=1e-13)
+    assert model.power == pytest.approx(p0, rel=1e-15)

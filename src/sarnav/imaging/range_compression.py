@@ -101,10 +101,7 @@ def range_compress(raw: PulseData, window=None, mode: str = "matched", workers: 
     a, b, lo = 0, n, 0
     if columns is not None:
         a, b = (int(c) for c in columns)
-        if not 0 <= a < b <= n:
-            raise InputDataError("columns", f"must be 0 <= a < b <= {n}, got {columns!r}")
-        half = (m - 1) // 2 + 1  # the replica's reach either side of zero lag
-        lo, hi = max(a - half, 0), min(b + half, n)
+        lo, hi = compression_reach(raw, (a, b))
         data = data[:, lo:hi]
     nfft = sfft.next_fast_len(data.shape[1] + m)
     h = matched_filter(fs, bw, t_p, nfft, w, mode)
@@ -119,6 +116,19 @@ def range_compress(raw: PulseData, window=None, mode: str = "matched", workers: 
     if columns is not None:
         return replace(raw, data=out, compressed=True, metadata=meta, slant_range=np.asarray(raw.slant_range)[a:b])
     return replace(raw, data=out, compressed=True, metadata=meta)
+
+
+def compression_reach(raw: PulseData, columns: tuple[int, int]) -> tuple[int, int]:
+    """(lo, hi): the input samples ``raw.data[:, lo:hi]`` that the output samples ``columns`` = (a, b) of
+    :func:`range_compress` depend on (a correlation with the centred replica reaches its half length either side).
+    Compressing ``raw`` cropped to them with columns (a - lo, b - lo) gives the same values bit for bit."""
+    fs, bw, t_p = _waveform(raw)
+    n = np.size(raw.slant_range)
+    a, b = (int(c) for c in columns)
+    if not 0 <= a < b <= n:
+        raise InputDataError("columns", f"must be 0 <= a < b <= {n}, got {columns!r}")
+    half = (sampled_replica(fs, t_p, bw / t_p)[1].size - 1) // 2 + 1  # the replica's reach either side of zero lag
+    return max(a - half, 0), min(b + half, n)
 
 
 def _waveform(raw: PulseData) -> tuple[float, float, float]:

@@ -305,9 +305,14 @@ class SeparableNoise:
         p0 = float(np.mean(np.abs(n) ** 2))
         if not p0 > 0:
             raise InputDataError("noise_images", "have no power")
-        rows = np.einsum("tij,tkj->ik", n, np.conj(n)) / (n.shape[0] * n.shape[2] * p0)
-        N = n.shape[2]
-        rho = np.array([np.mean(n[:, :, :N - d] * np.conj(n[:, :, d:])) for d in range(max_lag)]) / p0
+        T, P, N = n.shape
+        flat = np.ascontiguousarray(n.transpose(1, 0, 2)).reshape(P, T * N)
+        rows = (flat @ flat.conj().T) / (T * N * p0)  # sum over t, j of n[t, i, j] conj(n[t, k, j])
+        # sum_j n[j] conj(n[j + d]) for every lag at once: the inverse FFT of |FFT|^2 summed over t and rows,
+        # zero-padded to 2N (linear, not circular, correlation); equal to the direct sums to FFT rounding
+        spectrum = np.sum(np.abs(sfft.fft(n, 2 * N, axis=2)) ** 2, axis=(0, 1))
+        lagged = np.conj(sfft.ifft(spectrum)[:max_lag])
+        rho = lagged / (T * P * (N - np.arange(max_lag)) * p0)
         return cls(power=p0 if power is None else float(power), rows=rows, rho=rho)
 
     def quadratic(self, h: np.ndarray, rows) -> float:

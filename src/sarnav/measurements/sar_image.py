@@ -38,7 +38,7 @@ import numpy as np
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.autofocus import mapdrift
 from sarnav.imaging.backprojection import backproject
-from sarnav.imaging.range_compression import range_compress
+from sarnav.imaging.range_compression import compression_reach, range_compress
 from sarnav.imaging.rda import range_doppler
 from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_shift_precision, refine_shift, register
 from sarnav.radar.params import RadarParams
@@ -268,16 +268,20 @@ class SubApertureImager:
         (docs/scenarios/rda-nav.md §3): known from the radar and the processor, not fitted to the image. ``window``
         (r_lo, r_hi) [m]: the ranges ``form`` crops to, alone range-compressed (``range_compress(columns=)``)."""
         cols = None if window is None else tuple(int(np.searchsorted(raw.slant_range, w)) for w in window)
+        # only the samples the compression of `cols` reads (compression_reach): the same values, less copying
+        lo, hi = (0, raw.data.shape[1]) if cols is None else compression_reach(raw, cols)
+        ranges = np.asarray(raw.slant_range)[lo:hi]
+        cols = None if cols is None else (cols[0] - lo, cols[1] - lo)
+        draws = np.empty((2,) + raw.data.shape)  # the real then the imaginary parts, the whole swath (the stream)
         imgs = []
         for t in range(NOISE_REALISATIONS):
             rng = np.random.default_rng(np.random.SeedSequence([self.reference_seed, 5, u, k, t]))
-            unit = np.empty(raw.data.shape, dtype=np.complex128)  # (a + j b) / sqrt 2, without its temporaries
-            unit.real = rng.standard_normal(raw.data.shape)
-            unit.imag = rng.standard_normal(raw.data.shape)
-            unit /= math.sqrt(2.0)
-            imgs.append(form(range_compress(replace(raw, data=unit), columns=cols)))
+            rng.standard_normal(out=draws)
+            unit = np.empty((raw.data.shape[0], hi - lo), dtype=np.complex128)  # a + j b: its 1/sqrt 2 is in `power`
+            unit.real, unit.imag = draws[0][:, lo:hi], draws[1][:, lo:hi]
+            imgs.append(form(range_compress(replace(raw, data=unit, slant_range=ranges), columns=cols)))
         model = SeparableNoise.from_images(np.stack(imgs), chip_columns)
-        return replace(model, power=model.power * ref.amplitude**2 / 10.0 ** (ref.snr_db / 10.0))
+        return replace(model, power=0.5 * model.power * ref.amplitude**2 / 10.0 ** (ref.snr_db / 10.0))
 
     def _product_chip(self, u, k, ref: ProductReference, rc, p_hat, speed: float) -> dict:
         """The chip of target k predicted from a geocoded product along the estimated track ``p_hat``
