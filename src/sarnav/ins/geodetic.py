@@ -34,7 +34,7 @@ import numpy as np
 from sarnav.errors import InputDataError
 from sarnav.frames.earth import OMEGA_EARTH, WGS84_A, WGS84_E2, WGS84_F
 from sarnav.frames.wgs84 import GAMMA_EQUATOR, GRAVITY_M, SOMIGLIANA_K, earth_rate_ned, transport_rate_ned
-from sarnav.rotations import quat_multiply, quat_normalize, quat_to_dcm, rotvec_to_quat
+from sarnav.rotations import quat_multiply, quat_normalize, rotvec_to_quat
 
 #: state layout of the translational part: latitude, longitude [rad], height [m], v_N, v_E, v_D [m/s]
 GEODETIC_STATE = ("lat", "lon", "h", "vN", "vE", "vD")

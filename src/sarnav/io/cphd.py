@@ -32,7 +32,7 @@ from sarnav.imaging.grid import PlaneGrid
 from sarnav.imaging.range_compression import range_compress
 from sarnav.io.cphd_checks import field_name
 from sarnav.io.cphd_read import MAX_GRID_AXIS, CphdCollect, conversion_bytes, need, open_collect, read_budget
-from sarnav.io.frames import check_reference_point, ecef_to_ned, ned_basis, ned_to_ecef
+from sarnav.io.frames import check_reference_point, ned_basis, ned_to_ecef
 
 __all__ = ["write_collect", "read_collect", "read_phase_history", "read_filter", "image_grid", "collect_grid",
            "read_collect_header", "open_collect", "CPHD_NS"]

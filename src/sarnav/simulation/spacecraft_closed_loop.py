@@ -172,7 +172,6 @@ def first_measurement_statistics(params: ClosedLoopParams, seeds) -> dict:
     of images without a match."""
     b = params.base
     imager = imager_for(params)
-    T_bs = antenna_dcm(b.look_angle, b.squint)
     t_m = float(b.update_steps()[0] * b.mekf.dt)
     k0 = imager.orbit.index(0.0)
     truth0 = OrbitalNavState(imager.orbit.r[k0:k0 + 1], imager.orbit.v[k0:k0 + 1], np.array([[1.0, 0, 0, 0]]))

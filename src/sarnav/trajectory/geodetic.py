@@ -23,7 +23,7 @@ import numpy as np
 import numba
 from scipy.interpolate import CubicHermiteSpline
 
-from sarnav.errors import ConfigError, require_finite
+from sarnav.errors import require_finite
 from sarnav.frames.earth import WGS84_A, WGS84_E2
 from sarnav.frames.wgs84 import earth_rate_ned, geodetic_rates, gravity_ned, transport_rate_ned
 from sarnav.rotations import quat_to_dcm
