@@ -255,25 +255,21 @@ class SubApertureImager:
         image = backproject(ref.pulses, grid.points(), positions=ref.positions)
         if (u, k) not in self._noise_cache:
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
-            self._noise_cache[(u, k)] = self._noise_model(
-                u, k, ref.raw, ref, lambda rc: backproject(rc, wide.points(), positions=ref.positions).data,
-                2 * hj + 1)
+            self._noise_cache[(u, k)] = self._noise_model(u, k, ref.raw, ref, lambda rc: backproject(
+                rc, wide.points(), positions=ref.positions).data, 2 * hj + 1)
         return {"chip": image.data, "anchor": (0.0, 0.0), "rows": np.arange(2 * hi + 1),
                 "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref, "grid": grid}
 
     def _noise_model(self, u, k, raw, ref, form, chip_columns: int, window=None) -> SeparableNoise:
-        """Receiver noise of a formed image (``imaging.registration.SeparableNoise``): the image-formation chain
-        ``form(range-compressed pulses) -> image`` applied to NOISE_REALISATIONS realisations of unit white noise,
-        scaled to the raw per-sample noise power of the source, ``amplitude^2 / 10^(snr/10)`` (``radar.echoes``). The model the predicted registration sigma rests on
-        (docs/scenarios/rda-nav.md §3): known from the radar and the processor, not fitted to the image. ``window``
-        (r_lo, r_hi) [m]: the ranges ``form`` crops to, alone range-compressed (``range_compress(columns=)``)."""
+        """Receiver noise of a formed image (``imaging.registration.SeparableNoise``): the chain ``form(range-compressed
+        pulses) -> image`` applied to NOISE_REALISATIONS realisations of unit white noise, scaled to the source's raw
+        noise power per sample, ``amplitude^2 / 10^(snr/10)`` (``radar.echoes``); known from the radar and the processor,
+        not fitted (docs/scenarios/rda-nav.md §3). ``window`` (r_lo, r_hi) [m]: the ranges ``form`` crops to."""
         cols = None if window is None else tuple(int(np.searchsorted(raw.slant_range, w)) for w in window)
-        # only the samples the compression of `cols` reads (compression_reach): the same values, less copying
+        # only the samples the compression of `cols` reads (compression_reach) are copied: the same values
         lo, hi = (0, raw.data.shape[1]) if cols is None else compression_reach(raw, cols)
-        ranges = np.asarray(raw.slant_range)[lo:hi]
-        cols = None if cols is None else (cols[0] - lo, cols[1] - lo)
-        draws = np.empty((2,) + raw.data.shape)  # the real then the imaginary parts, the whole swath (the stream)
-        imgs = []
+        ranges, cols = np.asarray(raw.slant_range)[lo:hi], None if cols is None else (cols[0] - lo, cols[1] - lo)
+        draws, imgs = np.empty((2,) + raw.data.shape), []  # the real then the imaginary parts of the whole swath
         for t in range(NOISE_REALISATIONS):
             rng = np.random.default_rng(np.random.SeedSequence([self.reference_seed, 5, u, k, t]))
             rng.standard_normal(out=draws)

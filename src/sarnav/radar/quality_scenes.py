@@ -31,7 +31,8 @@ from sarnav.radar.scene import Scene, random_scatterers
 #: pulse repetition frequency of the thesis' SDL data (L650) and of the FlexSAR preset [Hz]
 SOURCE_PRF = 5000.0 / 3.0
 
-__all__ = ["SOURCE_PRF", "QualityGeometry", "usu_picture", "binary_scene", "point_clutter_scene", "simulate_pulses"]
+__all__ = ["SOURCE_PRF", "QualityGeometry", "usu_picture", "binary_scene", "point_clutter_scene",
+           "textured_clutter_scene", "MAX_SCATTERERS", "simulate_pulses"]
 
 # 5 x 7 glyphs of the picture ('#' black)
 _GLYPHS = {
@@ -187,6 +188,60 @@ def point_clutter_scene(rng: np.random.Generator, center, extent: float, n_point
                            ext[1][0] + 0.1 * extent + 0.8 * extent * u[:, 1], np.full(n_points, float(down))])
     amp = 10.0 ** (point_to_clutter_db / 20.0) * np.exp(2j * np.pi * rng.random(n_points))
     return Scene(pos, amp) + clutter
+
+
+#: the most scatterers a generated scene may draw (memory and echo time stay bounded whatever the density asked)
+MAX_SCATTERERS = 1_000_000
+
+
+def textured_clutter_scene(rng: np.random.Generator, center, extent: float, contrast_db: float = 3.0,
+                           correlation_m: float = 1.0, density: float = 32.0, down: float = 0.0) -> Scene:
+    """Distributed clutter with a low-contrast texture and no dominant scatterer, like the sea ice of the BYU data
+    where Hathaway (2023, L388, L636) saw entropy fail (claim T16).
+
+    Poisson(``density`` x area) scatterers, uniform over the square, each circular Gaussian with mean power
+    ``10^(contrast_db g / 10)`` at its position: g a white Gaussian field smoothed by a Gaussian kernel of std
+    ``correlation_m`` and scaled to unit std, sampled on cells of ``correlation_m`` / 4 (a log-normal texture whose
+    log-power has a std of ``contrast_db`` dB). ``contrast_db`` = 0: fully developed speckle over a uniform surface.
+    Several scatterers per resolution cell (the default 32 per m^2 against the quality geometry's ~0.06 m^2 cell)
+    make the speckle developed.
+
+    Parameters
+    ----------
+    rng : Generator (one per scene); center : (north, east) [m]; extent : square side [m].
+    contrast_db : std of the texture's log-power [dB] (>= 0); correlation_m : its correlation length [m] (> 0).
+    density : scatterers per m^2 (> 0; at most :data:`MAX_SCATTERERS` in the square).
+    """
+    from scipy import ndimage
+
+    if not isinstance(rng, np.random.Generator):
+        raise ConfigError("rng", f"must be a numpy.random.Generator, got {type(rng).__name__}")
+    extent = require_positive("extent", extent, "m")
+    if isinstance(contrast_db, bool) or not isinstance(contrast_db, (int, float, np.integer, np.floating)) \
+            or not (math.isfinite(contrast_db) and contrast_db >= 0):
+        raise ConfigError("contrast_db", f"must be a finite number >= 0 dB, got {contrast_db!r}")
+    correlation_m = require_positive("correlation_m", correlation_m, "m")
+    density = require_positive("density", density, "per m^2")
+    if density * extent * extent > MAX_SCATTERERS:
+        raise ConfigError("density", f"asks for {density * extent * extent:.3g} scatterers over the "
+                          f"{extent:g} m square; at most {MAX_SCATTERERS} (density <= {MAX_SCATTERERS / extent**2:.3g} per m^2)")
+    c = np.asarray(center, dtype=np.float64).ravel()
+    if c.size < 2 or not np.all(np.isfinite(c[:2])):
+        raise InputDataError("center", f"must be a finite (north, east[, down]), got {center!r}")
+    n_cells = max(1, int(math.ceil(4.0 * extent / correlation_m)))
+    if n_cells > 4096:
+        raise ConfigError("correlation_m", f"must be >= extent / 1024 = {extent / 1024:g} m (a texture grid of at "
+                          f"most 4096 cells a side), got {correlation_m!r}")
+    g = ndimage.gaussian_filter(rng.standard_normal((n_cells, n_cells)), n_cells * correlation_m / extent, mode="wrap")
+    g = (g - g.mean()) / g.std() if g.std() > 0 else np.zeros_like(g)
+    power = 10.0 ** (float(contrast_db) * g / 10.0)
+    n = int(rng.poisson(density * extent * extent))
+    u = rng.random((n, 2))
+    pw = power[np.minimum((u[:, 0] * n_cells).astype(int), n_cells - 1),
+               np.minimum((u[:, 1] * n_cells).astype(int), n_cells - 1)]
+    amp = np.sqrt(0.5 * pw) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    pos = np.column_stack([c[0] + (u[:, 0] - 0.5) * extent, c[1] + (u[:, 1] - 0.5) * extent, np.full(n, float(down))])
+    return Scene(pos, amp)
 
 
 def simulate_pulses(geometry: QualityGeometry, scene: Scene, snr_db: float | None = None,
