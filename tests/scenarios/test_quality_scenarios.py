@@ -119,6 +119,10 @@ def test_show_prints_a_file_that_runs_as_the_same_scenario(name, tmp_path, capsy
     (quality_sweep, "sweep.pivot", "last", "sweep.pivot"),
     (quality_sweep, "sweep.sizes", list(range(400, 388, -1)), "sweep.sizes"),
     (quality_sweep, "reliability.scenes", 201, "reliability.scenes"),
+    (quality_sweep, "reliability.scene", "sea-ice", "reliability.scene"),
+    (quality_sweep, "reliability.contrast_db", -1.0, "reliability.contrast_db"),
+    (quality_sweep, "reliability.correlation_m", 0.0, "reliability.correlation_m"),
+    (quality_sweep, "reliability.span_depths", -0.5, "reliability.span_depths"),
 ])
 def test_errors_name_the_key(module, key, value, field):
     """The field of the ConfigError of ``module.parse`` on its default configuration with ``key`` set to ``value``."""
@@ -128,6 +132,29 @@ def test_errors_name_the_key(module, key, value, field):
     with pytest.raises(ConfigError) as err:
         module.parse(cfg)
     assert err.value.field == field
+
+
+def test_reliability_reads_the_textured_scene_and_its_own_span():
+    """[reliability] scene = "textured" draws textured clutter (no bright point) at texture_density; span_depths 0
+    follows [sweep] span_depths, another value is the study's own (the zoomed-in view); the work bound names the
+    density of the scene in use."""
+    from sarnav.analysis.quality_sweep import reliability_scenes
+
+    cfg = quality_sweep.default_config()
+    assert quality_sweep.parse(cfg).reliability.span_depths is None
+    cfg["reliability"].update(scene="textured", contrast_db=4.0, correlation_m=2.0, span_depths=1.2, scenes=2)
+    prm = quality_sweep.parse(cfg)
+    rel, geo = prm.reliability, prm.geometry
+    assert (rel.scene, rel.contrast_db, rel.correlation_m, rel.span_depths) == ("textured", 4.0, 2.0, 1.2)
+    scenes = reliability_scenes(rel, geo)
+    expected = rel.texture_density * geo.scene_extent ** 2
+    assert len(scenes) == 2 and all(abs(sc.amplitudes.size - expected) < 5 * math.sqrt(expected) for sc in scenes)
+    points = reliability_scenes(quality_sweep.parse(quality_sweep.default_config()).reliability, geo)
+    bright = lambda sc: int(np.sum(np.isclose(np.abs(sc.amplitudes) ** 2, 100.0)))  # noqa: E731 - points 20 dB up
+    assert bright(points[0]) == 12 and all(bright(sc) == 0 for sc in scenes)
+    cfg["reliability"]["texture_density"] = 500.0
+    with pytest.raises(ConfigError, match=r"reliability.texture_density: .* scatterers x pulses; at most 1e\+08"):
+        quality_sweep.parse(cfg)
 
 
 # --- the scenarios as registered (slow) ---------------------------------------------------------------------------

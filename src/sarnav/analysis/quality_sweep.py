@@ -35,14 +35,14 @@ from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.quality import QUALITY_MEASURES, quality_measure
 from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.registration import register
-from sarnav.radar.quality_scenes import QualityGeometry, point_clutter_scene, simulate_pulses
+from sarnav.radar.quality_scenes import QualityGeometry, point_clutter_scene, simulate_pulses, textured_clutter_scene
 from sarnav.simulation.quality_scene import QualitySceneSpec, make_scene
 
 __all__ = ["DIRECTIONS", "FIGURES", "DEFAULT_MEASURES", "compressed_pulses", "image_grid", "velocity_error_positions",
            "focus_depth", "error_grid", "score_images", "quality_sweep", "figure_data", "extremum_error",
            "count_local_extrema", "local_minimum_near", "curve_correlation", "reliability_study", "t3_example",
            "SOURCE_CLAIMS", "trough_depth", "monotone_steps", "along_claims", "cross_claims", "reliability_claims",
-           "mean_to_rms", "ReliabilitySpec", "QualitySweepParams", "run"]
+           "mean_to_rms", "ReliabilitySpec", "RELIABILITY_SCENES", "reliability_scenes", "QualitySweepParams", "run"]
 
 DIRECTIONS = ("along", "cross")
 #: the measures of the thesis' USU study (Figs. 4.2-4.8) plus the mean-removed kurtosis (Figs. 4.11, 4.17)
@@ -388,9 +388,11 @@ def mean_to_rms(image) -> float:
 
 @dataclass(frozen=True)
 class ReliabilitySpec:
-    """The T16 study: ``scenes`` point/clutter scenes (0: none) drawn from ``seed`` at ``clutter_density``
-    [1/m^2], each swept along-track at ``size`` x ``size`` pixels and ``bins`` histogram bins, scored by
-    ``measures``."""
+    """The T16 study: ``scenes`` scenes (0: none) drawn from ``seed``, each swept along-track at ``size`` x ``size``
+    pixels and ``bins`` histogram bins, scored by ``measures``. ``scene``: ``"point-clutter"`` (bright points 20 dB
+    over Rayleigh clutter of ``clutter_density`` [1/m^2]) or ``"textured"`` (no dominant scatterer:
+    ``radar.quality_scenes.textured_clutter_scene`` of ``contrast_db``, ``correlation_m``, ``texture_density``).
+    ``span_depths``: the errors' half-span in focus depths (None: the sweep's; small: the thesis' zoomed-in view)."""
 
     scenes: int
     size: int
@@ -398,6 +400,27 @@ class ReliabilitySpec:
     seed: int
     clutter_density: float
     measures: tuple[str, ...]
+    scene: str = "point-clutter"
+    contrast_db: float = 3.0
+    correlation_m: float = 1.0
+    texture_density: float = 32.0
+    span_depths: float | None = None
+
+
+#: the scenes of the T16 study (ReliabilitySpec.scene)
+RELIABILITY_SCENES = ("point-clutter", "textured")
+
+
+def reliability_scenes(rel: ReliabilitySpec, geo: QualityGeometry) -> list:
+    """The ``rel.scenes`` scenes of the T16 study, one generator per scene spawned from ``rel.seed``."""
+    if rel.scene not in RELIABILITY_SCENES:
+        raise ConfigError("scene", f"must be one of {RELIABILITY_SCENES}, got {rel.scene!r}")
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(rel.seed).spawn(rel.scenes)]
+    if rel.scene == "textured":
+        return [textured_clutter_scene(r, geo.scene_center, geo.scene_extent, rel.contrast_db, rel.correlation_m,
+                                       rel.texture_density) for r in rngs]
+    return [point_clutter_scene(r, geo.scene_center, geo.scene_extent, clutter_density=rel.clutter_density)
+            for r in rngs]
 
 
 @dataclass(frozen=True)
@@ -424,11 +447,8 @@ def _reliability(prm: QualitySweepParams) -> tuple[dict, np.ndarray, np.ndarray]
     rel, geo = prm.reliability, prm.geometry
     if rel.scenes == 0:
         return None
-    errors = error_grid(geo, "along", prm.steps, prm.span_depths)
-    scenes = [point_clutter_scene(np.random.default_rng(s), geo.scene_center, geo.scene_extent,
-                                  clutter_density=rel.clutter_density)
-              for s in np.random.SeedSequence(rel.seed).spawn(rel.scenes)]
-    best = reliability_study(geo, scenes, errors, rel.size, rel.bins, tuple(rel.measures))
+    errors = error_grid(geo, "along", prm.steps, prm.span_depths if rel.span_depths is None else rel.span_depths)
+    best = reliability_study(geo, reliability_scenes(rel, geo), errors, rel.size, rel.bins, tuple(rel.measures))
     return reliability_claims(best, errors, rel.measures), best / (errors[1] - errors[0]), errors
 
 

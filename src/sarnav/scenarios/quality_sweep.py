@@ -13,12 +13,12 @@ import sys
 import time
 from pathlib import Path
 
-from sarnav.analysis.quality_sweep import DIRECTIONS, QualitySweepParams, ReliabilitySpec, run
+from sarnav.analysis.quality_sweep import DIRECTIONS, RELIABILITY_SCENES, QualitySweepParams, ReliabilitySpec, run
 from sarnav.errors import ConfigError
 from sarnav.imaging.quality import QUALITY_MEASURES
 from sarnav.scenarios.fields import choice, int_list, integer, name_list, number
 from sarnav.scenarios.kind_base import FileKind, writing
-from sarnav.scenarios.quality_tables import read_geometry, read_scene
+from sarnav.scenarios.quality_tables import MAX_ECHO_WORK, read_geometry, read_scene
 from sarnav.scenarios.registry import packaged
 
 __all__ = ["QualitySweepKind", "default_config", "parse", "run_sweep", "QualitySweepParams"]
@@ -50,7 +50,12 @@ def _parse_reliability(cfg: dict) -> ReliabilitySpec:
                            bins=integer(cfg, "reliability", "bins", 2, 100_000),
                            seed=integer(cfg, "reliability", "seed", 0, 2**63 - 1),
                            clutter_density=number(cfg, "reliability", "clutter_density", 0.01, 100.0, "1/m^2"),
-                           measures=tuple(name_list(cfg, "reliability", "measures", sorted(QUALITY_MEASURES))))
+                           measures=tuple(name_list(cfg, "reliability", "measures", sorted(QUALITY_MEASURES))),
+                           scene=choice(cfg, "reliability", "scene", RELIABILITY_SCENES),
+                           contrast_db=number(cfg, "reliability", "contrast_db", 0.0, 30.0, "dB"),
+                           correlation_m=number(cfg, "reliability", "correlation_m", 0.05, 100.0, "m"),
+                           texture_density=number(cfg, "reliability", "texture_density", 0.01, 1000.0, "1/m^2"),
+                           span_depths=number(cfg, "reliability", "span_depths", 0.0, 100.0, "focus depths") or None)
 
 
 def parse(cfg: dict) -> QualitySweepParams:
@@ -68,8 +73,11 @@ def parse(cfg: dict) -> QualitySweepParams:
     if rel_work > MAX_BPA_WORK:
         raise ConfigError("reliability.scenes", f"{rel_work:.3g} pixel-pulses of back-projection; at most "
                           f"{MAX_BPA_WORK:.0e}")
-    if rel.scenes and rel.clutter_density * geo.scene_extent**2 * geo.n_pulses > 1e8:
-        raise ConfigError("reliability.clutter_density", "too many clutter scatterers x pulses (at most 1e8)")
+    key, density = (("texture_density", rel.texture_density) if rel.scene == "textured"
+                    else ("clutter_density", rel.clutter_density))
+    if rel.scenes and density * geo.scene_extent**2 * geo.n_pulses > MAX_ECHO_WORK:
+        raise ConfigError(f"reliability.{key}", f"{density * geo.scene_extent**2 * geo.n_pulses:.3g} scatterers x "
+                          f"pulses; at most {MAX_ECHO_WORK:.0e} (a lower density, a smaller scene or fewer pulses)")
     return prm
 
 
