@@ -203,8 +203,9 @@ def textured_clutter_scene(rng: np.random.Generator, center, extent: float, cont
     ``10^(contrast_db g / 10)`` at its position: g a white Gaussian field smoothed by a Gaussian kernel of std
     ``correlation_m`` and scaled to unit std, sampled on cells of ``correlation_m`` / 4 (a log-normal texture whose
     log-power has a std of ``contrast_db`` dB). ``contrast_db`` = 0: fully developed speckle over a uniform surface.
-    Several scatterers per resolution cell (the default 32 per m^2 against the quality geometry's ~0.06 m^2 cell)
-    make the speckle developed.
+    The default 32 per m^2 puts 2.4 scatterers in the quality geometry's 0.22 m x 0.35 m resolution cell: each pixel
+    is circular Gaussian, but the Poisson count per cell is a fine texture of its own that a focused image resolves
+    (docs/quality.md "T16 on distributed scenes"); ~128 per m^2 (9.5 a cell) leaves the speckle without it.
 
     Parameters
     ----------
