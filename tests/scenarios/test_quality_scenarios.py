@@ -79,6 +79,9 @@ def test_sweep_writes_the_dataset_claims_and_figures(tmp_path):
     for key in ("T3", "T7", "T8", "T9", "T10", "T11", "T12", "T13", "T14", "T15", "T16", "T17"):
         assert key in claims and key in claims["source"], key
     assert claims["T16"]["scenes"] == 2
+    assert claims["T16"]["conditions"] == {"scene": "point-clutter", "span_depths": 6.0, "clutter_density": 0.5,
+                                           "step": pytest.approx(ds["error"].sel(direction="along").values[1]
+                                                                 - ds["error"].sel(direction="along").values[0])}
     assert set(claims["T7"]["kurtosis_max_step"]) == {"16", "32"}
     names = {p.name for p in (out / "figures").iterdir()}
     assert {"fig4_1_images.png", "fig4_2_along_32.png", "fig4_3-4_6_sizes.png", "fig4_7_bins_along.png",

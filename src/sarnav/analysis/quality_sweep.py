@@ -447,9 +447,15 @@ def _reliability(prm: QualitySweepParams) -> tuple[dict, np.ndarray, np.ndarray]
     rel, geo = prm.reliability, prm.geometry
     if rel.scenes == 0:
         return None
-    errors = error_grid(geo, "along", prm.steps, prm.span_depths if rel.span_depths is None else rel.span_depths)
+    span = prm.span_depths if rel.span_depths is None else rel.span_depths
+    errors = error_grid(geo, "along", prm.steps, span)
     best = reliability_study(geo, reliability_scenes(rel, geo), errors, rel.size, rel.bins, tuple(rel.measures))
-    return reliability_claims(best, errors, rel.measures), best / (errors[1] - errors[0]), errors
+    claims = reliability_claims(best, errors, rel.measures)
+    claims["conditions"] = {"scene": rel.scene, "span_depths": span, "step": float(errors[1] - errors[0]),
+                            **({"contrast_db": rel.contrast_db, "correlation_m": rel.correlation_m,
+                                "texture_density": rel.texture_density} if rel.scene == "textured"
+                               else {"clutter_density": rel.clutter_density})}
+    return claims, best / (errors[1] - errors[0]), errors
 
 
 def run(prm: QualitySweepParams, progress=None) -> dict:
