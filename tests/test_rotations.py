@@ -75,3 +75,61 @@ def test_units():
     assert units.m_per_s_per_sqrt_hr_to_si(0.06) == pytest.approx(0.001)
     assert units.g_to_m_per_s2(0.001) == pytest.approx(0.00981)
     assert units.deg_per_sqrt_hr_to_rad_per_sqrt_s(60.0) == pytest.approx(np.pi / 180)
+
+
+# --- Sun (2022) T1 and T2 (issue 29): the source's printed matrices, element by element -----------------------------
+
+def _sun_c_bn(phi, theta, psi):
+    """(2.34)-(2.42) as printed (L426-442), in the source's own symbols."""
+    c, s = np.cos, np.sin
+    return np.array([[c(phi) * c(theta), c(phi) * s(theta) * s(psi) - c(psi) * s(phi),
+                      s(phi) * s(psi) + c(phi) * c(psi) * s(theta)],
+                     [c(theta) * s(phi), c(phi) * c(psi) + s(phi) * s(theta) * s(psi),
+                      c(psi) * s(phi) * s(theta) - c(phi) * s(psi)],
+                     [-s(theta), c(theta) * s(psi), c(theta) * c(psi)]])
+
+
+def _sun_c_xyz(theta, phi, psi):
+    """(2.13)-(2.21) as printed (L374-396), labelled C_xyz = C_x C_y C_z with theta inside C_x and phi inside C_y."""
+    c, s = np.cos, np.sin
+    return np.array([[c(phi) * c(psi), -c(theta) * s(psi) + s(theta) * s(phi) * c(psi),
+                      s(theta) * s(psi) + c(theta) * c(psi) * s(phi)],
+                     [c(phi) * s(psi), c(theta) * c(psi) + s(theta) * s(phi) * s(psi),
+                      -s(theta) * c(psi) + c(theta) * s(phi) * s(psi)],
+                     [-s(phi), c(phi) * s(theta), c(theta) * c(phi)]])
+
+
+def _cx(a):
+    return np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+
+
+def _cy(a):
+    return np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+
+
+def _cz(a):
+    return np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+
+
+def test_sun_t1_the_printed_c_bn_is_the_zyx_dcm_with_yaw_phi_and_roll_psi():
+    """Sun T1: (2.34)-(2.42) equal sarnav's body-to-NED DCM Rz(yaw) Ry(pitch) Rx(roll) with yaw = phi, pitch = theta,
+    roll = psi (the source names phi roll and psi yaw, L474: its printed matrix swaps them); orthonormal, det +1,
+    identity at zero."""
+    rng = np.random.default_rng(2022)
+    for phi, theta, psi in rng.uniform(-np.pi, np.pi, (50, 3)) * np.array([1.0, 0.49, 1.0]):
+        printed = _sun_c_bn(phi, theta, psi)
+        np.testing.assert_allclose(rot.euler_to_dcm(psi, theta, phi), printed, atol=1e-15)
+        np.testing.assert_allclose(printed @ printed.T, np.eye(3), atol=1e-15)
+        assert np.linalg.det(printed) == pytest.approx(1.0, abs=1e-14)
+        assert not np.allclose(rot.euler_to_dcm(phi, theta, psi), printed, atol=1e-6)  # the stated naming does not hold
+    np.testing.assert_allclose(_sun_c_bn(0.0, 0.0, 0.0), np.eye(3), atol=0)
+
+
+def test_sun_t2_the_printed_c_xyz_is_c_z_c_y_c_x():
+    """Sun T2: the elements printed as C_xyz = C_x(theta) C_y(phi) C_z(psi) are C_z(psi) C_y(phi) C_x(theta), the ZYX
+    product; (2.24)-(2.32), printed as C_zyx, are that same matrix (but for (2.25)'s typo)."""
+    rng = np.random.default_rng(13)
+    for theta, phi, psi in rng.uniform(-np.pi, np.pi, (50, 3)):
+        printed = _sun_c_xyz(theta, phi, psi)
+        np.testing.assert_allclose(printed, _cz(psi) @ _cy(phi) @ _cx(theta), atol=1e-15)
+        assert not np.allclose(printed, _cx(theta) @ _cy(phi) @ _cz(psi), atol=1e-6)

@@ -118,3 +118,17 @@ def test_image_measurement_errors_are_small(world):
     assert m.ok and m.n_inliers >= 3
     assert abs(m.v0 - chip.v_r) > 3.0 and abs(m.v_ic - chip.v_r) < 0.5
     assert np.linalg.norm(m.r_f - chip.r_b) < 40.0 and m.rho == chip.rho_c
+
+
+def test_t1_the_centre_pixel_range_is_near_range_plus_k_c_minus_one_bins(world):
+    """Pogorelsky T1 (Eq. 1-2, issue 29): rho_c = r0 + (k_c - 1) c / (2 f_s), k_c the 1-based centre range bin: the
+    receive window is laid so that its centre bin is the boresight point's slant range, and the echoes' range axis
+    says so (c written out here, not sarnav's constant)."""
+    im, chip, rc = world
+    n = chip.params.n_range_samples
+    k_c = n // 2 + 1
+    dr = 299_792_458.0 / (2.0 * chip.params.sample_rate)
+    assert chip.rho_c == pytest.approx(chip.params.near_range + (k_c - 1) * dr, abs=1e-6)
+    assert chip.rho_c == pytest.approx(float(np.linalg.norm(chip.r_b - chip.r)), abs=1e-6)
+    assert np.asarray(chip.raw.slant_range)[k_c - 1] == pytest.approx(chip.rho_c, abs=1e-6)
+    assert np.size(chip.raw.slant_range) == n
