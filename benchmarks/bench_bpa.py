@@ -52,7 +52,7 @@ import time
 import numba
 import numpy as np
 
-from sarnav.imaging.backprojection import backproject, backproject_numpy
+from sarnav.imaging.backprojection import backproject, backproject_numpy, resolve_interpolation
 from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
 from sarnav.signal.phase_history import phase_history_to_pulses, pulses_to_phase_history
@@ -163,10 +163,16 @@ MODES = (("auto", "auto", 4), ("precise", "precise", 4), ("nearest", "nearest", 
          ("cubic", "cubic", 4), ("lagrange", "lagrange", 4), ("upsample x8", "upsample", 8))
 
 
-def sarnav_confs(rc, grid) -> dict:
-    """{name: callable forming sarnav's image of ``rc`` on ``grid``} for every mode of :data:`MODES`."""
-    return {f"sarnav {label}": (lambda m=m, up=up: backproject(rc, grid, interpolation=m, upsample=up).data)
-            for label, m, up in MODES}
+def sarnav_confs(rc, grid, pixels=None) -> dict:
+    """{name: callable forming sarnav's image of ``rc`` on ``grid``} for every mode of :data:`MODES`; with ``pixels``,
+    "auto" and "precise" resolved for an image of that many pixels (a warm-up on a small grid then runs the mode and
+    FFT length the full-size image will use)."""
+    confs = {}
+    for label, m, up in MODES:
+        if pixels is not None:
+            m, up = resolve_interpolation(rc, m, up, None, pixels)
+        confs[f"sarnav {label}"] = lambda m=m, up=up: backproject(rc, grid, interpolation=m, upsample=up).data
+    return confs
 
 
 def rounds(rc, grid, size: int, n_rounds: int, work: int) -> tuple[dict, dict]:
@@ -267,7 +273,7 @@ def peer_collect_table(npx: int, modes=None) -> None:
           f"below); exact 16x16 sample in {t_ex:.1f} s", flush=True)
     grid = pc.plane_grid(npx)
     small = pc.plane_grid(64)
-    confs = {k: (fn, sarnav_confs(rc, small)[k]) for k, fn in sarnav_confs(rc, grid).items()
+    confs = {k: (fn, sarnav_confs(rc, small, npx * npx)[k]) for k, fn in sarnav_confs(rc, grid).items()
              if modes is None or k[len("sarnav "):] in modes}
     if pc.peer_available() is None:
         for interp in ("cubic", "linear"):

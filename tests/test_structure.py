@@ -92,6 +92,7 @@ TESTED_UNDER: dict[str, str] = {
     "frames/earth.py": "frames/test_earth_gravity.py",
     "frames/gravity.py": "frames/test_earth_gravity.py",
     "imaging/collect_image.py": "simulation/test_image_scene.py",
+    "imaging/interpolation_choice.py": "imaging/test_interpolation_default.py",
     "imaging/interpolation_error.py": "imaging/test_interpolation_default.py",
     "imaging/kernels.py": "imaging/test_backprojection.py",
     "ins/state.py": "ins/test_geodetic.py",

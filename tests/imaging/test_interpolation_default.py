@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sarnav.imaging.backprojection import backproject, resolve_interpolation
+from sarnav.imaging.backprojection import backproject
+from sarnav.imaging.interpolation_choice import AUTO_MAX_ERROR, resolve_interpolation
 from sarnav.imaging.grid import SlantGrid
 from sarnav.imaging.interpolation_error import KERNELS, interpolation_error
 from sarnav.signal.data import PulseData
@@ -77,10 +78,41 @@ def test_default_at_fs_over_b_1p2_places_peaks_and_correlates(frac):
 
 def test_auto_uses_lagrange_or_linear_on_oversampled_data_and_the_error_model_is_ordered():
     rc = data(np.array([0.0, EAST, 0.0]), 8.0 * BW, n=1200)
-    assert resolve_interpolation(rc, "auto", 4)[0] == "lagrange"              # -77.5 dB predicted at fs/B 8
-    rc = data(np.array([0.0, EAST, 0.0]), 24.0 * BW, n=3600)
-    assert resolve_interpolation(rc, "auto", 4)[0] == "linear"                # -60 dB needs fs/B >~ 22
+    # -77.5 dB predicted at fs/B 8: Lagrange alone on a small image; on a large one linear on x4 upsampled pulses
+    # (predicted -68 dB at fs/B 32) costs less than Lagrange's 1.6 x per pixel-pulse despite its FFTs
+    assert resolve_interpolation(rc, "auto", 4, pixels=48 * 48) == ("lagrange", 4)
+    assert resolve_interpolation(rc, "auto", 4, pixels=2048 * 2048) == ("upsample", 4)
+    assert resolve_interpolation(rc, "auto", 4) == ("upsample", 4)           # pixels unknown: a large image
+    rc = data(np.array([0.0, EAST, 0.0]), 32.0 * BW, n=4800)
+    assert resolve_interpolation(rc, "auto", 4)[0] == "linear"                # -65 dB predicted needs fs/B >~ 28
+    rc = data(np.array([0.0, EAST, 0.0]), 2.0 * BW)
+    # linear would need x14 at fs/B 2: beyond the x8 auto allows, Lagrange x3 whatever the image's size
+    assert resolve_interpolation(rc, "auto", 4, pixels=4096 * 4096) == ("upsample-lagrange", 3)
+    assert resolve_interpolation(rc, "precise", 4, pixels=4096 * 4096) == ("upsample-lagrange", 5)
     for os_ in (1.25, 2.0, 4.0):
         e = dict((k, interpolation_error(k, os_)) for k in KERNELS)
         assert e["nearest"] > e["linear"] > e["cubic"]
         assert os_ < 2 or e["cubic"] > e["lagrange"]
+
+
+@pytest.mark.parametrize("os_, factor", [(3.5, 8), (4.0, 7)])
+def test_auto_on_a_large_image_of_oversampled_pulses_is_linear_on_upsampled_pulses_within_60_db(os_, factor):
+    """Issue 28: on a large image of pulses oversampled >= 3.5 x, "auto" is FFT upsampling then linear (1.5 x
+    faster than Lagrange per pixel-pulse) and still within -60 dB of the exact band-limited image."""
+    fs = os_ * BW
+    target = np.array([0.07, EAST, 0.0])
+    rc = data(target, fs, n=int(240 * os_ / 1.2))
+    r0 = float(np.linalg.norm(target - np.array([0.0, 0.0, -ALT])))
+    grid = SlantGrid([0, 0, -ALT], [1, 0, 0], target, np.arange(-96, 96) * 0.1 + 0.03,
+                     r0 + np.arange(-192, 192) * 0.1 + 0.05)
+    # the choice for a 1024^2 image (on this small grid the FFTs of x8 would cost more than Lagrange's gathers)
+    assert resolve_interpolation(rc, "auto", 4, pixels=1024 * 1024) == ("upsample", factor)
+    limit = AUTO_MAX_ERROR                                       # -65 dB predicted for the -60 dB contract
+    assert interpolation_error("linear", os_ * factor) <= limit < interpolation_error("linear", os_ * (factor - 1))
+    img = backproject(rc, grid, interpolation="upsample", upsample=factor).data
+    ref = exact(rc, grid, target)
+    err = np.sum(np.abs(img - ref) ** 2) / np.sum(np.abs(ref) ** 2)
+    print(f"fs/B {os_}: auto = upsample x{factor}: {10 * np.log10(err):.1f} dB against the exact image")
+    assert 10 * np.log10(err) <= -60.0
+    lin = backproject(rc, grid, interpolation="linear").data      # linear without upsampling: far outside
+    assert 10 * np.log10(np.sum(np.abs(lin - ref) ** 2) / np.sum(np.abs(ref) ** 2)) > -40.0

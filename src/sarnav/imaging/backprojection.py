@@ -51,12 +51,12 @@ import math
 
 import numba
 import numpy as np
-import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.grid import GroundGrid, PlaneGrid, SlantGrid, as_grid
-from sarnav.imaging.interpolation_error import interpolation_error
+from sarnav.imaging.interpolation_choice import (AUTO_MAX_ERROR, PRECISE_MAX_ERROR, data_oversampling,
+                                                resolve_interpolation)
 from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, UPSAMPLED, cis32,
                                     gather, gather_pair, gather_pair_lagrange, point_kernel, range_tap,
                                     upsample_pulses)
@@ -67,14 +67,6 @@ __all__ = ["backproject", "backproject_numpy", "backproject_points", "backprojec
            "bpa_fan_kernel", "check_pulses", "check_interpolation", "wavelength_of", "grid_points", "sar_image"]
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "lagrange", "upsample", "upsample-lagrange", "precise", "auto")
-#: "auto" picks the cheapest of linear / lagrange / upsample-lagrange x2..x32 whose predicted error (flat band at
-#: fs/B * factor, per-sample error of the kernel: sarnav.imaging.interpolation_error) is at most this (-60 dB)
-AUTO_MAX_ERROR = 1e-6
-#: "precise" picks the smallest upsampling whose predicted Lagrange error is at most this (-80 dB: <= -75 dB measured
-#: with margin, docs/backprojection.md)
-PRECISE_MAX_ERROR = 1e-8
-#: largest FFT upsampling "auto" and "precise" choose
-_MAX_FACTOR = 32
 #: pixels per parallel work item (a block of contiguous pixels: the row stays in L1 cache)
 DEFAULT_BLOCK = 512
 #: pulses per pass over the image (their samples stay in the L2 cache)
@@ -280,44 +272,6 @@ def check_pulses(rc: PulseData, positions):
     return data, rng, pos
 
 
-def data_oversampling(rc: PulseData, bandwidth: float | None = None) -> float:
-    """fs / B of range-compressed pulses: fs = c / (2 dr); B = ``bandwidth``, else ``rc.bandwidth``,
-    else the width of the pulses' mean power spectrum above 1 % of its peak (>= 1 bin)."""
-    rng = np.asarray(rc.slant_range, dtype=np.float64)
-    if np.ndim(rc.data) != 2 or np.shape(rc.data)[1] < 2 or rng.ndim != 1 or rng.size < 2 or not rng[1] > rng[0]:
-        return 1.0                     # malformed: the input checks that follow name the problem
-    fs = 299792458.0 / (2.0 * float(rng[1] - rng[0]))
-    bw = bandwidth if bandwidth is not None else rc.bandwidth
-    if bw is None:
-        data = np.asarray(rc.data)
-        sel = data[:: max(1, data.shape[0] // 64)]
-        spec = np.mean(np.abs(sfft.fft(sel, axis=1)) ** 2, axis=0)
-        bw = fs * max(1, int(np.count_nonzero(spec >= 1e-2 * spec.max()))) / spec.size
-    bw = float(bw)
-    if not (math.isfinite(bw) and bw > 0):
-        raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
-    return max(1.0, fs / bw)
-
-
-def resolve_interpolation(rc: PulseData, interpolation: str, upsample: int, bandwidth: float | None = None):
-    """(mode, upsample) actually used. "auto": "linear" when the data are oversampled enough for
-    ``AUTO_MAX_ERROR`` (fs/B >~ 22), else "lagrange" (fs/B >~ 4.9), else "upsample-lagrange" with the smallest
-    integer factor (<= 32) meeting it (fs/B = 1 -> x5, 2 -> x3); "precise": the same with ``PRECISE_MAX_ERROR``
-    and Lagrange only (fs/B = 1 -> x9, 2 -> x5, >= 12: Lagrange alone)."""
-    if interpolation not in ("auto", "precise"):
-        return interpolation, upsample
-    os_ = data_oversampling(rc, bandwidth)
-    limit = AUTO_MAX_ERROR if interpolation == "auto" else PRECISE_MAX_ERROR
-    if interpolation == "auto" and interpolation_error("linear", os_) <= limit:
-        return "linear", upsample
-    if interpolation_error("lagrange", os_) <= limit:
-        return "lagrange", upsample
-    for factor in range(2, _MAX_FACTOR + 1):
-        if interpolation_error("lagrange", os_ * factor) <= limit:
-            return "upsample-lagrange", factor
-    return "upsample-lagrange", _MAX_FACTOR
-
-
 def check_interpolation(interpolation: str, upsample: int) -> int:
     """``upsample`` as an int after checking it and ``interpolation`` (one of :data:`INTERPOLATIONS`)."""
     if interpolation not in INTERPOLATIONS:
@@ -369,11 +323,11 @@ def backproject_points(rc: PulseData, points, positions=None, interpolation: str
     frame of the antenna positions.
     """
     check_interpolation(interpolation, upsample)
-    if isinstance(rc, PulseData):
-        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim < 1 or pts.shape[-1] != 3:
         raise InputDataError("points", f"must have shape (..., 3), got {pts.shape}")
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth, pts.size // 3)
     if not np.all(np.isfinite(pts)):
         raise InputDataError("points", "must be finite (found NaN/inf)")
     _check_blocks(block, pulse_block)
@@ -391,8 +345,6 @@ def backproject_fan(rc: PulseData, origins, steps, n: int, positions=None, inter
     The same sums as :func:`backproject_points` at those points (to float32 accumulation order).
     """
     check_interpolation(interpolation, upsample)
-    if isinstance(rc, PulseData):
-        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
     origins = np.asarray(origins, dtype=np.float64)
     steps = np.asarray(steps, dtype=np.float64)
     if origins.ndim != 2 or origins.shape[-1] != 3 or steps.shape != origins.shape:
@@ -401,6 +353,9 @@ def backproject_fan(rc: PulseData, origins, steps, n: int, positions=None, inter
         raise InputDataError("origins", "must be finite (found NaN/inf)")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise InputDataError("n", f"must be an integer >= 1 (points per line), got {n!r}")
+    if isinstance(rc, PulseData):
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth,
+                                                        origins.shape[0] * int(n))
     _check_blocks(block, pulse_block)
     out_re, out_im = _form(rc, positions, interpolation, upsample, wavelength, block, pulse_block,
                            fan=(origins, steps, int(n)))
@@ -505,8 +460,9 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto"
     interpolation : "auto" (default), "nearest", "linear", "cubic" (Keys), "lagrange" (cubic Lagrange),
         "upsample" (FFT ×``upsample`` then linear), "upsample-lagrange" (FFT ×``upsample`` then Lagrange) or
         "precise" (high accuracy, <= -75 dB). "auto" chooses from the data's oversampling fs/B
-        (:func:`resolve_interpolation`) for accuracy first (predicted <= -60 dB), speed second: fs/B = 1.2
-        -> upsample-lagrange ×5, fs/B = 2 -> ×3; "precise" for <= -80 dB predicted (fs/B = 1.2 -> ×8, 2 -> ×5);
+        (:func:`resolve_interpolation`) for accuracy first (<= -60 dB: predicted <= -65 dB), speed second:
+        fs/B = 1.2 -> upsample-lagrange ×5, fs/B = 2 -> ×3, fs/B = 4 -> upsample ×7 on a large image;
+        "precise" for <= -80 dB predicted (fs/B = 1.2 -> ×8, 2 -> ×5);
         docs/backprojection.md
         gives each mode's measured error.
     bandwidth : signal bandwidth B [Hz] for "auto"; default ``rc.bandwidth`` or estimated
@@ -539,7 +495,7 @@ def backproject(rc: PulseData, grid, positions=None, interpolation: str = "auto"
         g, pts = grid_points(g)
     check_interpolation(interpolation, upsample)
     if isinstance(rc, PulseData):
-        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth, int(np.prod(g.shape)))
     if plane is None:
         values = backproject_points(rc, pts, positions, interpolation, wavelength=wavelength, upsample=upsample,
                                     block=block, pulse_block=pulse_block)
@@ -562,7 +518,7 @@ def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = 
     g, pts = grid_points(grid)
     check_interpolation(interpolation, upsample)
     if isinstance(rc, PulseData):
-        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth)
+        interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth, int(np.prod(g.shape)))
     data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
     sel = np.arange(data.shape[0]) if pulses is None else np.arange(data.shape[0])[pulses]
     flat = pts.reshape(-1, 3)

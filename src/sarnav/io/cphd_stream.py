@@ -146,7 +146,7 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
     mid = _pulses(c, k0, min(p, k0 + n_band), axis, filter)        # the band, once for all blocks
     figures = _figures(c, mid)
     mode, up = ("upsample", _FFBP_UPSAMPLE) if algorithm == "ffbp" else \
-        resolve_interpolation(mid, "auto", 4, figures.bandwidth)
+        resolve_interpolation(mid, "auto", 4, figures.bandwidth, pixels)
     del mid
     plan = stream_plan(c, axis.size, pixels, algorithm, up if mode in UPSAMPLED else None, budget,
                        budget_field=budget_field)
