@@ -100,6 +100,7 @@ TESTED_UNDER: dict[str, str] = {
     "io/sicd_product.py": "io/test_sicd_reader.py",
     "measurements/gnss.py": "measurements/test_contract.py",
     "measurements/sar_aperture.py": "measurements/test_sar_image.py",
+    "measurements/search_tracks.py": "measurements/test_focus_search.py",
     "measurements/spacecraft_image.py": "measurements/test_spacecraft_imager.py",
     "measurements/sar_product.py": "recording/test_reference_product.py",
     "measurements/spacecraft.py": "measurements/test_spacecraft_sar.py",

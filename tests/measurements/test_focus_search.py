@@ -11,6 +11,7 @@ import pytest
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.measurements import focus_search as fs
+from sarnav.measurements import search_tracks
 from sarnav.radar.quality_scenes import QualityGeometry, point_clutter_scene
 
 B = fs.TABLE41_BIAS
@@ -149,7 +150,7 @@ def test_bad_input_is_named(small):
     with pytest.raises(ConfigError, match="search.block_pulses"):
         fs.run_search(prob, noisy, 1201, "source", 11, spacing=1e-6)
     with pytest.raises(ConfigError, match="search.method"):
-        fs.run_search(prob, noisy, 400, "viterbi", 11)
+        fs.run_search(prob, noisy, 400, "annealing", 11)
     with pytest.raises(ConfigError, match="search.scorer"):
         fs.run_search(prob, noisy, 400, "source", 11, spacing=1e-6, scorer="sharpness")
     with pytest.raises(ConfigError, match="rng"):
@@ -243,3 +244,70 @@ def test_noise_drift_is_the_injected_along_track_error(small):
     w = fs._noise(0, 1, 2, 10, geo.n_pulses)[0]
     noisy = fs.inject_velocity_noise(geo.positions(), geo.along_track, 400, B, 3e-5, w)
     np.testing.assert_allclose(d, (noisy - geo.positions()) @ geo.along_track, atol=1e-15)
+
+
+def _path_cost(noisy_lin, truth_lin, e, knots, s0, offsets):
+    """Sum of squared along-track errors after S_0 of the track a sequence of block offsets makes (position
+    continuity at the knots, each block restarting from the noisy velocity: Alg. 3.3 L443), computed here."""
+    corr, c, blocks = noisy_lin.copy(), 0.0, [(a, b) for a, b in zip(knots[:-1], knots[1:]) if a >= s0 - 1]
+    for (a, b), d in zip(blocks, offsets):
+        tau = np.arange(1.0, b - a + 1.0)
+        corr[a + 1:b + 1] = noisy_lin[a + 1:b + 1] + ((c + d * tau) * e[:, None]).T
+        c += d * (b - a)
+    return float(np.sum(((corr - truth_lin) @ e)[s0:] ** 2)), corr
+
+
+def test_viterbi_with_the_oracle_finds_the_best_path_of_the_lattice(small):
+    """With the oracle's additive metric the trellis is exact: its track has the least squared along-track error of
+    all L^n paths (enumerated here), never more than the greedy search's."""
+    import itertools
+
+    geo, prob = small
+    noisy = _noisy(geo, 6e-5, seed=4)
+    s0, si, span = prob.initial_pulses, 400, abs(B) + 3 * 6e-5 / math.sqrt(400)
+    knots = fs.block_knots(geo.n_pulses, s0, si)
+    truth_lin, noisy_lin = fs.linearise(prob.truth, knots), fs.linearise(noisy, knots)
+    deltas = fs.candidate_offsets("viterbi", 3, span=span)
+    n_blocks = sum(a >= s0 - 1 for a in knots[:-1])
+    costs = {p: _path_cost(noisy_lin, truth_lin, prob.direction, knots, s0, p)[0]
+             for p in itertools.product(deltas, repeat=n_blocks)}
+    vit = fs.run_search(prob, noisy, si, "viterbi", 3, span=span, scorer="oracle")
+    greedy = fs.run_search(prob, noisy, si, "grid", 3, span=span, scorer="oracle")
+    cost, track = _path_cost(noisy_lin, truth_lin, prob.direction, knots, s0, vit.offsets)
+    np.testing.assert_allclose(vit.corrected, track, rtol=0, atol=1e-12)
+    assert cost == pytest.approx(min(costs.values()), rel=1e-12)
+    assert cost <= _path_cost(noisy_lin, truth_lin, prob.direction, knots, s0, greedy.offsets)[0] * (1 + 1e-12)
+
+
+def test_viterbi_by_a_quality_measure(small):
+    """Scored by kurtosis: offsets on the candidate grid, the same result twice, the final image kept; one state
+    (``states=1``) holds the correction at zero, so every offset is 0 and rho = 1 exactly; bad input named."""
+    geo, prob = small
+    noisy = _noisy(geo, 3e-5)
+    span = abs(B) + 3 * 3e-5 / math.sqrt(400)
+    deltas = fs.candidate_offsets("viterbi", 5, span=span)
+    a = fs.run_search(prob, noisy, 400, "viterbi", 5, span=span, keep_image=True)
+    b = fs.run_search(prob, noisy, 400, "viterbi", 5, span=span)
+    assert np.array_equal(a.corrected, b.corrected) and a.rho == b.rho
+    assert all(np.min(np.abs(deltas - d)) == 0.0 for d in a.offsets)
+    assert a.image.shape == prob.image0().shape and np.all(np.isfinite(a.image))
+    assert (1 - a.reach) ** 2 <= a.rho <= (1 + a.reach) ** 2
+    one = fs.run_search(prob, noisy, 400, "viterbi", 5, span=span, states=1)
+    assert np.all(one.offsets == 0.0) and one.rho == 1.0
+    with pytest.raises(ConfigError, match="search.scorer"):
+        fs.run_search(prob, noisy, 400, "viterbi", 5, span=span, scorer="random", rng=np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="search.method"):
+        fs.run_search(prob, noisy, 400, "viterbi", 5, span=span, carry=True)
+    with pytest.raises(ConfigError, match="search.states"):
+        fs.run_search(prob, noisy, 400, "viterbi", 5, span=span, states=0)
+
+
+def test_the_track_arithmetic_lives_in_search_tracks():
+    """focus_search runs the searches on search_tracks' arithmetic (one home: the same objects re-exported)."""
+    for name in ("block_knots", "linearise", "inject_velocity_noise", "candidate_offsets", "variance_ratio",
+                 "coverage", "reach_bound", "table41_sigmas", "table41_spacings", "METHODS", "TABLE41_BIAS"):
+        assert getattr(fs, name) is getattr(search_tracks, name)
+    assert search_tracks.checked_int("search.candidates", np.int64(3), 1) == 3
+    for bad in (0, 2.5, True):
+        with pytest.raises(ConfigError, match=r"search.candidates: must be an integer >= 1"):
+            search_tracks.checked_int("search.candidates", bad, 1)

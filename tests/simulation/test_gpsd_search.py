@@ -125,5 +125,5 @@ def test_noise_drifts_use_table41s_fourth_sigma_and_three_realisations(tiny):
 
 def test_vocabularies():
     """The methods and controls the module documents."""
-    assert gs.SEARCH_METHODS == ("source", "source-carry", "grid", "brent")
+    assert gs.SEARCH_METHODS == ("source", "source-carry", "grid", "brent", "viterbi")
     assert gs.SEARCH_CONTROLS == ("one", "oracle", "random")

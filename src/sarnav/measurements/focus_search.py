@@ -49,103 +49,17 @@ from sarnav.imaging.grid import GroundGrid
 from sarnav.imaging.range_compression import range_compress
 from sarnav.imaging.offset_bpa import offset_moments, order_for
 from sarnav.imaging.quality import QUALITY_MEASURES, quality_measure
+from sarnav.measurements.search_tracks import (METHODS, TABLE41_BIAS, block_knots, candidate_offsets, checked_int,
+                                               coverage, inject_velocity_noise, linearise, reach_bound, table41_sigmas,
+                                               table41_spacings, variance_ratio)
 from sarnav.radar.quality_scenes import simulate_pulses
 
 __all__ = ["METHODS", "CONTROL_SCORERS", "ROW_COLUMNS", "DIAGNOSTIC_COLUMNS", "SearchProblem", "SearchResult",
            "SearchRun", "search_problem", "table41_rows", "failure_analysis", "linearise", "block_knots",
            "inject_velocity_noise", "candidate_offsets", "variance_ratio", "coverage", "run_search", "reach_bound",
-           "table41_sigmas", "table41_spacings", "noise_drift"]
+           "table41_sigmas", "table41_spacings", "noise_drift", "TABLE41_BIAS"]
 
-METHODS = ("source", "grid", "brent")
 CONTROL_SCORERS = ("oracle", "random")
-#: Table 4.1 (L656-666): bias and the sigma grid [m/sample]
-TABLE41_BIAS = 8.1641e-6
-
-
-def table41_sigmas(n: int = 10) -> np.ndarray:
-    """sigma = linspace(8.1641e-6, 8.1641e-5, 10) [m/sample] (Table 4.1; VRW 0.02..0.2 m/s/sqrt(h) at 1667 Hz)."""
-    return np.linspace(8.1641e-6, 8.1641e-5, n)
-
-
-def table41_spacings(sigma: float, n: int = 30) -> np.ndarray:
-    """Delta = linspace(sigma/1e4, 30 sigma/1e4, 30) [m/sample] (Table 4.1, L652)."""
-    return np.linspace(sigma / 1e4, 30.0 * sigma / 1e4, n)
-
-
-def _int(name: str, value, lo: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise ConfigError(name, f"must be an integer >= {lo}, got {value!r}")
-    return int(value)
-
-
-def block_knots(n_pulses: int, initial_pulses: int, block_pulses: int) -> np.ndarray:
-    """Knots of the linearisation: S_0 - 1 + k S_i forward to the last sample and backward to 0 (both included)."""
-    n = _int("n_pulses", n_pulses, 2)
-    s0 = _int("search.initial_pulses", initial_pulses, 1)
-    si = _int("search.block_pulses", block_pulses, 1)
-    if s0 >= n:
-        raise ConfigError("search.initial_pulses", f"must be < the number of pulses {n}, got {s0}")
-    if si > n - s0:
-        raise ConfigError("search.block_pulses", f"block of {si} pulses is longer than the {n - s0} pulses after "
-                          f"the initial {s0}; must be <= {n - s0}")
-    fwd = np.arange(s0 - 1, n - 1, si)
-    back = np.arange(s0 - 1 - si, 0, -si)[::-1]
-    return np.unique(np.concatenate([[0], back, fwd, [n - 1]]))
-
-
-def linearise(positions, knots) -> np.ndarray:
-    """End-point piecewise-linear track through ``positions[knots]`` (Alg. 3.3 step 1, L414/L457); exact at knots."""
-    p = np.asarray(positions, dtype=np.float64)
-    k = np.asarray(knots)
-    out = np.empty_like(p)
-    for a, b in zip(k[:-1], k[1:]):
-        frac = (np.arange(a, b + 1) - a) / float(b - a)
-        out[a:b + 1] = p[a] + frac[:, None] * (p[b] - p[a])[None, :]
-    out[k] = p[k]
-    return out
-
-
-def inject_velocity_noise(positions, direction, initial_pulses: int, bias: float, sigma: float, w) -> np.ndarray:
-    """Noisy track of Alg. 3.3 steps 2-4: ``p~[t] = p[t] + e sum_{s=S_0}^{t} (b + sigma w[s])``, t >= S_0.
-
-    ``w`` is the (P,) standard normal vector (entries before S_0 unused).
-    """
-    p = np.asarray(positions, dtype=np.float64)
-    w = np.asarray(w, dtype=np.float64)
-    if w.shape != (p.shape[0],):
-        raise InputDataError("w", f"must have shape ({p.shape[0]},), got {w.shape}")
-    e = np.asarray(direction, dtype=np.float64)
-    out = p.copy()
-    drift = np.cumsum(bias + sigma * w[initial_pulses:])
-    out[initial_pulses:] += drift[:, None] * e[None, :]
-    return out
-
-
-def candidate_offsets(method: str, candidates: int, spacing: float = 0.0, span: float = 0.0) -> np.ndarray:
-    """(L,) velocity offsets [m/sample]: ``(l - floor(L/2)) Delta`` ("source", L651) or linspace(-span, span, L)."""
-    n = _int("search.candidates", candidates, 1)
-    if method == "source":
-        return (np.arange(n) - n // 2) * float(spacing)
-    if method in ("grid", "brent"):
-        return np.linspace(-span, span, n) if n > 1 else np.zeros(1)
-    raise ConfigError("search.method", f"must be one of {METHODS}, got {method!r}")
-
-
-def variance_ratio(corrected, noisy, truth, direction, initial_pulses: int) -> float:
-    """rho = var(e.(p_corr - p_true)) / var(e.(p_noisy - p_true)) over t >= S_0, ddof = 1 (L668, gap 12)."""
-    e = np.asarray(direction, dtype=np.float64)
-    s = slice(initial_pulses, None)
-    num = np.var((np.asarray(corrected)[s] - np.asarray(truth)[s]) @ e, ddof=1)
-    den = np.var((np.asarray(noisy)[s] - np.asarray(truth)[s]) @ e, ddof=1)
-    if den == 0:
-        raise InputDataError("noisy", "has no along-track error after the initial pulses; rho undefined")
-    return float(num / den)
-
-
-def coverage(candidates: int, spacing: float, bias: float, sigma: float, block_pulses: int) -> float:
-    """Largest candidate offset over the offset it must reach: floor(L/2) Delta / (|b| + 2 sigma / sqrt(S_i))
-    (notes/seed-004 §3.3: the grid cannot cancel the bias unless this is >~ 1)."""
-    return (candidates // 2) * spacing / (abs(bias) + 2.0 * sigma / math.sqrt(block_pulses))
 
 
 @dataclass
@@ -179,7 +93,7 @@ class SearchProblem:
             raise InputDataError("truth", f"must have shape ({self.rc.n_pulses}, 3), got {self.truth.shape}")
         e = np.asarray(self.direction, dtype=np.float64)
         self.direction = e / np.linalg.norm(e)
-        _int("search.initial_pulses", self.initial_pulses, 1)
+        checked_int("search.initial_pulses", self.initial_pulses, 1)
         if self.initial_pulses >= self.rc.n_pulses:
             raise ConfigError("search.initial_pulses", f"must be < {self.rc.n_pulses} pulses, got {self.initial_pulses}")
         if self.measure not in CONTROL_SCORERS:
@@ -336,7 +250,7 @@ def _choose(problem, block, acc, deltas, method, scorer, rng, span):
 def _check_run(problem: SearchProblem, noisy, method, candidates, spacing, span, scorer, rng) -> np.ndarray:
     if method not in METHODS:
         raise ConfigError("search.method", f"must be one of {METHODS}, got {method!r}")
-    _int("search.candidates", candidates, 1)
+    checked_int("search.candidates", candidates, 1)
     if method == "source" and not (math.isfinite(spacing) and spacing >= 0):
         raise ConfigError("search.spacing", f"must be finite and >= 0 m/sample, got {spacing!r}")
     if method != "source" and not (math.isfinite(span) and span > 0):
@@ -345,6 +259,9 @@ def _check_run(problem: SearchProblem, noisy, method, candidates, spacing, span,
         quality_measure(scorer, "search.scorer")
     if scorer == "random" and not isinstance(rng, np.random.Generator):
         raise ConfigError("rng", "a numpy.random.Generator is required for the random scorer")
+    if method == "viterbi" and scorer == "random":
+        raise ConfigError("search.scorer", "the random control has no path metric: use a quality measure or "
+                          "'oracle' with method 'viterbi'")
     p = np.asarray(noisy, dtype=np.float64)
     if p.shape != problem.truth.shape or not np.all(np.isfinite(p)):
         raise InputDataError("noisy", f"must be a finite array of shape {problem.truth.shape}")
@@ -353,7 +270,8 @@ def _check_run(problem: SearchProblem, noisy, method, candidates, spacing, span,
 
 def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: str = "source", candidates: int = 11,
                spacing: float = 0.0, span: float = 0.0, scorer: str | None = None,
-               rng: np.random.Generator | None = None, keep_image: bool = False, carry: bool = False) -> SearchResult:
+               rng: np.random.Generator | None = None, keep_image: bool = False, carry: bool = False,
+               states: int | None = None) -> SearchResult:
     """One run of Alg. 3.3 (module docstring) on the noisy track ``noisy`` (P, 3).
 
     Parameters
@@ -362,7 +280,9 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
     spacing : Delta of the "source" grid [m/sample]; span : half-width of the "grid"/"brent" candidates [m/sample];
     scorer : quality measure name or "oracle"/"random" (default ``problem.measure``); rng : for "random".
     carry : keep the chosen offsets for the next blocks (gap 10's other reading; the thesis restarts every block
-        from the noisy velocity, L443).
+        from the noisy velocity, L443). Not with "viterbi".
+    states : "viterbi" only: the most position states kept at a knot (odd; corrections within +-(states // 2) grid
+        steps x S_i samples); default every state the candidates can reach.
 
     Returns
     -------
@@ -371,6 +291,9 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
     """
     scorer = problem.measure if scorer is None else scorer
     noisy = _check_run(problem, noisy, method, candidates, spacing, span, scorer, rng)
+    if carry and method == "viterbi":
+        raise ConfigError("search.method", "'viterbi' keeps position states, not offsets: carry applies to 'source', "
+                          "'grid' and 'brent' only")
     s0, e = problem.initial_pulses, problem.direction
     knots = block_knots(problem.rc.n_pulses, s0, block_pulses)
     truth_lin, noisy_lin = linearise(problem.truth, knots), linearise(noisy, knots)
@@ -380,8 +303,11 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
     acc = None
     if candidates > 1 or method != "source":
         acc = problem.image0().copy() if scorer not in CONTROL_SCORERS else None
-        _search_blocks(problem, knots, noisy_lin, truth_lin, deltas, method, scorer, rng, span, carry, acc,
-                       corrected, diag)
+        if method == "viterbi":
+            acc = _viterbi_blocks(problem, knots, noisy_lin, truth_lin, deltas, scorer, acc, corrected, diag, states)
+        else:
+            _search_blocks(problem, knots, noisy_lin, truth_lin, deltas, method, scorer, rng, span, carry, acc,
+                           corrected, diag)
     rho = variance_ratio(corrected, noisy_lin, truth_lin, e, s0)
     slope = float(np.max(np.abs(deltas))) * (max(len(diag.offsets), 1) if carry else 1) if diag.offsets else 0.0
     reach = reach_bound(noisy_lin, truth_lin, e, s0, slope)
@@ -414,21 +340,50 @@ def _search_blocks(problem, knots, noisy_lin, truth_lin, deltas, method, scorer,
         diag.oracle_index.append(oi)
 
 
-def reach_bound(noisy, truth, direction, initial_pulses: int, max_slope: float) -> float:
-    """B such that every correction the search can make gives (1 - B)^2 <= rho <= (1 + B)^2 (docs/quality.md §5).
-
-    The correction c[t] = e.(p_corr - p~_lin)[t] starts at 0 at S_0 - 1 and changes by at most ``max_slope`` per
-    sample (the largest |offset| the search can choose), so var(c) <= max_slope^2 var(t) (|c[t] - c[t']| <=
-    max_slope |t - t'|, the ramp is the extreme); with a = e.(p~_lin - p_lin), the triangle inequality of the standard
-    deviation gives |std(a + c) - std(a)| <= std(c), i.e. |sqrt(rho) - 1| <= B = max_slope std(t) / std(a).
-    """
-    e = np.asarray(direction, dtype=np.float64)
-    a = (np.asarray(noisy)[initial_pulses:] - np.asarray(truth)[initial_pulses:]) @ e
-    t = np.arange(a.size, dtype=np.float64)
-    den = np.std(a, ddof=1)
-    if den == 0:
-        raise InputDataError("noisy", "has no along-track error after the initial pulses; rho undefined")
-    return float(abs(max_slope) * np.std(t, ddof=1) / den)
+def _viterbi_blocks(problem, knots, noisy_lin, truth_lin, deltas, scorer, acc, corrected, diag, states):
+    """The Viterbi search the thesis proposes (L730): a state is the along-track position correction at a knot, on
+    the lattice of the candidates' step x the samples per block; from each state every candidate offset leads to
+    the state at the next knot; each state keeps its best incoming path (survivor) and that path's accumulated
+    image. Path metric: the quality measure of the survivor's image after the block (a measure is not a sum over
+    blocks, so the survivor is the best path into the state by the score after this block: the usual adaptation),
+    or for the "oracle" scorer the sum of squared along-track errors (additive: the globally best path of the
+    lattice). The best final state's path is traced back into ``corrected``; returns its image (None: oracle)."""
+    s0, e = problem.initial_pulses, problem.direction
+    step = float(deltas[1] - deltas[0]) if len(deltas) > 1 else 1.0
+    jumps = np.rint(deltas / step).astype(np.int64)
+    limit = None if states is None else (checked_int("search.states", states, 1) // 2) * float(np.max(np.diff(knots)))
+    oracle = scorer == "oracle"
+    m = None if oracle else QUALITY_MEASURES[scorer]
+    surv = {0: (0.0, acc, ())}          # integer correction K (x step) -> (path metric, higher better; image; path)
+    for a, b in zip(knots[:-1], knots[1:]):
+        if a < s0 - 1:
+            continue
+        tau = np.arange(1.0, b - a + 1.0)
+        new: dict = {}
+        for k, (value, img, path) in sorted(surv.items()):
+            base = noisy_lin[a + 1:b + 1] + (k * step) * e[None, :]
+            block = _Block(a + 1, b + 1, tau, base, truth_lin[a + 1:b + 1])
+            if oracle:
+                scores, imgs = value - _oracle_errors(block, e, deltas), [None] * len(deltas)
+            else:
+                mom = _moments(problem, block, float(np.max(np.abs(deltas))))
+                imgs = [img + im for im in mom.images(deltas, problem.tolerance)]
+                scores = np.array([m.better(im, problem.n_bins) for im in imgs])
+            for jump, sc, im, d in zip(jumps, scores, imgs, deltas):
+                k2 = int(k + jump * (b - a))
+                if (limit is None or abs(k2) <= limit) and (k2 not in new or sc > new[k2][0]):
+                    new[k2] = (float(sc), im, path + ((a, b, k, float(d)),))
+        surv = new
+    best = max(surv.values(), key=lambda v: v[0])
+    for a, b, k, d in best[2]:
+        tau = np.arange(1.0, b - a + 1.0)
+        base = noisy_lin[a + 1:b + 1] + (k * step) * e[None, :]
+        corrected[a + 1:b + 1] = base + (d * tau)[:, None] * e[None, :]
+        block = _Block(a + 1, b + 1, tau, base, truth_lin[a + 1:b + 1])
+        diag.offsets.append(d)
+        diag.chosen_index.append(int(np.argmin(np.abs(deltas - d))))
+        diag.oracle_index.append(int(np.argmin(_oracle_errors(block, e, deltas))))
+    return best[1]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -490,7 +445,7 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
     """
     sig = table41_sigmas() if sigmas is None else np.asarray(sigmas, dtype=np.float64)
     scorers = (problem.measure, "oracle", "random") if scorers is None else tuple(scorers)
-    _int("search.candidates", candidates, 1)
+    checked_int("search.candidates", candidates, 1)
     block_knots(problem.rc.n_pulses, problem.initial_pulses, block_pulses)
     for r in realisations:
         for i, s in enumerate(sig):
@@ -562,7 +517,7 @@ def search_problem(geometry, scene, size: int = 200, initial_pulses: int = 1000,
                    snr_db: float | None = None, rng: np.random.Generator | None = None) -> SearchProblem:
     """The search problem of a :class:`~sarnav.radar.quality_scenes.QualityGeometry` and scene: echoes along the
     true track, range compression, a ``size`` x ``size`` ground grid over the scene square (200 x 200, L642)."""
-    size = _int("search.size", size, 2)
+    size = checked_int("search.size", size, 2)
     rc = range_compress(simulate_pulses(geometry, scene, snr_db, rng))
     c = geometry.scene_center
     grid = GroundGrid.centered(float(c[0]), float(c[1]), geometry.grid_spacing(size), (size, size))

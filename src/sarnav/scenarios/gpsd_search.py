@@ -63,6 +63,16 @@ def _parse_search(cfg: dict, geo) -> dict:
     return s
 
 
+def _runs_per_sigma(s: dict, n_pulses: int, block_pulses: int, candidates: int) -> int:
+    """Search runs per sigma of one (S_i, L), in greedy-run equivalents: a Viterbi run scores the candidates from
+    every live state, about (L // 2) (n_blocks - 1) + 1 times a greedy run's work (the states grow by L // 2 a
+    block on each side)."""
+    n_blocks = -(-(n_pulses - s["initial_pulses"]) // block_pulses)
+    return (s["spacings"] * sum(m.startswith("source") for m in s["methods"])
+            + sum(m in ("grid", "brent") for m in s["methods"])
+            + ("viterbi" in s["methods"]) * ((candidates // 2) * (n_blocks - 1) + 1))
+
+
 def parse(cfg: dict) -> GpsdSearchParams:
     """Checked content of a gpsd-search scenario; ConfigError names the first bad key and its range."""
     runs, seed = validate_campaign(cfg)
@@ -70,9 +80,8 @@ def parse(cfg: dict) -> GpsdSearchParams:
     scene = read_scene(cfg, geo)
     size = integer(cfg, "image", "size", 2, 400)
     s = _parse_search(cfg, geo)
-    per = s["sigmas"] * (s["spacings"] * sum(m.startswith("source") for m in s["methods"])
-                         + sum(m in ("grid", "brent") for m in s["methods"]))
-    image_runs = runs * len(s["candidates"]) * len(s["block_pulses"]) * per
+    image_runs = runs * s["sigmas"] * sum(_runs_per_sigma(s, geo.n_pulses, si, L)
+                                          for si in s["block_pulses"] for L in s["candidates"])
     if image_runs > MAX_IMAGE_RUNS:
         raise ConfigError("campaign.runs", f"{image_runs} search runs that form images; at most {MAX_IMAGE_RUNS} "
                           "(fewer realisations, spacings, sigmas or configurations)")

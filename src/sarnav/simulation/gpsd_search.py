@@ -5,7 +5,8 @@ docs/quality.md §4-§6): one search problem (echoes of the scene along the true
 ``runs`` is the number of noise realisations (one noise vector per realisation and sigma, shared by the spacings:
 gap 13), ``seed`` their seed. ``methods`` are searches, each scored by ``measure``: ``"source"`` the thesis'
 algorithm, ``"source-carry"`` the same grid keeping the chosen offsets (gap 10's other reading), ``"grid"`` and
-``"brent"`` the searches spanning the bias; ``controls``: ``"one"`` (L = 1, rho = 1 exactly), ``"oracle"`` and
+``"brent"`` the searches spanning the bias, ``"viterbi"`` the trellis over position states on the spanning grid
+(the thesis' future work, L730); ``controls``: ``"one"`` (L = 1, rho = 1 exactly), ``"oracle"`` and
 ``"random"`` scorers on the thesis' grid.
 """
 
@@ -24,7 +25,7 @@ from sarnav.simulation.quality_scene import QualitySceneSpec, make_scene
 __all__ = ["SEARCH_METHODS", "SEARCH_CONTROLS", "SOURCE_RHO", "GpsdSearchParams", "SearchResult", "run",
            "search_rows", "summary"]
 
-SEARCH_METHODS = ("source", "source-carry", "grid", "brent")
+SEARCH_METHODS = ("source", "source-carry", "grid", "brent", "viterbi")
 SEARCH_CONTROLS = ("one", "oracle", "random")
 #: the thesis' numbers (L712, L722-724)
 SOURCE_RHO = {"min": 0.2735, "max": 2.7707, "per_sigma_mean_min": 0.8110, "per_sigma_mean_max": 1.3918}
@@ -80,7 +81,7 @@ def search_rows(prm: GpsdSearchParams, problem):
     """Every row of the sweep, in order: per (S_i, L), the rows of ``focus_search.table41_rows``."""
     scorers = ([prm.measure] if "source" in prm.methods else []) + [c for c in ("oracle", "random")
                                                                    if c in prm.controls]
-    improved = tuple(m for m in prm.methods if m in ("grid", "brent"))
+    improved = tuple(m for m in prm.methods if m in ("grid", "brent", "viterbi"))
     sigmas = fs.table41_sigmas(prm.sigmas)
     for si, L in prm.configurations:
         yield from fs.table41_rows(problem, si, L, realisations=range(prm.runs), seed=prm.seed,
