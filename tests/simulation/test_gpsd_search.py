@@ -127,3 +127,18 @@ def test_vocabularies():
     """The methods and controls the module documents."""
     assert gs.SEARCH_METHODS == ("source", "source-carry", "grid", "brent", "viterbi")
     assert gs.SEARCH_CONTROLS == ("one", "oracle", "random")
+
+
+def test_image_runs_count_a_viterbi_run_by_its_trellis(tiny):
+    """The work bound of the scenario: each thesis-grid scorer that forms images counts once per spacing, a spanning
+    search once, a Viterbi run (L // 2)(n_blocks - 1) + 1 times (here 800 pulses, S_0 = S_i = 200: 3 blocks, L = 3:
+    3 greedy runs' work); the bound refuses what it counts."""
+    prm, _, _ = tiny
+    assert prm.image_runs() == prm.runs * prm.sigmas * (prm.spacings * 1 + 1)      # source + grid
+    vit = dataclasses.replace(prm, methods=("viterbi",))
+    assert vit.image_runs() == prm.runs * prm.sigmas * (1 * (3 - 1) + 1)
+    cfg = scenario.default_config()
+    cfg["search"].update(method=["viterbi"], candidates=[199], sigmas=10)
+    cfg["campaign"]["runs"] = 40
+    with pytest.raises(scenario.ConfigError, match="campaign.runs"):
+        scenario.parse(cfg)

@@ -63,16 +63,6 @@ def _parse_search(cfg: dict, geo) -> dict:
     return s
 
 
-def _runs_per_sigma(s: dict, n_pulses: int, block_pulses: int, candidates: int) -> int:
-    """Search runs per sigma of one (S_i, L), in greedy-run equivalents: a Viterbi run scores the candidates from
-    every live state, about (L // 2) (n_blocks - 1) + 1 times a greedy run's work (the states grow by L // 2 a
-    block on each side)."""
-    n_blocks = -(-(n_pulses - s["initial_pulses"]) // block_pulses)
-    return (s["spacings"] * sum(m.startswith("source") for m in s["methods"])
-            + sum(m in ("grid", "brent") for m in s["methods"])
-            + ("viterbi" in s["methods"]) * ((candidates // 2) * (n_blocks - 1) + 1))
-
-
 def parse(cfg: dict) -> GpsdSearchParams:
     """Checked content of a gpsd-search scenario; ConfigError names the first bad key and its range."""
     runs, seed = validate_campaign(cfg)
@@ -80,16 +70,16 @@ def parse(cfg: dict) -> GpsdSearchParams:
     scene = read_scene(cfg, geo)
     size = integer(cfg, "image", "size", 2, 400)
     s = _parse_search(cfg, geo)
-    image_runs = runs * s["sigmas"] * sum(_runs_per_sigma(s, geo.n_pulses, si, L)
-                                          for si in s["block_pulses"] for L in s["candidates"])
+    prm = GpsdSearchParams(runs=runs, seed=seed, geometry=geo, scene=scene, size=size,
+                           **{k: tuple(v) if isinstance(v, list) else v for k, v in s.items()})
+    image_runs = prm.image_runs()
     if image_runs > MAX_IMAGE_RUNS:
         raise ConfigError("campaign.runs", f"{image_runs} search runs that form images; at most {MAX_IMAGE_RUNS} "
                           "(fewer realisations, spacings, sigmas or configurations)")
     work = image_runs * geo.n_pulses * size ** 2 * 4
     if work > 1e14:
         raise ConfigError("image.size", f"{work:.3g} pixel-pulse moment evaluations; at most 1e14")
-    return GpsdSearchParams(runs=runs, seed=seed, geometry=geo, scene=scene, size=size,
-                            **{k: tuple(v) if isinstance(v, list) else v for k, v in s.items()})
+    return prm
 
 
 def _progress(rows: int, seconds: float) -> None:

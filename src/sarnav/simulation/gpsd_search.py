@@ -60,6 +60,18 @@ class GpsdSearchParams:
         """The (S_i, L) of the sweep in the order it runs them: per block length, each candidate count."""
         return tuple((si, L) for si in self.block_pulses for L in self.candidates)
 
+    def image_runs(self) -> int:
+        """Search runs that form images (the controls form none), in greedy-run equivalents: a Viterbi run scores
+        the candidates from every live state, about (L // 2) (n_blocks - 1) + 1 times a greedy run's work (the states
+        grow by L // 2 a block on each side)."""
+        per = 0
+        for si, L in self.configurations:
+            n_blocks = -(-(self.geometry.n_pulses - self.initial_pulses) // si)
+            per += (self.spacings * sum(m.startswith("source") for m in self.methods)
+                    + sum(m in ("grid", "brent") for m in self.methods)
+                    + ("viterbi" in self.methods) * ((L // 2) * (n_blocks - 1) + 1))
+        return self.runs * self.sigmas * per
+
     def noise_drifts(self) -> tuple[float, dict]:
         """(sigma, {realisation: (P,) along-track drift [m]}) of Fig. 4.25: the fourth sigma of Table 4.1 (3.266e-5,
         L694; the last one swept if fewer), the first three realisations (``focus_search.noise_drift``)."""
