@@ -1,6 +1,6 @@
 """The benchmark scripts still run against the library (they are not part of the timed suite: one tiny call each of
 the ones that build their own inputs from library types; bench_rda broke silently when PulseData lost its radar
-fallback in issue 25). bench_bpa and bench_ffbp also run on the peer's simulated collect (FastSAR, optional): once
+fallback in issue 25; bench_particles, whose tiny run is mostly compilation, is left out). bench_bpa and bench_ffbp also run on the peer's simulated collect (FastSAR, optional): once
 as installed, once with fastsar made unimportable (the peer's collect and columns skipped with a note)."""
 
 import subprocess
@@ -19,6 +19,9 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
     ("bench_campaign.py", ["--runs", "10", "--seconds", "1", "--loop-runs", "2"]),
     ("bench_bpa.py", ["--size", "32", "--pulses", "32", "--rounds", "1", "--no-table", "--peer-sizes", "64"]),
     ("bench_ffbp.py", ["--sizes", "128", "--exact-pulses", "16", "--check", "32", "--peer-sizes", "64"]),
+    ("bench_navigate.py", ["--duration", "3", "--runs", "2"]),
+    ("bench_quality_search.py", ["--block", "200", "--size", "16", "--repeat", "1", "--runs", "1"]),
+    ("bench_spacecraft.py", ["--runs", "2", "--loop-runs", "2", "--images", "1"]),
 ])
 def test_benchmark_runs(script, args):
     done = subprocess.run([sys.executable, str(BENCH / script), *args], capture_output=True, text=True, timeout=600)
