@@ -1,7 +1,7 @@
 """rda-nav outside its calibration (issue 10): R from each image, no noise setting changed by hand.
 
 Default suite: the robustness study's sweep figure and files on a tiny version. Slow (``python -m pytest -q -m slow
-tests/scenarios/test_rda_nav_robustness.py``, about an hour on 2 cores): the Done-when matrix, 40 runs per variant
+tests/scenarios/test_rda_nav_robustness.py``, about 30 minutes on 2 cores): the Done-when matrix, 40 runs per variant
 through the campaign engine, each checked against the chi-square bands of its own summary.json.
 """
 
@@ -23,6 +23,7 @@ VARIANTS = {
     "default": ("rda-nav", []),
     "snr-10": ("rda-nav", ["radar.snr_db=-20.0"]),
     "snr-15": ("rda-nav", ["radar.snr_db=-25.0"]),
+    "snr-20": ("rda-nav", ["radar.snr_db=-30.0"]),
     "snr-25": ("rda-nav", ["radar.snr_db=-35.0"]),
     "clutter-x5": ("rda-nav", ["scene.clutter_per_image=20"]),
     "clutter-x25": ("rda-nav", ["scene.clutter_per_image=100"]),
@@ -39,6 +40,8 @@ VARIANTS = {
 NOT_MET = {
     "terrain-other-pass": "speckle decorrelated between the passes: along-track std/predicted ~1.4",
     "turning-bpa": "range std/predicted 1.14 leaves NIS/dof 1.048 just above its band (NEES, sigma ratios, 3-sigma met)",
+    "snr-20": "the along-track registration sigma is predicted too small near the noise floor: std/predicted 1.02 / "
+              "1.28, NIS/dof 1.185 over its band (NEES 19.82 inside, 3-sigma met)",
     "snr-25": "first-order magnitude noise breaks down at low SNR: std/predicted 0.55/0.60, NEES 20.2, NIS/dof 0.91",
 }
 
@@ -89,10 +92,11 @@ def test_variant_is_consistent_with_r_from_each_image(name, tmp_path):
         "nees": s["nees"]["band"][0] <= s["nees"]["time_average"] <= s["nees"]["band"][1],
         "nis": s["nis"]["per_dof_band"][0] <= s["nis"]["per_dof"] <= s["nis"]["per_dof_band"][1],
         "inside_3sigma": s["pooled_fraction_inside_3sigma"] >= 0.99,
-        "sigma": all(0.8 <= r <= 1.2 for r in ratios.values()),
+        "sigma": all(0.85 <= r <= 1.15 for r in ratios.values()),      # issue 29's Done-when (issue 10: 0.8-1.2)
     }
     measured = (f"NEES {s['nees']['time_average']:.2f} {s['nees']['band']}, NIS/dof {s['nis']['per_dof']:.3f} "
                 f"{s['nis']['per_dof_band']}, inside 3 sigma {s['pooled_fraction_inside_3sigma']:.4f}, std/predicted {ratios}")
+    print(f"{name}: {measured}; {checks}")
     if name in NOT_MET:
         assert not all(checks.values()), f"{name}: now met ({measured}): remove it from NOT_MET"
         pytest.xfail(f"{NOT_MET[name]} (measured: {measured})")
