@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from sarnav.errors import ConfigError
 from sarnav.measurements import focus_search as fs
 from sarnav.scenarios import gpsd_search as scenario
 from sarnav.simulation import gpsd_search as gs
@@ -140,5 +141,5 @@ def test_image_runs_count_a_viterbi_run_by_its_trellis(tiny):
     cfg = scenario.default_config()
     cfg["search"].update(method=["viterbi"], candidates=[199], sigmas=10)
     cfg["campaign"]["runs"] = 40
-    with pytest.raises(scenario.ConfigError, match="campaign.runs"):
+    with pytest.raises(ConfigError, match="campaign.runs"):
         scenario.parse(cfg)
