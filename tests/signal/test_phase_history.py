@@ -100,3 +100,41 @@ def test_ramp_multiply_is_x_times_the_exp_of_its_linear_phase():
         y = x.copy()
         assert _ramp_multiply(y, a, b, out=y) is y
         np.testing.assert_allclose(y, want, rtol=0, atol=2e-11 * np.abs(x).max())
+
+
+@pytest.mark.parametrize("n, lattice, m", [(60, 64, 50), (60, 64, 150), (64, 64, 64), (45, 48, 20)])
+def test_chirp_z_on_a_dft_lattice_is_the_exact_sum(n, lattice, m, monkeypatch):
+    """On alpha = 1/L (L >= N, FFT-friendly) ``_chirp_z`` takes one inverse FFT of L samples, periodic in k beyond L:
+    equal to the direct float64 sum sum_n x_n exp(j 2 pi n k / L) to 1e-12, and to scipy's chirp-z, which it must not
+    call; off the lattice (alpha (1 + 1e-6)) it is the chirp-z, again the exact sum."""
+    import scipy.signal as ssig
+
+    from sarnav.signal import phase_history as P
+
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal((3, n)) + 1j * rng.standard_normal((3, n))
+    k = np.arange(m)
+
+    def exact(alpha):
+        return x @ np.exp(2j * np.pi * alpha * np.outer(np.arange(n), k))
+
+    want = exact(1.0 / lattice)
+    czt_calls, czt = [], ssig.czt
+    monkeypatch.setattr(P.ssig, "czt", lambda *a, **kw: czt_calls.append(1) or czt(*a, **kw))
+    got = P._chirp_z(x, m, 1.0 / lattice)
+    assert not czt_calls and got.shape == (3, m)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+    off = 1.0 / lattice * (1.0 + 1e-6)
+    np.testing.assert_allclose(P._chirp_z(x, m, off), exact(off), rtol=0, atol=1e-11 * np.abs(want).max())
+    assert czt_calls  # the phase it would miss, 2 pi 1e-6 (N - 1)(m - 1) / L, is over the tolerance
+
+
+def test_chirp_z_refuses_the_lattice_shortcut_below_n_or_on_a_slow_length():
+    """L < N (the sum would alias) and an L that is not FFT-friendly (a large prime) go through the chirp-z."""
+    from sarnav.signal import phase_history as P
+
+    rng = np.random.default_rng(12)
+    for n, lattice in ((80, 64), (100, 1009)):
+        x = rng.standard_normal((2, n)) + 1j * rng.standard_normal((2, n))
+        want = x @ np.exp(2j * np.pi / lattice * np.outer(np.arange(n), np.arange(40)))
+        np.testing.assert_allclose(P._chirp_z(x, 40, 1.0 / lattice), want, rtol=0, atol=1e-11 * np.abs(want).max())
