@@ -130,11 +130,12 @@ def test_chirp_z_on_a_dft_lattice_is_the_exact_sum(n, lattice, m, monkeypatch):
 
 
 def test_chirp_z_refuses_the_lattice_shortcut_below_n_or_on_a_slow_length():
-    """L < N (the sum would alias) and an L that is not FFT-friendly (a large prime) go through the chirp-z."""
+    """L < N (the sum would alias), an L that is not FFT-friendly (a large prime) and an L longer than the chirp-z's
+    own FFT (a fine axis over a short window: its memory would grow with L) go through the chirp-z."""
     from sarnav.signal import phase_history as P
 
     rng = np.random.default_rng(12)
-    for n, lattice in ((80, 64), (100, 1009)):
+    for n, lattice in ((80, 64), (100, 1009), (50, 2**20)):  # the last: a period far longer than N + m - 1
         x = rng.standard_normal((2, n)) + 1j * rng.standard_normal((2, n))
         want = x @ np.exp(2j * np.pi / lattice * np.outer(np.arange(n), np.arange(40)))
         np.testing.assert_allclose(P._chirp_z(x, 40, 1.0 / lattice), want, rtol=0, atol=1e-11 * np.abs(want).max())

@@ -227,11 +227,14 @@ def _chirp_z(x: np.ndarray, m: int, alpha: float) -> np.ndarray:
     On a DFT lattice, alpha = 1 / L with L an FFT-friendly integer >= N (the case of a file written on the range
     axis it is read on: ``pulses_to_phase_history``), the sum is L times an inverse FFT of length L, periodic in k
     with period L: one FFT of L samples instead of the chirp-z's three of >= N + m - 1 and its chirp products (3-4x
-    faster). Taken when the phase its kernel would miss, 2 pi |alpha - 1/L| (N - 1)(m - 1), is at most
-    :data:`LATTICE_PHASE_TOLERANCE`; otherwise ``scipy.signal.czt``. Both are exact to rounding."""
+    faster). Taken when L is no longer than the chirp-z's own FFT (N + m - 1: a fine axis over a short window has a
+    long period L, whose FFT would cost more time and memory than the chirp-z) and the phase its kernel would miss,
+    2 pi |alpha - 1/L| (N - 1)(m - 1), is at most :data:`LATTICE_PHASE_TOLERANCE`; otherwise ``scipy.signal.czt``.
+    Both are exact to rounding."""
     n = x.shape[-1]
-    lat = int(round(1.0 / alpha)) if alpha > 0 else 0
-    if (lat >= max(n, 1) and sfft.next_fast_len(lat) == lat
+    cap = sfft.next_fast_len(n + m - 1)
+    lat = int(round(1.0 / alpha)) if alpha * (cap + 1) >= 1.0 else 0  # never rounds an overflowing 1 / alpha
+    if (max(n, 1) <= lat <= cap and sfft.next_fast_len(lat) == lat
             and 2.0 * math.pi * abs(alpha - 1.0 / lat) * (n - 1) * (m - 1) <= LATTICE_PHASE_TOLERANCE):
         y = sfft.ifft(x, n=lat, axis=-1)
         y *= lat
