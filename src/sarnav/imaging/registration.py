@@ -336,7 +336,14 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     chip was cut from and the image rows it occupies. Where the signal dominates, a complex perturbation n enters the
     magnitude as ``Re(n exp(-j phi))`` (phi the image phase), so with ``g_k = a d|template|/dk`` the gradient of the
     fitted template and ``h = g_k exp(j phi)``: ``var(g_k^T m) = E|sum conj(h) n|^2 / 2`` for each image (the
-    reference's noise shifted with it and scaled by the fitted gain a), and ``var(s_k) = (sum) / (g_k^T g_k)^2``.
+    reference's noise shifted with it and scaled by the fitted gain a), and ``var(s_k) = (sum) / E_k^2``.
+
+    Near the noise floor (issue 29): ``h`` carries per pixel the square root of :func:`rician_weight` (the magnitude of
+    a pixel near the floor is Rice-distributed, its variance below the first-order N/2), and ``E_k`` is the gradient
+    energy the two images *share*, ``min(g_k^T g_k, sum g_k d|image|/dk)``, not the noisy template's ``g_k^T g_k``:
+    the curvature of the least-squares cost in s is ``a^2 sum (d|ref|/dk)^2 - a sum r d^2|ref|/dk^2``, and the
+    template's own noise in the residual r cancels its gradient energy in the first sum; the cross product with the
+    other image (independent noise) estimates what remains without that bias.
     The receiver noise comes from the radar's noise floor and the image-formation chain (known; the fit's residual
     would under-state it: a chip a few azimuth correlation lengths long lets the fitted gain and offset absorb much
     of it).
@@ -346,9 +353,9 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     the pixels where the template stands 10 dB above the noise (where ``Re(n exp(-j phi))`` is the magnitude noise and
     its variance is ``(N_image + a^2 N_reference) / 2``) is compared with that expectation: a ratio kappa significantly
     above 1 (beyond three standard errors of a noise-only ratio, ``sqrt(2 / n)`` over n pixels) scales the
-    prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum; and the gradient energy
-    becomes the part the two images share, ``sum g_ref g_image`` (decorrelated texture gives the template gradients
-    the other image does not have: they carry no information on the shift) (docs/scenarios/rda-nav.md §3)."""
+    prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum (the shared gradient energy
+    leaves out the decorrelated texture's gradients, which the other image does not have) (docs/scenarios/rda-nav.md
+    §6)."""
     from scipy import ndimage
 
     ref = np.asarray(reference, dtype=np.complex128)
@@ -367,16 +374,31 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     else:
         scale = 1.0
     out = []
+    w_img = np.sqrt(rician_weight(img, noise_image[0].power))
+    w_ref = np.sqrt(rician_weight(shifted, noise_reference[0].power))
     for axis in (0, 1):
         g = a * _spline_gradient(np.abs(ref), shift, axis)
-        num = 0.5 * noise_image[0].quadratic(g * np.exp(1j * np.angle(img)), noise_image[1])
-        num += 0.5 * a * a * noise_reference[0].quadratic(g * np.exp(1j * np.angle(shifted)), noise_reference[1])
-        energy = float(np.sum(g * g))
-        if scale > 1.0:  # mismatched pair: only the gradient both images share informs the shift
-            energy = min(energy, max(float(np.sum(g * _spline_gradient(np.abs(img), (0.0, 0.0), axis))), 0.0))
+        num = 0.5 * noise_image[0].quadratic(w_img * g * np.exp(1j * np.angle(img)), noise_image[1])
+        num += 0.5 * a * a * noise_reference[0].quadratic(w_ref * g * np.exp(1j * np.angle(shifted)), noise_reference[1])
+        # the curvature of the least-squares cost in s: the gradient energy both images share (see the docstring)
+        energy = min(float(np.sum(g * g)), max(float(np.sum(g * _spline_gradient(np.abs(img), (0.0, 0.0), axis))), 0.0))
         out.append(np.sqrt(max(num * scale, 0.0)) / energy if energy > 0 else np.inf)
     return float(out[0]), float(out[1])
 
+
+
+def rician_weight(x, noise_power: float) -> np.ndarray:
+    """Variance of the magnitude of each pixel of ``x`` relative to the first-order ``noise_power / 2``: a pixel of
+    amplitude A in complex Gaussian noise of power N has a Rice-distributed magnitude of variance
+    ``A^2 + N - (pi N / 4) L_{1/2}(-K)^2`` (K = A^2 / N, L_{1/2} the Laguerre function; Rice 1944), which is N/2 for
+    K >> 1 and (1 - pi/4) N (Rayleigh) for K = 0. K is estimated from the pixel's own power, ``max(|x|^2 / N - 1, 0)``.
+    Returns ``2 (K + 1 - pi/4 L^2)`` in [0.43, 1]: near the noise floor the first-order model over-states the magnitude
+    noise by up to 2.3x in variance."""
+    from scipy import special
+
+    K = np.maximum(np.abs(np.asarray(x)) ** 2 / float(noise_power) - 1.0, 0.0)
+    L = (1.0 + K) * special.ive(0, K / 2) + K * special.ive(1, K / 2)  # L_{1/2}(-K) with the exp(-K/2) folded in
+    return np.clip(2.0 * (K + 1.0 - 0.25 * np.pi * L * L), 2.0 - 0.5 * np.pi, 1.0)
 
 
 #: the residual power must exceed the receiver noise's by this factor (a mismatch at least as strong as the noise:
