@@ -11,6 +11,8 @@ arrays):
 * ``rda_nav_image``, ``rda_nav_image_fixed_scene_added_noise``, ``rda_nav_flexsar_image`` (issue 10): R from each
   image's predicted registration sigma, least-squares sub-pixel registration, the image focused with the estimated
   speed and its focusing shift modelled, innovation gate, receive window following the geometry.
+  Again for issue 29 (f6cb414): the predicted registration sigma uses the gradient energy both images share and
+  Rice-distributed magnitudes near the noise floor (R changes, the shifts do not; errors move by < 1e-3 relative).
 * ``telemetry``, ``telemetry_maneuver_consumer`` (issue 10, 8da02ea): the Gaussian-sum update with second-order terms
   is the telemetry default (at most 4e-4 m from the EKF where nothing is split).
 
