@@ -134,8 +134,30 @@ def test_smeared_chip_is_censored_not_nan(cart):
     assert FOCUS_METRICS == ("irw_along_m", "pslr_along_db", "peak_offset_m", "entropy", "kurtosis")
 
 
+#: the cart's vibration of the "field" model (docs/particles.md "Cart vibration"): a 1 cm sway at 1.5 Hz across the
+#: track and a 1-2 mm shake at 8 Hz
+FIELD_VIBRATION = ((1.5, (0.0, 0.01, 0.0)), (8.0, (0.0, 0.001, 0.002)))
+
+
+def _tones(vibration, t):
+    """The vibration's displacement d(t) (P, 3) NED [m] (trajectory.vibration, zero phases)."""
+    return sum(np.sin(2 * np.pi * f * t)[:, None] * np.asarray(a) for f, a in vibration)
+
+
+def test_the_vibration_is_in_the_true_track_the_echoes_follow():
+    """FocusGeometry.vibration moves the true antenna track by d(t) - d(0) (both tracks start at the origin)."""
+    from sarnav.simulation.nav_sources import navigation_sources
+
+    geo = FocusGeometry(run_in=2.0, n_pulses=600, vibration=FIELD_VIBRATION)
+    t = geo.pulse_times()
+    truth = navigation_sources(t, sources=("truth",), track=geo.track(5.0)).positions["truth"][0]
+    smooth = np.stack([geo.speed * (t - t[0]), np.zeros_like(t), np.zeros_like(t)], -1)
+    d = _tones(FIELD_VIBRATION, t)
+    np.testing.assert_allclose(truth - smooth, d - d[0], atol=2e-5)  # the geodetic flight's interpolant, < 1e-3 of A
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("model", ["white", "correlated"])
+@pytest.mark.parametrize("model", ["white", "correlated", "field"])
 def test_navigation_source_focus_ranking_T30_T32(model):
     """Three reflectors, 2000 pulses, 6 runs. White fix noise (0.3 m per fix, the default): every filter's antenna
     track carries centimetre jumps at the 20 Hz fixes (LOS RMS after mean and trend about 6 lambda/16): all are smeared,
@@ -145,8 +167,10 @@ def test_navigation_source_focus_ranking_T30_T32(model):
     (the iKF image's peak offset, T30), the spline of the fixes unfocused. T32 (the 3-ADIS SIR image at least as
     focused as the NovAtel's): with white fixes the two are alike, in either order depending on the seed (kurtosis
     2.80 vs 2.56 in the 10-run campaign, 2.64 vs 3.01 here); with Gauss-Markov fixes the SIR image is worse (its
-    drawn sensor changes at every fix)."""
-    geo = FocusGeometry(run_in=20.0)
+    drawn sensor changes at every fix). "field": the Gauss-Markov fixes on a vibrating cart (issue 29, Build 3): a
+    vibration that would smear the image if no source sensed it (LOS RMS about 6 lambda/16) changes no ranking,
+    because every IMU-driven source integrates it."""
+    geo = FocusGeometry(run_in=20.0, vibration=FIELD_VIBRATION if model == "field" else ())
     kw = {} if model == "white" else dict(fix_sigma=(0.01, 0.01, 0.01), fix_correlated=(0.3, 0.3, 0.5))
     r = run_focus(np.random.SeedSequence(12).spawn(6), geo, **kw)
     m = {s: r.focus[:, j].mean(axis=(0, 1)) for j, s in enumerate(r.sources)}
@@ -163,9 +187,14 @@ def test_navigation_source_focus_ranking_T30_T32(model):
         assert abs(m["sir-3adis"][kurt] / m["novatel"][kurt] - 1) < 0.3, info  # T32: alike (either order)
     else:
         assert all(los[s] < lam16 for s in filters) and los["spline-gps"] > 3 * lam16, info
-        assert all(m[s][kurt] > 0.8 * m["truth"][kurt] for s in ("upf", "kf-interp")), info  # near-ideal response
+        near = 0.8 if model == "correlated" else 0.7  # the 1 cm sway costs the UPF about a tenth of its kurtosis
+        assert all(m[s][kurt] > near * m["truth"][kurt] for s in ("upf", "kf-interp")), info  # near-ideal response
         assert m["kf-interp"][off] > 0.1, info  # translated by the correlated fix error
         assert m["sir-3adis"][kurt] < 0.8 * m["novatel"][kurt], info  # T32 not met: the SIR switches sensors
+    if model == "field":  # the vibration, unsensed, would smear every image; every IMU-driven source follows it
+        d = _tones(FIELD_VIBRATION, r.pulse_times)
+        unsensed = los_error_rms((r.truth - (d - d[0]))[None], r.truth, r.targets).mean()
+        assert unsensed > 3 * lam16, (unsensed, info)
 
 
 def test_a_pulse_within_the_grid_tolerance_of_an_imu_sample_lines_up_with_the_filter_outputs():

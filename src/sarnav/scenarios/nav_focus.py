@@ -14,13 +14,14 @@ from sarnav.errors import ConfigError
 from sarnav.montecarlo.kind import validate_campaign
 from sarnav.montecarlo.record import RunRecord
 from sarnav.radar.params import RadarParams
-from sarnav.scenarios.fields import bounded_vector, integer, name_list, number, number_list
+from sarnav.scenarios.fields import bounded_vector, get, integer, name_list, number, number_list
 from sarnav.scenarios.multi_imu import MAX_PARTICLES, MIN_PARTICLES, SourceKind
 from sarnav.scenarios.vocabulary import doppler_prf_check, make_radar, radar_fields
 from sarnav.simulation.fusion_records import AXES
 from sarnav.simulation.nav_focus import FOCUS_ATTRS, FOCUS_FILTERS, FOCUS_METRICS, FocusGeometry, FocusParams, \
     run_focus_records
 from sarnav.simulation.nav_sources import NAV_SOURCES
+from sarnav.trajectory.vibration import check_tones
 
 __all__ = ["NavFocusKind", "FOCUS_FILTERS", "FocusParams"]
 
@@ -35,6 +36,12 @@ def _reflectors(cfg):
         raise ConfigError("scene.ground_range_m", f"must have one entry per scene.along_track_m ({len(along)}), "
                           f"got {len(ground)}")
     return tuple(zip(along, ground))
+
+
+def _vibration(cfg) -> tuple:
+    """``cart.vibration_hz`` and ``cart.vibration_m`` (one [north, east, down] per tone; both empty: none) as
+    ((f, (aN, aE, aD)), ...), checked by ``trajectory.vibration.check_tones``."""
+    return tuple((f, a) for f, a, _ in check_tones(get(cfg, "cart", "vibration_hz"), get(cfg, "cart", "vibration_m")))
 
 
 def _sources(cfg):
@@ -80,7 +87,7 @@ def parse(cfg: dict) -> FocusParams:
     corr = bounded_vector(cfg, "navigation", "fix_correlated_sigma_m", 0.0, 100.0, unit="m")
     tau = number(cfg, "navigation", "fix_correlation_time_s", 1.0, 1e6, "s")
     geo = FocusGeometry(radar=radar, speed=speed, run_in=run_in, n_pulses=n_pulses, reflectors=reflectors,
-                        antenna_height=height, chip_half=chip, spacing=spacing)
+                        antenna_height=height, chip_half=chip, spacing=spacing, vibration=_vibration(cfg))
     return FocusParams(runs, geo, _sources(cfg), integer(cfg, "navigation", "n_particles", MIN_PARTICLES, MAX_PARTICLES),
                        integer(cfg, "navigation", "adis_particles", MIN_PARTICLES, MAX_PARTICLES), sig, corr, tau)
 

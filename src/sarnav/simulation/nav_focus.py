@@ -1,7 +1,7 @@
 """Which navigation source focuses a back-projected image: the Ku-band cart test of Sun (2022) §6.2-6.3 (Figs. 6.5-6.9,
 6.12-6.13; extraction seed-003 §3.7, E9, claims T27-T32), simulated.
 
-Per run: the cart (1 m/s, straight, level) carries the NovAtel-model IMU (200 Hz), three ADIS16465 (100 Hz) and a
+Per run: the cart (1 m/s, straight, level, optionally vibrating: ``FocusGeometry.vibration``) carries the NovAtel-model IMU (200 Hz), three ADIS16465 (100 Hz) and a
 20 Hz fix; after a run-in the radar (``radar.presets.sun_ku_cart``: 16.6 GHz, 300 MHz, PRF 3 kHz, no window)
 records ``n_pulses`` pulses. Echoes are simulated along the **true** track (the same for every run: noise-free
 echoes of three reflectors about 20 m to the right); each navigation source of
@@ -49,6 +49,7 @@ from sarnav.record import RunRecord
 from sarnav.simulation.fusion_records import run_records, source_records
 from sarnav.simulation.imu_rig import cart_track
 from sarnav.simulation.nav_sources import NAV_SOURCES, navigation_sources
+from sarnav.trajectory.vibration import Vibrating
 
 __all__ = ["FOCUS_METRICS", "FOCUS_FILTERS", "FOCUS_ATTRS", "FocusGeometry", "FocusParams", "FocusRun",
            "reflector_positions", "focus_metrics", "form_chips", "run_focus", "run_focus_records", "los_error_rms",
@@ -77,7 +78,8 @@ class FocusGeometry:
     """The cart test: ``speed`` [m/s] northbound, ``run_in`` [s] of navigation before the first pulse,
     ``n_pulses`` at the radar's PRF, reflectors at (along-track offset from the aperture centre [m], ground range
     to the right [m]) ``reflectors``, ``antenna_height`` [m] above them; chips of ``chip_half`` [m] half-size at
-    ``spacing`` [m] around each reflector."""
+    ``spacing`` [m] around each reflector; the cart's ``vibration``: tones (frequency [Hz], (north, east, down)
+    amplitude [m]) added to the true track (``trajectory.vibration.Vibrating``; none by default)."""
 
     radar: RadarParams = field(default_factory=sun_ku_cart)
     speed: float = 1.0
@@ -87,6 +89,15 @@ class FocusGeometry:
     antenna_height: float = 1.5
     chip_half: float = 1.2
     spacing: float = 0.04
+    vibration: tuple = ()
+
+    def track(self, duration: float):
+        """The true cart track over ``duration`` [s]: straight and level northbound, plus the tones of
+        ``vibration``."""
+        track = cart_track(duration, self.speed, heading=0.0)
+        if not self.vibration:
+            return track
+        return Vibrating(track, [f for f, _ in self.vibration], [a for _, a in self.vibration])
 
     def pulse_times(self) -> np.ndarray:
         return self.radar.pulse_times(self.n_pulses, self.run_in)
@@ -177,7 +188,7 @@ def run_focus(seeds, geo: FocusGeometry | None = None, sources=NAV_SOURCES, n_pa
     if "truth" not in sources:
         raise ConfigError("sources", "must include 'truth' (the reference image)")
     pt = geo.pulse_times()
-    track = cart_track(float(np.ceil(pt[-1] + 0.1)) + 1.0, geo.speed, heading=0.0)
+    track = geo.track(float(np.ceil(pt[-1] + 0.1)) + 1.0)
     nav = navigation_sources(pt, runs=len(seeds), seed=list(seeds), track=track, n_particles=n_particles,
                              adis_particles=adis_particles, fix_sigma=np.asarray(fix_sigma, dtype=float),
                              sources=tuple(sources), fix_correlated=fix_correlated, fix_tau=fix_tau)
