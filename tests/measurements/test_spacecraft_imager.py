@@ -282,3 +282,80 @@ def test_chip_window_is_centred_on_the_boresight_range():
     np.testing.assert_allclose(np.diff(chip.t), 1.0 / cfg.prf, rtol=1e-9)
     assert chip.t[cfg.pulses // 2] == pytest.approx(t_m, abs=1e-9)
     np.testing.assert_allclose(chip.positions[cfg.pulses // 2], chip.r, rtol=0, atol=1e-3)
+
+
+# --- the reference pass from another look (issue 29, Pogorelsky: a repeat pass with a different look angle) ----------
+
+def _off_nadir(p, r_b):
+    """Off-nadir angle at the antenna p of the scene point r_b by the law of cosines in the triangle (Earth centre,
+    p, r_b): |r_b|^2 = |p|^2 + rho^2 - 2 |p| rho cos(theta) (no spherical-Earth step: the centre is the origin)."""
+    a, rho, b = np.linalg.norm(p), np.linalg.norm(r_b - p), np.linalg.norm(r_b)
+    return math.acos((a * a + rho * rho - b * b) / (2 * a * rho))
+
+
+@pytest.mark.parametrize("offset_deg", [-8.0, -3.0, 2.0, 8.0])
+def test_reference_shift_gives_the_asked_off_nadir_angle_across_the_track(offset_deg):
+    from sarnav.measurements.spacecraft import boresight_intersection
+    from sarnav.measurements.spacecraft_image import reference_shift
+    from sarnav.trajectory.orbit import OrbitTruth, antenna_dcm, body_dcm, table2_elements
+
+    orbit = OrbitTruth(table2_elements(), 10.0, 0.1)
+    r, v = orbit.r[50], orbit.v[50]
+    T_es = antenna_dcm(math.radians(34.3)) @ body_dcm(r, v, "zero-doppler")
+    r_b = boresight_intersection(r[None], T_es[None])[0]
+    assert math.degrees(_off_nadir(r, r_b)) == pytest.approx(34.3, abs=0.01)
+    s = reference_shift(r, v, r_b, math.radians(offset_deg))
+    assert _off_nadir(r + s, r_b) == pytest.approx(_off_nadir(r, r_b) + math.radians(offset_deg), abs=1e-7)
+    unit = s / np.linalg.norm(s)
+    assert abs(unit @ v) < 1e-9 * np.linalg.norm(v) and abs(unit @ r) < 1e-9 * np.linalg.norm(r)  # across, level
+    assert (s @ (r_b - r) > 0) == (offset_deg < 0)  # towards the scene is a steeper look
+    np.testing.assert_array_equal(reference_shift(r, v, r_b, 0.0), np.zeros(3))
+    with pytest.raises(ConfigError, match=r"terrain\.reference_look_offset_deg"):
+        reference_shift(r, v, r_b, math.radians(60.0))
+
+
+def test_the_reference_clutter_is_lit_from_the_reference_pass_with_the_same_draws():
+    """Flat terrain: the clutter power is cos(incidence) of each scatterer from each pass (``radar.terrain``); the
+    reference's amplitudes from another place keep their phases and scale by sqrt(cos theta_ref / cos theta)."""
+    from sarnav.radar.terrain import map_grid_around, synthetic_terrain, terrain_scene
+
+    lat0, lon0 = math.radians(30.0), math.radians(-100.0)
+    terrain = synthetic_terrain(map_grid_around(lat0, lon0, 600.0, 600.0, 20.0), np.random.default_rng(2), 0.0)
+    centre = _to_ecef(lat0, lon0, 100.0)
+    up, east = _normal(lat0, lon0), np.array([-math.sin(lon0), math.cos(lon0), 0.0])
+    radar = centre + 690e3 * up - 470e3 * east  # about 34 deg off nadir, looking east
+    other = centre + 690e3 * up - 340e3 * east  # a steeper look
+    rest = (radar, 60.0, (2, 58, 2, 58), 4, 8.0, 0.7)  # spacing, extent, bright scatterers, their amplitude, coherence
+    same = terrain_scene(terrain, np.random.default_rng(5), *rest)
+    again = terrain_scene(terrain, np.random.default_rng(5), *rest, reference_ecef=radar)
+    moved = terrain_scene(terrain, np.random.default_rng(5), *rest, reference_ecef=other)
+    np.testing.assert_array_equal(again.reference, same.reference)
+    np.testing.assert_array_equal(moved.amplitude, same.amplitude)
+    clutter = ~same.bright
+    np.testing.assert_array_equal(moved.reference[same.bright], same.reference[same.bright])
+    np.testing.assert_allclose(np.angle(moved.reference[clutter] / same.reference[clutter]), 0.0, atol=1e-12)
+
+    def cos_inc(p_radar):
+        pos = same.positions[clutter]
+        los = p_radar - pos
+        los /= np.linalg.norm(los, axis=1, keepdims=True)
+        lat = np.array([_to_geodetic(p)[0] for p in pos])
+        lon = np.arctan2(pos[:, 1], pos[:, 0])
+        return np.einsum("ij,ji->i", los, _normal(lat, lon))
+
+    want = np.sqrt(cos_inc(other) / cos_inc(radar))
+    assert np.all(want > 1.03)  # the steeper look sees more of the flat ground
+    np.testing.assert_allclose(np.abs(moved.reference[clutter] / same.reference[clutter]), want, rtol=1e-6)
+
+
+def test_a_reference_look_whose_window_cannot_hold_the_scene_names_the_key():
+    """A shallower reference look spreads the scene over more slant range than the window holds: one line naming
+    terrain.reference_look_offset_deg (not the echo simulator's near_range)."""
+    from sarnav.trajectory.orbit import OrbitTruth, antenna_dcm, table2_elements
+
+    cfg = ImagingConfig(range_samples=128, block=0.4, half_along=200.0, half_range=215.0, n_bright=4,
+                        clutter_spacing=60.0, map_spacing=15.0, reference_look_offset=math.radians(10.0))
+    im = SpacecraftImager(cfg, OrbitTruth(table2_elements(), 10.0, 0.1), antenna_dcm(math.radians(34.3)))
+    with pytest.raises(ConfigError) as err:
+        im.chip(0, 5.0)
+    assert err.value.field == "terrain.reference_look_offset_deg" and "receive window" in err.value.message

@@ -71,6 +71,7 @@ def test_bad_input_is_one_line_naming_the_key(path, value, field):
     (("registration", "min_inliers"), 2, "registration.min_inliers"),
     (("autofocus", "refine"), [0.5, 2.0], "autofocus.refine[1]"),
     (("simulation", "duration"), 1200.0, "simulation.duration"),
+    (("terrain", "reference_look_offset_deg"), 12.0, "terrain.reference_look_offset_deg"),
 ])
 def test_closed_loop_bad_input(path, value, field):
     cfg = get_scenario("spacecraft-closed-loop")

@@ -8,9 +8,10 @@ one true orbit):
    synthetic terrain (``radar.terrain``: DEM + clutter + bright scatterers) at r_b; the receive window is centred on
    its slant range rho_c (the instrument's timing; this realises the paper's premise that the centre pixel lies on
    the boresight, L311); noise-free raw echoes (``radar.echoes``, numba) along the **true** orbit (RK4 at the PRF) of
-   this pass and of an earlier pass over the same track (the reference: clutter with coherence ``coherence``, its own
-   receiver noise), the reference focused with the true effective velocity and geocoded onto a map grid with the true
-   orbit and the DEM (``imaging.geocode``).
+   this pass and of an earlier pass (the reference: clutter with coherence ``coherence``, its own receiver noise;
+   over the same track, or across it with an off-nadir angle ``reference_look_offset`` larger at the scene centre,
+   :func:`reference_shift`, its clutter's backscatter from its own look), the reference focused with its true
+   effective velocity and geocoded onto a map grid with its true orbit and the DEM (``imaging.geocode``).
 2. **Image** (:meth:`SpacecraftImager.measure`, per run): receiver noise from the run's generator, range compression,
    RDA (hyperbolic, zero squint) with the processor velocity; the hill-climbing autofocus (``imaging.hill_climb``,
    Algorithm 1 with step 1 m/s then refined) starts from the **estimated** effective velocity V_r(r^, v^; r^_f)
@@ -34,6 +35,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage
+from scipy.optimize import brentq
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.frames.earth import ecef_to_eci, eci_to_ecef, ecef_to_geodetic, geodetic_to_ecef
@@ -55,7 +57,7 @@ from sarnav.trajectory.orbit import body_dcm, propagate_rk4_eci
 from sarnav.units import C
 
 __all__ = ["ImagingConfig", "Chip", "ImageMeasurement", "SpacecraftImager", "terrain_intersection", "STAGES",
-           "REGISTRATIONS"]
+           "REGISTRATIONS", "reference_shift"]
 
 STAGES = ("echoes", "focusing", "autofocus", "registration")
 #: area correlation: accept the shift when the phase-correlation error 1 - |peak|^2 / (|a| |b|) is below this
@@ -94,6 +96,7 @@ class ImagingConfig:
     min_inliers: int = 6
     smoothing: float = 1.0
     residual_px: float = 2.0
+    reference_look_offset: float = 0.0
 
     def __post_init__(self):
         if self.registration not in REGISTRATIONS:
@@ -184,6 +187,32 @@ def terrain_intersection(r, u, terrain, iterations: int = 12, tolerance: float =
                          f"(|h - h_DEM| = {abs(f):.3g} m after {5 * iterations} iterations)")
 
 
+def reference_shift(r, v, r_b, look_offset: float) -> np.ndarray:
+    """(3,) ECEF displacement of the reference pass from this one, across the track (the horizontal direction
+    from r towards the scene point r_b, normal to v), so that the reference sees r_b at an off-nadir angle
+    ``look_offset`` [rad] larger than this pass does (0: the same track, zero vector). A rigid shift of a 2-s arc
+    stands for a neighbouring orbit (issue 29: a repeat pass with a different look angle)."""
+    if look_offset == 0.0:
+        return np.zeros(3)
+    r, v, r_b = (np.asarray(x, float) for x in (r, v, r_b))
+    basis = np.linalg.qr(np.stack([r, v], axis=1))[0]  # orthonormal span of r and v
+    n = (r_b - r) - basis @ (basis.T @ (r_b - r))
+    d = float(np.linalg.norm(n))  # horizontal distance from the track to the scene
+    n /= d
+
+    def off_nadir(s):
+        p = r + s * n
+        los = r_b - p
+        return math.acos(float(-p @ los) / (np.linalg.norm(p) * np.linalg.norm(los)))
+
+    want = off_nadir(0.0) + look_offset
+    if not off_nadir(0.9 * d) < want < off_nadir(-d):
+        raise ConfigError("terrain.reference_look_offset_deg", f"an off-nadir angle of {math.degrees(want):.1f} deg is "
+                          f"beyond this geometry's reach ({math.degrees(off_nadir(0.9 * d)):.1f} to "
+                          f"{math.degrees(off_nadir(-d)):.1f} deg)")
+    return brentq(lambda s: off_nadir(s) - want, -d, 0.9 * d, xtol=1e-3) * n
+
+
 class SpacecraftImager:
     """The closed loop's image chain (module docstring). ``orbit``: ``trajectory.orbit.OrbitTruth`` (ECEF on its
     grid); ``T_bs``: body -> nominal antenna; ``steering``: the body attitude law."""
@@ -223,7 +252,8 @@ class SpacecraftImager:
         terrain = synthetic_terrain(grid, rng, c.relief)
         r_b = terrain_intersection(r, T_es[2], terrain)
         rho = float(np.linalg.norm(r_b - r))
-        scene = self._scene(terrain, rng, r, v, r_b, rho)
+        shift = reference_shift(r, v, r_b, c.reference_look_offset)
+        scene = self._scene(terrain, rng, r, v, r_b, rho, r + shift if c.reference_look_offset else None)
         params = RadarParams(c.carrier_frequency, c.bandwidth, c.pulse_length, c.sample_rate, c.prf,
                              rho - (c.range_samples // 2) * c.dr, c.range_samples, antenna_length=c.antenna_length,
                              look_side="right")
@@ -231,20 +261,37 @@ class SpacecraftImager:
         Cn = ned_to_ecef_dcm(lat, lon)
         pos_ned = (pos - r_b) @ Cn
         raw = simulate_echoes(params, pos_ned, t, Scene(scene.local(r_b, lat, lon), scene.amplitude))
-        raw_ref = simulate_echoes(params, pos_ned, t, Scene(scene.local(r_b, lat, lon), scene.reference))
         v_r = float(effective_velocity(r[None], v[None], r_b[None])[0][0])
-        noisy = add_receiver_noise(raw_ref, 1.0, c.snr_db, np.random.default_rng([c.seed, 2, update]))
-        ref_img = np.abs(range_doppler(range_compress(noisy), speed=v_r, azimuth_model="hyperbolic").data)
-        arc = OrbitArc.fit(t, pos, t_m)
-        reference = geocode(ref_img, t[0], c.prf, params.near_range, c.dr, arc, grid, terrain)
+        reference = self._reference(update, t, pos + shift, r + shift, v, r_b, (lat, lon, Cn), scene, grid, terrain)
         return Chip(t_m, r, v, t, pos, terrain, scene, r_b, rho, params, raw, reference, v_r,
                     time.perf_counter() - t0)
 
-    def _scene(self, terrain, rng, r, v, r_b, rho) -> TerrainScene:
+    def _reference(self, update, t, pos_ref, r_ref, v, r_b, local, scene, grid, terrain) -> np.ndarray:
+        """The reference map: the earlier pass (antenna positions ``pos_ref`` (P, 3) ECEF, ``r_ref`` at t_m, its
+        receive window centred on its own range to r_b; ``local`` = (lat, lon, C_n^e) of r_b) echoes the scene's
+        reference amplitudes, is focused with its true effective velocity and geocoded with its true orbit arc and
+        the DEM."""
+        c = self.cfg
+        lat, lon, Cn = local
+        params = RadarParams(c.carrier_frequency, c.bandwidth, c.pulse_length, c.sample_rate, c.prf,
+                             float(np.linalg.norm(r_b - r_ref)) - (c.range_samples // 2) * c.dr, c.range_samples,
+                             antenna_length=c.antenna_length, look_side="right")
+        try:
+            raw = simulate_echoes(params, (pos_ref - r_b) @ Cn, t, Scene(scene.local(r_b, lat, lon), scene.reference))
+        except ConfigError as err:  # a shallower look spreads the scene over more slant range
+            raise ConfigError("terrain.reference_look_offset_deg", f"the reference pass's receive window cannot hold "
+                              f"the scene from {math.degrees(c.reference_look_offset):+g} deg ({err.message})") from None
+        v_r = float(effective_velocity(r_ref[None], v[None], r_b[None])[0][0])
+        noisy = add_receiver_noise(raw, 1.0, c.snr_db, np.random.default_rng([c.seed, 2, update]))
+        img = np.abs(range_doppler(range_compress(noisy), speed=v_r, azimuth_model="hyperbolic").data)
+        return geocode(img, t[0], c.prf, params.near_range, c.dr, OrbitArc.fit(t, pos_ref, t[len(t) // 2]), grid,
+                       terrain)
+
+    def _scene(self, terrain, rng, r, v, r_b, rho, r_ref) -> TerrainScene:
         c = self.cfg
         g = terrain.grid
         sc = terrain_scene(terrain, rng, r, c.clutter_spacing, (0, g.shape[0] - 1, 0, g.shape[1] - 1), 4 * c.n_bright,
-                           c.bright_amplitude, c.coherence)
+                           c.bright_amplitude, c.coherence, reference_ecef=r_ref)
         along = (sc.positions - r_b) @ (v / np.linalg.norm(v))
         keep = (np.abs(np.linalg.norm(sc.positions - r, axis=1) - rho) < c.half_range) & (np.abs(along) < c.half_along)
         keep_b = np.flatnonzero(keep & sc.bright)[: c.n_bright]

@@ -119,10 +119,11 @@ class TerrainScene:
 
 
 def terrain_scene(terrain: Terrain, rng: np.random.Generator, radar_ecef, spacing: float, extent, n_bright: int,
-                  bright_amplitude: float, coherence: float) -> TerrainScene:
+                  bright_amplitude: float, coherence: float, reference_ecef=None) -> TerrainScene:
     """Clutter on a jittered grid of ``spacing`` [m] inside ``extent`` = (row0, row1, col0, col1) of the terrain grid,
     plus ``n_bright`` bright scatterers of amplitude ``bright_amplitude`` (x the clutter's unit rms), as seen from
-    ``radar_ecef`` (3,) (module docstring: backscatter and the reference pass)."""
+    ``radar_ecef`` (3,) (module docstring: backscatter and the reference pass); the reference pass's clutter power
+    from ``reference_ecef`` (3,) where it looks from elsewhere (default: the same place; the same random draws)."""
     if not 0.0 <= coherence <= 1.0:
         raise ConfigError("terrain.coherence", f"must be in [0, 1], got {coherence!r}")
     g = terrain.grid
@@ -140,7 +141,9 @@ def terrain_scene(terrain: Terrain, rng: np.random.Generator, radar_ecef, spacin
     z = (rng.standard_normal(pos.shape[0]) + 1j * rng.standard_normal(pos.shape[0])) / math.sqrt(2)
     z2 = (rng.standard_normal(pos.shape[0]) + 1j * rng.standard_normal(pos.shape[0])) / math.sqrt(2)
     amp = np.sqrt(power) * z
-    ref = np.sqrt(power) * (coherence * z + math.sqrt(1.0 - coherence**2) * z2)
+    ref_power = power if reference_ecef is None else _backscatter(terrain, lat, lon, pos,
+                                                                   np.asarray(reference_ecef, float))
+    ref = np.sqrt(ref_power) * (coherence * z + math.sqrt(1.0 - coherence**2) * z2)
     bright = np.zeros(pos.shape[0], bool)
     bright[ii.size:] = True
     phase = np.exp(2j * np.pi * rng.uniform(size=n_bright))

@@ -52,7 +52,8 @@ def read_imaging(cfg: dict) -> ImagingConfig:
         registration=choice(cfg, "registration", "method", REGISTRATIONS),
         min_inliers=integer(cfg, "registration", "min_inliers", 3, 10000),
         smoothing=number(cfg, "registration", "smoothing_px", 0.0, 10.0),
-        residual_px=_pos(cfg, "registration", "residual_px", "px", 0.1, 50.0))
+        residual_px=_pos(cfg, "registration", "residual_px", "px", 0.1, 50.0),
+        reference_look_offset=float(units.deg_to_rad(number(cfg, "terrain", "reference_look_offset_deg", -10.0, 10.0))))
 
 
 def _check_radar(img: ImagingConfig) -> None:
