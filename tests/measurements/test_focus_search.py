@@ -222,7 +222,51 @@ def test_carrying_the_chosen_offset_lets_the_oracle_reach_further(small):
     plain = fs.run_search(prob, noisy, 400, "source", 11, spacing=spacing, scorer="oracle")
     carried = fs.run_search(prob, noisy, 400, "source", 11, spacing=spacing, scorer="oracle", carry=True)
     assert carried.rho < plain.rho < 1.0
-    assert carried.reach == pytest.approx(3 * plain.reach)  # three blocks: the slope can reach 3 floor(L/2) Delta
+    # three blocks of 400 after S_0: the slope can reach k floor(L/2) Delta in the k-th, so the extreme correction is
+    # the running sum of those slopes (an accelerating ramp): B = std(C) / std(a), between 1 and 3 times the restart's
+    m = 5 * spacing
+    C = np.cumsum(m * np.repeat([1.0, 2.0, 3.0], 400))
+    lin = fs.linearise(noisy, fs.block_knots(geo.n_pulses, 400, 400))
+    truth = fs.linearise(prob.truth, fs.block_knots(geo.n_pulses, 400, 400))
+    a = (lin[400:] - truth[400:]) @ geo.along_track
+    assert carried.reach == pytest.approx(np.std(C, ddof=1) / np.std(a, ddof=1), rel=1e-12)
+    assert plain.reach < carried.reach < 3 * plain.reach
+    for r in (plain, carried):
+        assert max(1 - r.reach, 0.0) ** 2 <= r.rho <= (1 + r.reach) ** 2
+
+
+def test_the_carry_bound_is_met_by_an_accelerating_ramp():
+    """reach_bound with one slope bound per sample: equality when the error and the correction are both the running
+    sum of those bounds (the extreme of var(c) under |c[t+1] - c[t]| <= bound[t])."""
+    slopes = np.repeat([1.0, 2.0, 3.0], 20)
+    C = np.cumsum(slopes)
+    lin = np.zeros((60, 3))
+    noisy = lin.copy()
+    noisy[:, 0] = 0.5 * C
+    b = fs.reach_bound(noisy, lin, [1, 0, 0], 0, slopes)
+    corr = noisy.copy()
+    corr[:, 0] += C
+    assert b == pytest.approx(2.0)
+    assert fs.variance_ratio(corr, noisy, lin, [1, 0, 0], 0) == pytest.approx((1 + b) ** 2, rel=1e-12)
+    with pytest.raises(InputDataError, match="max_slope"):
+        fs.reach_bound(noisy, lin, [1, 0, 0], 0, slopes[:-1])
+
+
+def test_the_anti_oracle_bounds_rho_from_above(small):
+    """The anti-oracle (the candidate farthest from the truth) worsens the track: rho >= 1 >= the oracle's, inside the
+    reach bound, with either reading; kept offsets let it go further."""
+    geo, prob = small
+    noisy = _noisy(geo, 3e-5)
+    spacing = fs.table41_spacings(3e-5)[-1]
+    run = {(sc, c): fs.run_search(prob, noisy, 400, "source", 11, spacing=spacing, scorer=sc, carry=c)
+           for sc in ("oracle", "anti-oracle") for c in (False, True)}
+    for r in run.values():
+        assert max(1 - r.reach, 0.0) ** 2 <= r.rho <= (1 + r.reach) ** 2
+    assert run["anti-oracle", False].rho > 1.0 > run["oracle", False].rho
+    assert run["anti-oracle", True].rho > run["anti-oracle", False].rho
+    assert np.all(np.abs(run["anti-oracle", False].offsets) == 5 * spacing)  # an end of the grid every block
+    with pytest.raises(ConfigError, match="search.scorer"):
+        fs.run_search(prob, noisy, 400, "viterbi", 5, span=1e-5, scorer="anti-oracle")
 
 
 def test_rows_with_the_single_candidate_control_and_a_failed_run(small):

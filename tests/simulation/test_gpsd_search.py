@@ -127,7 +127,7 @@ def test_noise_drifts_use_table41s_fourth_sigma_and_three_realisations(tiny):
 def test_vocabularies():
     """The methods and controls the module documents."""
     assert gs.SEARCH_METHODS == ("source", "source-carry", "grid", "brent", "viterbi")
-    assert gs.SEARCH_CONTROLS == ("one", "oracle", "random")
+    assert gs.SEARCH_CONTROLS == ("one", "oracle", "random", "anti-oracle", "oracle-carry", "anti-oracle-carry")
 
 
 def test_image_runs_count_a_viterbi_run_by_its_trellis(tiny):

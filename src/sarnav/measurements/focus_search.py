@@ -30,8 +30,9 @@ offset, exact to a stated phase tolerance). Methods (``method``):
 * ``"brent"``: the best of the spanning grid, then bounded Brent (scipy) on the score between its neighbours.
 
 Scorers (``scorer``): any name of :data:`sarnav.imaging.quality.QUALITY_MEASURES`, or the controls
-``"oracle"`` (the candidate closest to the true track over the block: knows the truth) and ``"random"``
-(a uniformly drawn candidate). With one candidate (L = 1) the corrected track is the noisy linearised one
+``"oracle"`` (the candidate closest to the true track over the block: knows the truth), ``"anti-oracle"`` (the
+candidate farthest from it: the most biased scorer there is, what bounds rho from above) and ``"random"`` (a
+uniformly drawn candidate). With one candidate (L = 1) the corrected track is the noisy linearised one
 and rho = 1 exactly.
 """
 
@@ -59,7 +60,7 @@ __all__ = ["METHODS", "CONTROL_SCORERS", "ROW_COLUMNS", "DIAGNOSTIC_COLUMNS", "S
            "inject_velocity_noise", "candidate_offsets", "variance_ratio", "coverage", "run_search", "reach_bound",
            "table41_sigmas", "table41_spacings", "noise_drift", "TABLE41_BIAS"]
 
-CONTROL_SCORERS = ("oracle", "random")
+CONTROL_SCORERS = ("oracle", "anti-oracle", "random")
 
 
 @dataclass
@@ -234,10 +235,13 @@ def _choose_by_measure(problem: SearchProblem, block: _Block, acc: np.ndarray, d
 def _choose(problem, block, acc, deltas, method, scorer, rng, span):
     """(chosen offset, block image or None, oracle candidate index) for one block."""
     e = problem.direction
-    oracle_index = int(np.argmin(_oracle_errors(block, e, deltas)))
+    errors = _oracle_errors(block, e, deltas)
+    oracle_index = int(np.argmin(errors))
     if scorer == "oracle":
         d = _oracle_continuous(block, e, span) if method == "brent" else float(deltas[oracle_index])
         return d, None, oracle_index
+    if scorer == "anti-oracle":
+        return float(deltas[int(np.argmax(errors))]), None, oracle_index
     if scorer == "random":
         return float(deltas[int(rng.integers(len(deltas)))]), None, oracle_index
     d, img = _choose_by_measure(problem, block, acc, deltas, method, scorer)
@@ -259,8 +263,8 @@ def _check_run(problem: SearchProblem, noisy, method, candidates, spacing, span,
         quality_measure(scorer, "search.scorer")
     if scorer == "random" and not isinstance(rng, np.random.Generator):
         raise ConfigError("rng", "a numpy.random.Generator is required for the random scorer")
-    if method == "viterbi" and scorer == "random":
-        raise ConfigError("search.scorer", "the random control has no path metric: use a quality measure or "
+    if method == "viterbi" and scorer in ("random", "anti-oracle"):
+        raise ConfigError("search.scorer", f"the {scorer} control has no path metric: use a quality measure or "
                           "'oracle' with method 'viterbi'")
     p = np.asarray(noisy, dtype=np.float64)
     if p.shape != problem.truth.shape or not np.all(np.isfinite(p)):
@@ -309,7 +313,9 @@ def run_search(problem: SearchProblem, noisy, block_pulses: int = 1000, method: 
             _search_blocks(problem, knots, noisy_lin, truth_lin, deltas, method, scorer, rng, span, carry, acc,
                            corrected, diag)
     rho = variance_ratio(corrected, noisy_lin, truth_lin, e, s0)
-    slope = float(np.max(np.abs(deltas))) * (max(len(diag.offsets), 1) if carry else 1) if diag.offsets else 0.0
+    slope = float(np.max(np.abs(deltas))) if diag.offsets else 0.0
+    if carry and diag.offsets:  # the k-th block's slope is at most k times the largest offset
+        slope = slope * np.searchsorted(knots[knots >= s0 - 1], np.arange(s0, problem.rc.n_pulses), side="left")
     reach = reach_bound(noisy_lin, truth_lin, e, s0, slope)
     return SearchResult(corrected, np.array(diag.offsets), rho, acc if keep_image else None, diag, reach)
 
@@ -424,7 +430,7 @@ def _row(label, scorer, block_pulses, candidates, sigma, spacing, realisation, r
 def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, realisations=(0,), seed: int = 0,
                  sigmas=None, n_spacings: int = 30, bias: float = TABLE41_BIAS,
                  scorers=None, improved=("grid", "brent"), span_sigmas: float = 3.0, carry: bool = False,
-                 single: bool = False):
+                 single: bool = False, carry_scorers=()):
     """Rows of the Table 4.1 sweep for one (S_i, L) (L656-670): yields one dict per run (``ROW_COLUMNS`` +
     ``DIAGNOSTIC_COLUMNS``).
 
@@ -434,7 +440,8 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
     * the thesis' search (``method="source"``) for each of the ``n_spacings`` spacings and each scorer in
       ``scorers`` (kurtosis = the thesis; "oracle", "random": the controls; label ``source`` for
       ``problem.measure``, ``source-<scorer>`` for any other scorer, e.g. ``source-oracle``);
-    * with ``carry``, the thesis' grid with the chosen offsets kept for the next blocks (label ``source-carry``);
+    * with ``carry``, the thesis' grid with the chosen offsets kept for the next blocks (label ``source-carry``),
+      and so for each control of ``carry_scorers`` (label ``source-<scorer>-carry``, e.g. ``source-oracle-carry``);
     * with ``single``, the L = 1 control once (label ``source``, ``candidates`` 1, ``spacing`` 0: rho = 1 exactly);
     * each improved method once, candidates spanning +- (|b| + span_sigmas sigma / sqrt(S_i)) (the bias bound and
       the block noise an IMU specification gives), scored by ``problem.measure``; ``spacing`` is its grid step.
@@ -456,9 +463,11 @@ def table41_rows(problem: SearchProblem, block_pulses: int, candidates: int, rea
                                 lambda: run_search(problem, noisy, block_pulses, "source", 1))
             for spacing in table41_spacings(s, n_spacings):
                 cov = coverage(candidates, spacing, bias, s, block_pulses)
-                runs = [(sc, False) for sc in scorers] + ([(problem.measure, True)] if carry else [])
+                runs = ([(sc, False) for sc in scorers] + ([(problem.measure, True)] if carry else [])
+                        + [(sc, True) for sc in carry_scorers])
                 for sc, keep in runs:
-                    label = "source-carry" if keep else ("source" if sc == problem.measure else f"source-{sc}")
+                    label = "source" if sc == problem.measure else f"source-{sc}"
+                    label = ("source-carry" if sc == problem.measure else f"{label}-carry") if keep else label
                     yield _safe_row(label, sc, block_pulses, candidates, s, spacing, r, cov, lambda: run_search(
                         problem, noisy, block_pulses, "source", candidates, spacing=spacing, scorer=sc, rng=rand,
                         carry=keep))

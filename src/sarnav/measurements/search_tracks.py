@@ -108,13 +108,16 @@ def coverage(candidates: int, spacing: float, bias: float, sigma: float, block_p
     return (candidates // 2) * spacing / (abs(bias) + 2.0 * sigma / math.sqrt(block_pulses))
 
 
-def reach_bound(noisy, truth, direction, initial_pulses: int, max_slope: float) -> float:
+def reach_bound(noisy, truth, direction, initial_pulses: int, max_slope) -> float:
     """B such that every correction the search can make gives (1 - B)^2 <= rho <= (1 + B)^2 (docs/quality.md §5).
 
     The correction c[t] = e.(p_corr - p~_lin)[t] starts at 0 at S_0 - 1 and changes by at most ``max_slope`` per
-    sample (the largest |offset| the search can choose), so var(c) <= max_slope^2 var(t) (|c[t] - c[t']| <=
-    max_slope |t - t'|, the ramp is the extreme); with a = e.(p~_lin - p_lin), the triangle inequality of the standard
-    deviation gives |std(a + c) - std(a)| <= std(c), i.e. |sqrt(rho) - 1| <= B = max_slope std(t) / std(a).
+    sample: a number (the largest |offset| the search can choose, the thesis restarting each block) or an array of
+    one bound per sample after S_0 (keeping the chosen offsets: k times the largest offset in the k-th block). With
+    C[t] = the running sum of those bounds, |c[x] - c[y]| <= |C[x] - C[y]| for every pair of samples, so var(c) =
+    mean over pairs of (c[x] - c[y])^2 / 2 <= var(C) (for a constant bound m, C = m t: the ramp is the extreme);
+    with a = e.(p~_lin - p_lin), the triangle inequality of the standard deviation gives |std(a + c) - std(a)| <=
+    std(c), i.e. |sqrt(rho) - 1| <= B = std(C) / std(a).
     """
     e = np.asarray(direction, dtype=np.float64)
     a = (np.asarray(noisy)[initial_pulses:] - np.asarray(truth)[initial_pulses:]) @ e
@@ -122,4 +125,10 @@ def reach_bound(noisy, truth, direction, initial_pulses: int, max_slope: float) 
     den = np.std(a, ddof=1)
     if den == 0:
         raise InputDataError("noisy", "has no along-track error after the initial pulses; rho undefined")
-    return float(abs(max_slope) * np.std(t, ddof=1) / den)
+    if np.ndim(max_slope) == 0:
+        return float(abs(max_slope) * np.std(t, ddof=1) / den)
+    slopes = np.abs(np.asarray(max_slope, dtype=np.float64))
+    if slopes.shape != a.shape:
+        raise InputDataError("max_slope", f"must be a number or one bound per sample after S_0 ({a.size}), got "
+                             f"shape {slopes.shape}")
+    return float(np.std(np.cumsum(slopes), ddof=1) / den)

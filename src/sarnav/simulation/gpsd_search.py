@@ -6,8 +6,10 @@ docs/quality.md §4-§6): one search problem (echoes of the scene along the true
 gap 13), ``seed`` their seed. ``methods`` are searches, each scored by ``measure``: ``"source"`` the thesis'
 algorithm, ``"source-carry"`` the same grid keeping the chosen offsets (gap 10's other reading), ``"grid"`` and
 ``"brent"`` the searches spanning the bias, ``"viterbi"`` the trellis over position states on the spanning grid
-(the thesis' future work, L730); ``controls``: ``"one"`` (L = 1, rho = 1 exactly), ``"oracle"`` and
-``"random"`` scorers on the thesis' grid.
+(the thesis' future work, L730); ``controls``: ``"one"`` (L = 1, rho = 1 exactly), ``"oracle"``, ``"random"``
+and ``"anti-oracle"`` (the candidate farthest from the truth: the largest rho the grid allows a scorer) scorers on
+the thesis' grid, and ``"oracle-carry"``, ``"anti-oracle-carry"`` the two extremes with the chosen offsets kept
+(gap 10's other reading; issue 29: where the thesis' rho range is reachable).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ __all__ = ["SEARCH_METHODS", "SEARCH_CONTROLS", "SOURCE_RHO", "GpsdSearchParams"
            "search_rows", "summary"]
 
 SEARCH_METHODS = ("source", "source-carry", "grid", "brent", "viterbi")
-SEARCH_CONTROLS = ("one", "oracle", "random")
+SEARCH_CONTROLS = ("one", "oracle", "random", "anti-oracle", "oracle-carry", "anti-oracle-carry")
 #: the thesis' numbers (L712, L722-724)
 SOURCE_RHO = {"min": 0.2735, "max": 2.7707, "per_sigma_mean_min": 0.8110, "per_sigma_mean_max": 1.3918}
 
@@ -91,15 +93,17 @@ class SearchResult:
 
 def search_rows(prm: GpsdSearchParams, problem):
     """Every row of the sweep, in order: per (S_i, L), the rows of ``focus_search.table41_rows``."""
-    scorers = ([prm.measure] if "source" in prm.methods else []) + [c for c in ("oracle", "random")
+    scorers = ([prm.measure] if "source" in prm.methods else []) + [c for c in ("oracle", "random", "anti-oracle")
                                                                    if c in prm.controls]
+    carry_scorers = tuple(c for c in ("oracle", "anti-oracle") if f"{c}-carry" in prm.controls)
     improved = tuple(m for m in prm.methods if m in ("grid", "brent", "viterbi"))
     sigmas = fs.table41_sigmas(prm.sigmas)
     for si, L in prm.configurations:
         yield from fs.table41_rows(problem, si, L, realisations=range(prm.runs), seed=prm.seed,
                                    sigmas=sigmas, n_spacings=prm.spacings, bias=prm.bias, scorers=scorers,
                                    improved=improved, span_sigmas=prm.span_sigmas,
-                                   carry="source-carry" in prm.methods, single="one" in prm.controls)
+                                   carry="source-carry" in prm.methods, single="one" in prm.controls,
+                                   carry_scorers=carry_scorers)
 
 
 def run(prm: GpsdSearchParams, progress: Callable[[int, float], None] | None = None) -> SearchResult:
@@ -132,8 +136,22 @@ def summary(rows: list[dict], prm: GpsdSearchParams, seconds: float) -> dict:
         reach = [r["reach"] for r in sel if r["method"] == "source" and np.isfinite(r["reach"])]
         fa["per_sigma_mean"] = per_sigma
         fa["source_reach_max"] = float(max(reach)) if reach else float("nan")
+        fa["per_sigma_reach_max"] = _reach_per_sigma(sel, L)
         for lab in list(fa):
             if isinstance(fa[lab], dict) and "rho" in fa[lab]:
                 fa[lab].pop("rho")
         out["configurations"][f"S_i={si},L={L}"] = fa
+    return out
+
+
+def _reach_per_sigma(rows, candidates) -> dict:
+    """Per reading of gap 10 ("restart": the thesis restarting each block; "carry": the offsets kept), the largest
+    reach bound B over the rows of each sigma (spacings and realisations): no scorer leaves [(1 - B)^2, (1 + B)^2]."""
+    out = {}
+    for reading, carry in (("restart", False), ("carry", True)):
+        sel = [r for r in rows if r["candidates"] == candidates and r["method"].startswith("source")
+               and r["method"].endswith("-carry") == carry and np.isfinite(r["reach"])]
+        sig = sorted({r["sigma"] for r in sel})
+        if sig:
+            out[reading] = [float(max(r["reach"] for r in sel if r["sigma"] == x)) for x in sig]
     return out
