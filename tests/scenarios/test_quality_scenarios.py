@@ -161,6 +161,34 @@ def test_reliability_reads_the_textured_scene_and_its_own_span():
         quality_sweep.parse(cfg)
 
 
+def test_t20_the_thesis_range_needs_the_carry_reading_and_a_scorer_against_the_truth():
+    """Hathaway T20 per reading (issue 29, docs/quality.md §5 "T20 per case and reading"): on Table 4.1's S_i = 100,
+    L = 11 with its largest spacing, restarting each block keeps every scorer -- even the anti-oracle, which picks the
+    candidate farthest from the truth -- inside [(1 - B)^2, (1 + B)^2], far from 0.2735 and 2.7707; keeping the chosen
+    offsets, the oracle goes below 0.2735 and the anti-oracle above 2.7707 (the controls form no image: ~2 s)."""
+    from sarnav.simulation.gpsd_search import run
+
+    cfg = get_scenario("gpsd-search-table41")
+    cfg["campaign"]["runs"] = 2
+    cfg["search"].update({"method": [], "controls": ["oracle", "anti-oracle", "oracle-carry", "anti-oracle-carry"],
+                          "block_pulses": [100], "candidates": [11], "spacings": 2})
+    res = run(gpsd_search.parse(cfg))
+    rows = [r for r in res.rows if math.isfinite(r["rho"])]
+    assert len(rows) == 2 * 10 * 2 * 4
+
+    def rho(label):
+        return np.array([r["rho"] for r in rows if r["method"] == label])
+
+    for r in rows:
+        assert max(1 - r["reach"], 0) ** 2 * (1 - 1e-9) <= r["rho"] <= (1 + r["reach"]) ** 2 * (1 + 1e-9)
+    restart = max(r["reach"] for r in rows if not r["method"].endswith("-carry"))
+    assert (1 + restart) ** 2 < 2.7707 and (1 - restart) ** 2 > 0.2735  # out of reach of any scorer
+    assert rho("source-anti-oracle").max() > 1.2 and rho("source-oracle").min() < 0.8
+    assert rho("source-oracle-carry").min() < 0.2735 and rho("source-anti-oracle-carry").max() > 2.7707
+    reach = res.summary["configurations"]["S_i=100,L=11"]["per_sigma_reach_max"]
+    assert len(reach["restart"]) == len(reach["carry"]) == 10 and max(reach["carry"]) > 1.0 > max(reach["restart"])
+
+
 # --- the scenarios as registered (slow) ---------------------------------------------------------------------------
 
 @pytest.mark.slow
