@@ -100,6 +100,12 @@ class SearchProblem:
         if self.measure not in CONTROL_SCORERS:
             quality_measure(self.measure, "search.measure")
 
+    def along(self, direction) -> "SearchProblem":
+        """The same problem searched along another unit ``direction`` (3,): same pulses, grid, truth and initial
+        image, its own expansion bound and moment-image cache (``measurements.search_axes``)."""
+        return SearchProblem(self.rc, self.grid, self.truth, direction, self.initial_pulses, self.measure, self.n_bins,
+                             self.tolerance, self.initial_image)
+
     def image0(self) -> np.ndarray:
         """The initial image (Alg. 3.3 step 7), back-projected with linear range interpolation like the block images
         of ``imaging.offset_bpa`` that are added to it (BPA's default "auto" would upsample: a different image)."""
