@@ -64,3 +64,9 @@ def test_sweeps_must_be_a_positive_integer(small):
     geo, prob, noisy = small
     with pytest.raises(ConfigError, match=r"search\.sweeps"):
         run_search_axes(prob, noisy, [geo.along_track], SI, "grid", 11, spans=[1e-5], sweeps=0)
+
+
+def test_one_span_per_axis(small):
+    geo, prob, noisy = small
+    with pytest.raises(ConfigError, match=r"search\.span"):
+        run_search_axes(prob, noisy, [geo.along_track, geo.cross_track], SI, "grid", 11, spans=[1e-5, 1e-5, 1e-5])

@@ -42,7 +42,11 @@ def run_search_axes(problem: SearchProblem, noisy, directions, block_pulses: int
     if d.ndim != 2 or d.shape[1] != 3 or not np.all(np.isfinite(d)) or np.any(np.linalg.norm(d, axis=1) == 0):
         raise ConfigError("search.axes", f"must be a list of non-zero 3-vectors, got {np.asarray(directions).tolist()}")
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    spans = np.zeros(len(d)) if spans is None else np.broadcast_to(np.asarray(spans, dtype=np.float64), (len(d),))
+    spans = np.zeros(len(d)) if spans is None else np.atleast_1d(np.asarray(spans, dtype=np.float64))
+    if spans.size == 1:
+        spans = np.full(len(d), float(spans[0]))
+    if spans.shape != (len(d),):
+        raise ConfigError("search.span", f"must be one half-width [m/sample] per axis ({len(d)}), got {spans.tolist()}")
     checked_int("search.sweeps", sweeps, 1)
     axes = [problem.along(e) for e in d]
     knots = block_knots(problem.rc.n_pulses, problem.initial_pulses, block_pulses)
