@@ -115,7 +115,12 @@ def main(argv=None):
     ap.add_argument("--check", type=int, default=256, help="pixels per side of the uniform sample compared with exact BP")
     ap.add_argument("--oversample", type=float, default=2.0, help="polar samples per Nyquist sample (ffbp's default)")
     ap.add_argument("--kernel", default="kaiser6", help="polar interpolation kernel: kaiser6 (default) or cubic")
-    ap.add_argument("--upsample", type=int, default=8, help="range upsampling of the pulses at level 0 (ffbp's default)")
+    ap.add_argument("--interpolation", default="auto", help="level-0 range interpolation (ffbp's default: auto)")
+    ap.add_argument("--upsample", type=int, default=8, help="range upsampling under --interpolation upsample*")
+    ap.add_argument("--peer-oversample", type=float, nargs="*", default=[2.0, 2.4],
+                    help="FFBP os values on the peer's collect (kaiser6)")
+    ap.add_argument("--peer-whole", action="store_true", help="also the whole-image error on the peer's collect, "
+                    "against sarnav's 'precise' exact BP (-86 dB; one more exact image)")
     ap.add_argument("--repeat", type=int, default=2, help="FFBP calls timed (best of; the exact BP is best of 2)")
     ap.add_argument("--no-fastsar", action="store_true", help="skip FastSAR's FFBP")
     ap.add_argument("--peer-sizes", type=int, nargs="*", default=[2048], help="image sizes on the peer's collect")
@@ -126,7 +131,8 @@ def main(argv=None):
         rc, grid, east = scene(npx)
         p = rc.n_pulses
         work = npx * npx * p
-        kw = dict(bandwidth=BW, oversample=args.oversample, kernel=args.kernel, upsample=args.upsample)
+        kw = dict(bandwidth=BW, oversample=args.oversample, kernel=args.kernel, interpolation=args.interpolation,
+                  upsample=args.upsample)
         ffbp(rc, GroundGrid.centered(0.0, east, PX, (16, 16)), **kw)      # compile
         t_f, c_f, img = timed(lambda: ffbp(rc, grid, **kw), args.repeat)
         sub = slice(0, min(args.exact_pulses, p))
@@ -148,7 +154,7 @@ def main(argv=None):
               f"{c_e / c_f:5.1f}x CPU (goal >= 10x at 2048^2); error {err:6.1f} dB (predicted "
               f"{md['ffbp_predicted_error_db']:6.1f}); tile: subapertures of {md['ffbp_base_pulses']} pulses, "
               f"{md['ffbp_levels']} merges of {md['ffbp_merge']} -> {final} pulses, polar cell c/(2B os) x "
-              f"lambda/(2 l os), os {md['ffbp_oversample']}, kernel {md['ffbp_kernel']}", flush=True)
+              f"lambda/(2 l os), os {md['ffbp_oversample']}, kernel {md['ffbp_kernel']}, range {_range(md)}", flush=True)
         peer = fastsar_ffbp(rc, npx, east) if not args.no_fastsar else None
         if peer is not None:
             t_p, c_p, img_p = peer
@@ -157,6 +163,12 @@ def main(argv=None):
                   f"{gain_error_db(np.asarray(img_p)[sample], ref):6.1f} dB", flush=True)
     for npx in args.peer_sizes:
         peer_table(npx, args)
+
+
+def _range(md) -> str:
+    """The level-0 range interpolation an FFBP image used (its metadata)."""
+    mode = md.get("interpolation")
+    return f"{mode} x{md.get('upsample')}" if str(mode).startswith("upsample") else str(mode)
 
 
 def peer_table(npx: int, args) -> None:
@@ -181,17 +193,22 @@ def peer_table(npx: int, args) -> None:
     rc_sub = PulseData(rc.data[sub], rc.slant_range, rc.pulse_times[sub], rc.positions[sub], None, True,
                        wavelength=rc.wavelength)
     backproject(rc_sub, small)
-    t_e, _, _ = timed(lambda: backproject(rc_sub, grid), 1)
+    t_e, _, exact_img = timed(lambda: backproject(rc_sub, grid), 1)
     t_e *= p / rc_sub.n_pulses
-    print(f"  {'sarnav exact BP auto':26s} {t_e:8.2f} s {work / t_e:9.3e} px-pulse/s (timed on {rc_sub.n_pulses} "
-          f"pulses, scaled)  error vs exact: see bench_bpa.py", flush=True)
-    for kernel in ("kaiser6", "cubic"):
-        kw = dict(bandwidth=rc.metadata["stored_band_hz"], kernel=kernel)
+    scaled = f"timed on {rc_sub.n_pulses} pulses, scaled" if rc_sub.n_pulses < p else "all pulses"
+    err_e = f"{pc.gain_error_db(exact_img.data[sample], exact):7.1f} dB" if rc_sub.n_pulses == p else "see bench_bpa.py"
+    print(f"  {'sarnav exact BP auto':26s} {t_e:8.2f} s {work / t_e:9.3e} px-pulse/s ({scaled})  error vs exact: "
+          f"{err_e}", flush=True)
+    whole = backproject(rc, grid, interpolation="precise").data if args.peer_whole else None
+    runs = [("kaiser6", o) for o in args.peer_oversample] + [("cubic", 2.0)]
+    for kernel, os_ in runs:
+        kw = dict(bandwidth=rc.metadata["stored_band_hz"], kernel=kernel, oversample=os_)
         ffbp(rc, small, **kw)
         t_f, _, img = timed(lambda: ffbp(rc, grid, **kw), 1)
-        print(f"  {'sarnav ffbp ' + kernel:26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
-              f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.1f}); "
-              f"{t_e / t_f:5.1f}x sarnav's exact BP", flush=True)
+        also = "" if whole is None else f", whole image vs precise BP {pc.gain_error_db(img.data, whole):6.1f} dB"
+        print(f"  {f'sarnav ffbp {kernel} os {os_:g}':26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
+              f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.1f}"
+              f"{also}); {t_e / t_f:5.1f}x sarnav's exact BP; range {_range(img.metadata)}", flush=True)
     if args.no_fastsar or pc.peer_available() is not None:
         print("  fastsar skipped" + ("" if args.no_fastsar else f": {pc.peer_available()}"))
         return

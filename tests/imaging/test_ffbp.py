@@ -53,15 +53,21 @@ def ideal(rc, grid):
 def test_ffbp_error_matches_prediction(slant, kernel, oversample, levels):
     """levels None: the cost model's plan; 2: two merges of 4 (at 700 km: the polar images' float64 geometry and
     complex64 storage at spaceborne range). Predicted: (levels + 1) polar stages of the kernel's 2-D error plus the
-    level-0 range interpolation (FFT x8 then linear at fs / B = 2: linear at os 16)."""
+    level-0 range interpolation ("auto": FFT x2 then Lagrange at fs / B = 2: Lagrange at os 4)."""
     rc, grid = scene(192, 192, slant, n_targets=120)
     ref = ideal(rc, grid)
     img = ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, oversample=oversample, levels=levels, kernel=kernel)
     md = img.metadata
     assert levels is None or md["ffbp_levels"] == levels
     assert md["ffbp_kernel"] == kernel
+    # "auto" range interpolation at fs / B = 2: Lagrange on the pulses FFT-upsampled by the smallest factor whose summed
+    # error is within a quarter of the polar stages' (x2: -56.6 dB, where the stages are above -50.5 dB; else x3, -70.4)
+    polar = ffbp_error_model(oversample, md["ffbp_levels"] + 1, kernel=kernel)
+    factor = md["upsample"]
+    assert md["interpolation"] == "upsample-lagrange" and factor == (2 if polar > -50.5 else 3), (polar, factor)
     assert md["ffbp_predicted_error_db"] == pytest.approx(
-        ffbp_error_model(oversample, md["ffbp_levels"] + 1, summed_interpolation_error("linear", 2 * 8), kernel=kernel))
+        ffbp_error_model(oversample, md["ffbp_levels"] + 1, summed_interpolation_error("lagrange", 2 * factor),
+                         kernel=kernel))
     err = gain_error_db(img.data, ref)
     assert abs(err - md["ffbp_predicted_error_db"]) < 2.0, (err, md["ffbp_predicted_error_db"])
     assert err < -40.0
@@ -110,12 +116,14 @@ def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
 
     with pytest.raises(ConfigError, match="^beta: a windowed kernel needs"):
         kernel_spectrum("kaiser6", 0.1)
-    # "auto" is resolved once for all pulses (fs / B = 2: FFT x3 then Lagrange) and gives that mode's image exactly
-    from sarnav.imaging.backprojection import resolve_interpolation
+    # "auto" (the default) is resolved once for all pulses and gives that mode's image exactly: fs / B = 2, FFT x2 then
+    # Lagrange (summed error -56.6 dB <= a quarter of the polar stages' -47.1 dB; linear would need x7)
+    from sarnav.imaging.interpolation_choice import resolve_ffbp_range
 
-    assert resolve_interpolation(rc, "auto", 8, BW) == ("upsample-lagrange", 3)
-    a = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="auto")
-    b = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="upsample-lagrange", upsample=3)
+    assert resolve_ffbp_range(rc, BW, 0.25 * 10 ** -4.71, 10_000) == ("upsample-lagrange", 2)
+    a = ffbp(rc, grid, bandwidth=BW, base_pulses=8)
+    assert (a.metadata["interpolation"], a.metadata["upsample"]) == ("upsample-lagrange", 2)
+    b = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="upsample-lagrange", upsample=2)
     assert np.array_equal(a.data, b.data)
 
 

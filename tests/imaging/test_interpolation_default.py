@@ -116,3 +116,30 @@ def test_auto_on_a_large_image_of_oversampled_pulses_is_linear_on_upsampled_puls
     assert 10 * np.log10(err) <= -60.0
     lin = backproject(rc, grid, interpolation="linear").data      # linear without upsampling: far outside
     assert 10 * np.log10(np.sum(np.abs(lin - ref) ** 2) / np.sum(np.abs(ref) ** 2)) > -40.0
+
+
+def test_ffbp_range_choice_meets_its_limit_with_the_least_upsampling_the_cost_allows():
+    """FFBP's "auto" level-0 range interpolation (``resolve_ffbp_range``): the *summed* error model, each kernel's
+    smallest upsampling within the limit, then the cheaper. At fs/B 4 (the peer's CPHD collect) Lagrange on the pulses
+    as they are (-56.6 dB summed) serves a -51 dB polar plan's quarter (-57 dB would not): no FFT at all."""
+    from sarnav.imaging.interpolation_choice import range_error, resolve_ffbp_range
+    from sarnav.imaging.interpolation_error import summed_interpolation_error
+
+    rc4 = data(np.array([0.0, EAST, 0.0]), 4.0 * BW, n=800)
+    assert resolve_ffbp_range(rc4, BW, 10 ** -5.6, 40_000)[0] == "lagrange"
+    # -57 dB: Lagrange x2 (-80.3) or linear x4 (-60.3); the FFTs (12 per output sample of 800 x 2 or x4) against the
+    # gathers (Lagrange 1.6, linear 1 per point): Lagrange x2 for 20 000 points per pulse, linear x4 for 40 000
+    assert resolve_ffbp_range(rc4, BW, 10 ** -5.7, 20_000) == ("upsample-lagrange", 2)
+    assert resolve_ffbp_range(rc4, BW, 10 ** -5.7, 40_000) == ("upsample", 4)
+    rc2 = data(np.array([0.0, EAST, 0.0]), 2.0 * BW)
+    # -53 dB at fs/B 2: linear x6 (-55.3) or Lagrange x2 (-56.6); few points per pulse against 240 samples: Lagrange x2
+    assert resolve_ffbp_range(rc2, BW, 10 ** -5.3, 40_000) == ("upsample", 6)
+    mode, factor = resolve_ffbp_range(rc2, BW, 10 ** -5.3, 2_000)
+    assert (mode, factor) == ("upsample-lagrange", 2)
+    assert summed_interpolation_error("linear", 10.0) > 10 ** -5.3 >= summed_interpolation_error("linear", 12.0)
+    assert range_error(rc2, mode, factor, BW) == pytest.approx(summed_interpolation_error("lagrange", 4.0), rel=1e-9)
+    assert summed_interpolation_error("lagrange", 4.0) <= 10 ** -5.3
+    assert summed_interpolation_error("lagrange", 2.0) > 10 ** -5.3
+    rc16 = data(np.array([0.0, EAST, 0.0]), 16.0 * BW, n=2400)
+    assert resolve_ffbp_range(rc16, BW, 10 ** -5.7, 40_000)[0] == "linear"      # linear at fs/B 16: -60.3 dB
+    assert range_error(rc16, "linear", 8, BW) == pytest.approx(summed_interpolation_error("linear", 16.0), rel=1e-9)

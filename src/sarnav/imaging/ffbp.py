@@ -32,7 +32,8 @@ evaluation) adds the kernel's 2-D error of a flat band at oversampling ``os`` in
 (:mod:`sarnav.imaging.interpolation_error`); the subaperture images occupy disjoint Doppler bands,
 so their energies (and their errors') add; the level-0 range interpolation of the pulses adds the part of its
 error that survives the sum over pulses (``summed_interpolation_error``): predicted
-``eps = n_stages * eps_2d(os, os) + eps_data``, against an ideal (band-limited) back-projection. The
+``eps = n_stages * eps_2d(os, os) + eps_data``, against an ideal (band-limited) back-projection; under "auto" the
+range interpolation is the cheapest with eps_data <= ``_RANGE_SHARE`` (a quarter) of the stages' error. The
 "tile" of this factorisation is the subaperture (``base_pulses`` x ``merge^levels`` pulses) and
 its polar cell (Delta_r, Delta_u). A subaperture that is not straight (navigation errors,
 manoeuvres) adds an error the model does not include: the residual of its positions about the
@@ -51,13 +52,13 @@ import scipy.fft as sfft
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, backproject_points, bpa_fan_kernel,
-                                           check_interpolation, check_pulses, data_oversampling, grid_points,
+                                           check_interpolation, check_pulses, grid_points,
                                            plane_of, resolve_interpolation, sar_image, wavelength_of)
-from sarnav.imaging.interpolation_error import (WINDOWED, interpolation_error_2d, kernel_values,
-                                                summed_interpolation_error)
-from sarnav.imaging.kernels import (GATHER_MODE, PAD, RANGE_KERNEL, UPSAMPLED, demodulate_parts, polar_tap,
+from sarnav.imaging.interpolation_error import WINDOWED, interpolation_error_2d, kernel_values
+from sarnav.imaging.kernels import (GATHER_MODE, PAD, UPSAMPLED, demodulate_parts, polar_tap,
                                     tabulate, taps_2d, upsample_pulses)
 from sarnav.imaging.grid import as_grid
+from sarnav.imaging.interpolation_choice import range_error, resolve_ffbp_range
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
 
@@ -66,6 +67,9 @@ _C = 299792458.0
 FFBP_KERNELS = {"kaiser6": WINDOWED["kaiser6"], "cubic": 4}
 #: extra polar samples beyond the pixels' extent on each side (the 6-tap kernel's support is 3)
 _MARGIN = 4
+#: the level-0 range interpolation's share of the error under "auto": at most this times the polar stages' predicted
+#: error (-6 dB: the sum within 1 dB of the stages')
+_RANGE_SHARE = 1 / 3
 #: fractions per sample of the tabulated kernels (nearest row: position error <= 1/(2 F) sample, ~-73 dB at os 2)
 _TABLE = 2048
 
@@ -97,13 +101,9 @@ class FfbpPlan:
 
 
 def ffbp_error_model(oversample: float, n_stages: int, data_error: float = 0.0, kernel: str = "kaiser6") -> float:
-    """Predicted image error [dB] of FFBP against exact back-projection (module doc).
-
-    ``10 log10(n_stages * eps_kernel_2d(os, os) + data_error)``; ``data_error`` (linear) adds the
-    range-interpolation error of the pulses when the exact reference interpolates them differently.
-    """
-    _kernel_arg(kernel)
-    eps = n_stages * interpolation_error_2d(kernel, oversample, oversample) + data_error
+    """Predicted image error [dB] of FFBP against exact back-projection (module doc): ``10 log10(n_stages *
+    eps_kernel_2d(os, os) + data_error)``; ``data_error`` (linear): the level-0 range interpolation's error."""
+    eps = n_stages * interpolation_error_2d(_kernel_arg(kernel), oversample, oversample) + data_error
     return float(10.0 * math.log10(eps))
 
 
@@ -359,8 +359,7 @@ class _Former:
         self._pulses = None                     # (k0, k1, padded samples, kernel constants) of the current top block
 
     def _prepare(self, k0: int, k1: int) -> None:
-        """Range-interpolation-ready samples of pulses k0..k1 (one top-level subimage): FFT-upsampled once for the
-        block (complex64, as ``backproject_fan`` does per call) and zero-padded for the kernel's taps."""
+        """Pulses k0..k1 (one top-level subimage) ready for the range kernel: FFT-upsampled (complex64), zero-padded."""
         data, rng = self.rc.data[k0:k1], self.rc.slant_range
         if self.interpolation in UPSAMPLED:
             data, rng = upsample_pulses(data, rng, self.upsample, np.complex64)
@@ -444,19 +443,23 @@ def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge, 
     return cost
 
 
-def _range_error(rc, mode, factor, bw) -> float:
-    """Predicted image error (linear) of the level-0 range interpolation (resolved ``mode``, upsampling ``factor``) of
-    the pulses against band-limited interpolation: ``summed_interpolation_error`` (the part that survives the sum over
-    pulses) on the data's oversampling fs / B ("upsample": linear at fs / B x factor, "upsample-lagrange": Lagrange)."""
-    os_data = data_oversampling(rc, bw)
-    if mode in UPSAMPLED:
-        return summed_interpolation_error(RANGE_KERNEL[mode], os_data * factor)
-    return summed_interpolation_error(mode, os_data)
+def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing, lam_eff):
+    """(plan, range interpolation, upsample): "auto" -> ``resolve_ffbp_range`` for eps_data <= ``_RANGE_SHARE`` x the
+    polar stages' predicted error (for the level-0 grid's points per pulse); "precise" as ``backproject``'s."""
+    bw = kw["bandwidth"]
+    if interpolation == "auto":
+        polar = ffbp_plan(p, **kw)
+        g0 = _polar_grid(pos[:polar.base_pulses], v, hull, centre, _C / (2 * bw * polar.oversample), spacing, lam_eff,
+                         polar.oversample)
+        interpolation, upsample = resolve_ffbp_range(rc, bw, _RANGE_SHARE * 10 ** (polar.predicted_error_db / 10),
+                                                     g0.nr * g0.nu)
+    interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)
+    return ffbp_plan(p, **kw, data_error=range_error(rc, interpolation, upsample, bw)), interpolation, upsample
 
 
 def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
          base_pulses: int = 16, merge: int = 4, levels: int | None = None, oversample: float = 2.0,
-         kernel: str = "kaiser6", interpolation: str = "upsample", upsample: int = 8) -> SarImage:
+         kernel: str = "kaiser6", interpolation: str = "auto", upsample: int = 8) -> SarImage:
     """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
 
     Parameters
@@ -471,8 +474,9 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
         :func:`ffbp_error_model`).
     kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
         sinc; -50.6 dB a stage at os 2) or "cubic" (4 x 4 Keys; -47.5 dB a stage at os 4).
-    interpolation, upsample : range interpolation of the pulses in the level-0 formation (default FFT upsampling x8
-        then linear: at fs / B = 2 its error, -56 dB, stays below the polar stages').
+    interpolation, upsample : range interpolation of the pulses in the level-0 formation, as ``backproject``'s; "auto"
+        (default): the cheapest whose predicted error is a quarter of the polar stages' (``resolve_ffbp_range``: at
+        fs / B = 4 Lagrange on the pulses as they are, at 2 Lagrange on x2 upsampled pulses).
 
     Returns
     -------
@@ -513,15 +517,14 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     fc = _C / lam
     lam_eff = lam / (1.0 + bw / (2.0 * fc))
     os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
-    _kernel_arg(kernel)
-    cost = _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base_pulses, merge,
-                       FFBP_KERNELS[kernel]) \
-        if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) and isinstance(merge, int) \
-        and base_pulses >= 1 and merge >= 2 else None
+    cost = _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base_pulses, merge, FFBP_KERNELS[
+        _kernel_arg(kernel)]) if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) \
+        and isinstance(merge, int) and base_pulses >= 1 and merge >= 2 else None
     check_interpolation(interpolation, upsample)
-    interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)   # "auto" once for all pulses
-    plan = ffbp_plan(p, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw,
-                     cost=cost, kernel=kernel, data_error=_range_error(rc, interpolation, upsample, bw))
+    kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
+              kernel=kernel)
+    plan, interpolation, upsample = _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing,
+                                                lam_eff)
     dr = _C / (2.0 * bw * plan.oversample)
     if interpolation in UPSAMPLED and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
         # zero samples past the receive window (no echo there) to a length the FFT upsampling does fast (1896 = 8 x 3 x

@@ -39,6 +39,14 @@ _ALIASES = 6          # images k = -6..6 in the alias sum (|K| falls as 1/f^2 ..
 _BAND_POINTS = 401    # quadrature points across the band
 
 
+@functools.lru_cache(maxsize=8)
+def _window_nodes(half: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes x on (0, half) and weights of a 160-point Gauss-Legendre rule in theta, x = half sin(theta)."""
+    t, w = np.polynomial.legendre.leggauss(160)
+    theta = (t + 1.0) * (np.pi / 4.0)
+    return half * np.sin(theta), half * np.cos(theta) * w * (np.pi / 4.0)
+
+
 def kernel_spectrum(name: str, f, beta: float | None = None) -> np.ndarray:
     """Continuous Fourier transform K(f) of an interpolation kernel (real, even) at frequencies f
     (``beta``: the window of a :data:`WINDOWED` kernel)."""
@@ -46,9 +54,11 @@ def kernel_spectrum(name: str, f, beta: float | None = None) -> np.ndarray:
     if name in WINDOWED:
         if beta is None or not math.isfinite(beta) or beta < 0:
             raise ConfigError("beta", f"a windowed kernel needs its window's beta >= 0 (kaiser_beta), got {beta!r}")
-        half = WINDOWED[name] / 2
-        x = (np.arange(4000) + 0.5) * (half / 4000)    # midpoints on (0, taps/2] (smooth kernel: rule error ~1e-9)
-        return 2.0 * np.cos(2.0 * np.pi * np.multiply.outer(f, x)) @ windowed_sinc(x, WINDOWED[name], beta) * (half / 4000)
+        # Gauss-Legendre in theta, x = (taps/2) sin(theta): the window's sqrt(1 - (x / half)^2) = cos(theta) becomes
+        # smooth; 160 nodes reach 1e-13 where a 4000-point midpoint rule had 7e-10 (and took 10x the time: kaiser_beta
+        # at a new os took 3 s of an FFBP call)
+        x, dx = _window_nodes(WINDOWED[name] / 2)
+        return 2.0 * np.cos(2.0 * np.pi * np.multiply.outer(f, x)) @ (windowed_sinc(x, WINDOWED[name], beta) * dx)
     if name not in KERNELS:
         raise ConfigError("kernel", f"must be one of {KERNELS + tuple(WINDOWED)}, got {name!r}")
     if name == "nearest":
