@@ -61,10 +61,10 @@ def test_ffbp_error_matches_prediction(slant, kernel, oversample, levels):
     assert levels is None or md["ffbp_levels"] == levels
     assert md["ffbp_kernel"] == kernel
     # "auto" range interpolation at fs / B = 2: Lagrange on the pulses FFT-upsampled by the smallest factor whose summed
-    # error is within a quarter of the polar stages' (x2: -56.6 dB, where the stages are above -50.5 dB; else x3, -70.4)
+    # error is within a third of the polar stages' (x2: -56.6 dB, where the stages are above -51.8 dB; else x3, -70.4)
     polar = ffbp_error_model(oversample, md["ffbp_levels"] + 1, kernel=kernel)
     factor = md["upsample"]
-    assert md["interpolation"] == "upsample-lagrange" and factor == (2 if polar > -50.5 else 3), (polar, factor)
+    assert md["interpolation"] == "upsample-lagrange" and factor == (2 if polar > -51.8 else 3), (polar, factor)
     assert md["ffbp_predicted_error_db"] == pytest.approx(
         ffbp_error_model(oversample, md["ffbp_levels"] + 1, summed_interpolation_error("lagrange", 2 * factor),
                          kernel=kernel))
@@ -117,10 +117,10 @@ def test_more_oversampling_is_more_accurate_and_bad_options_are_named():
     with pytest.raises(ConfigError, match="^beta: a windowed kernel needs"):
         kernel_spectrum("kaiser6", 0.1)
     # "auto" (the default) is resolved once for all pulses and gives that mode's image exactly: fs / B = 2, FFT x2 then
-    # Lagrange (summed error -56.6 dB <= a quarter of the polar stages' -47.1 dB; linear would need x7)
+    # Lagrange (summed error -56.6 dB <= a third of the polar stages' -47.1 dB; linear would need x7)
     from sarnav.imaging.interpolation_choice import resolve_ffbp_range
 
-    assert resolve_ffbp_range(rc, BW, 0.25 * 10 ** -4.71, 10_000) == ("upsample-lagrange", 2)
+    assert resolve_ffbp_range(rc, BW, 10 ** -4.71 / 3, 10_000) == ("upsample-lagrange", 2)
     a = ffbp(rc, grid, bandwidth=BW, base_pulses=8)
     assert (a.metadata["interpolation"], a.metadata["upsample"]) == ("upsample-lagrange", 2)
     b = ffbp(rc, grid, bandwidth=BW, base_pulses=8, interpolation="upsample-lagrange", upsample=2)

@@ -121,7 +121,7 @@ def test_auto_on_a_large_image_of_oversampled_pulses_is_linear_on_upsampled_puls
 def test_ffbp_range_choice_meets_its_limit_with_the_least_upsampling_the_cost_allows():
     """FFBP's "auto" level-0 range interpolation (``resolve_ffbp_range``): the *summed* error model, each kernel's
     smallest upsampling within the limit, then the cheaper. At fs/B 4 (the peer's CPHD collect) Lagrange on the pulses
-    as they are (-56.6 dB summed) serves a -51 dB polar plan's quarter (-57 dB would not): no FFT at all."""
+    as they are (-56.6 dB summed) serves a -51.8 dB polar plan's third (-56.6 dB; -57 dB would not): no FFT at all."""
     from sarnav.imaging.interpolation_choice import range_error, resolve_ffbp_range
     from sarnav.imaging.interpolation_error import summed_interpolation_error
 

@@ -33,7 +33,7 @@ evaluation) adds the kernel's 2-D error of a flat band at oversampling ``os`` in
 so their energies (and their errors') add; the level-0 range interpolation of the pulses adds the part of its
 error that survives the sum over pulses (``summed_interpolation_error``): predicted
 ``eps = n_stages * eps_2d(os, os) + eps_data``, against an ideal (band-limited) back-projection; under "auto" the
-range interpolation is the cheapest with eps_data <= ``_RANGE_SHARE`` (a quarter) of the stages' error. The
+range interpolation is the cheapest with eps_data <= ``_RANGE_SHARE`` (a third) of the stages' error. The
 "tile" of this factorisation is the subaperture (``base_pulses`` x ``merge^levels`` pulses) and
 its polar cell (Delta_r, Delta_u). A subaperture that is not straight (navigation errors,
 manoeuvres) adds an error the model does not include: the residual of its positions about the
@@ -68,7 +68,9 @@ FFBP_KERNELS = {"kaiser6": WINDOWED["kaiser6"], "cubic": 4}
 #: extra polar samples beyond the pixels' extent on each side (the 6-tap kernel's support is 3)
 _MARGIN = 4
 #: the level-0 range interpolation's share of the error under "auto": at most this times the polar stages' predicted
-#: error (-6 dB: the sum within 1 dB of the stages')
+#: error (-4.8 dB: the sum within 1.25 dB of the stages'). A third, not a quarter: on the peer's collect (fs/B 4)
+#: Lagrange on the pulses as they are (-56.6 dB) then serves kaiser6 up to os 2.5 with 2-3 merges; with a quarter, os
+#: 2.4-2.5 needed x2 FFT upsampling for 0.1-0.4 dB, which cost up to half the time again (docs/backprojection.md)
 _RANGE_SHARE = 1 / 3
 #: fractions per sample of the tabulated kernels (nearest row: position error <= 1/(2 F) sample, ~-73 dB at os 2)
 _TABLE = 2048
@@ -475,7 +477,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
         sinc; -50.6 dB a stage at os 2) or "cubic" (4 x 4 Keys; -47.5 dB a stage at os 4).
     interpolation, upsample : range interpolation of the pulses in the level-0 formation, as ``backproject``'s; "auto"
-        (default): the cheapest whose predicted error is a quarter of the polar stages' (``resolve_ffbp_range``: at
+        (default): the cheapest whose predicted error is a third of the polar stages' (``resolve_ffbp_range``: at
         fs / B = 4 Lagrange on the pulses as they are, at 2 Lagrange on x2 upsampled pulses).
 
     Returns
