@@ -54,19 +54,18 @@ from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, backproject_points, bpa_fan_kernel,
                                            check_interpolation, check_pulses, grid_points,
                                            plane_of, resolve_interpolation, sar_image, wavelength_of)
-from sarnav.imaging.interpolation_error import WINDOWED, interpolation_error_2d, kernel_values
+from sarnav.imaging.interpolation_error import kernel_values
 from sarnav.imaging.kernels import (GATHER_MODE, PAD, UPSAMPLED, demodulate_parts, polar_tap,
                                     tabulate, taps_2d, upsample_pulses)
 from sarnav.imaging.grid import as_grid
 from sarnav.imaging.interpolation_choice import range_error, resolve_ffbp_range
+from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, FfbpPlan, check_kernel,  # noqa: F401
+                                     ffbp_error_model, ffbp_plan, plan_cost)
 
-__all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS"]
+__all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS", "BASE_CHOICES", "polar_image",
+           "kernel_table"]
 
 _C = 299792458.0
-#: polar-image interpolation kernels: name -> taps per dimension (sarnav.imaging.interpolation_error)
-FFBP_KERNELS = {"kaiser6": WINDOWED["kaiser6"], "cubic": 4}
-#: extra polar samples beyond the pixels' extent on each side (the 6-tap kernel's support is 3)
-_MARGIN = 4
 #: the level-0 range interpolation's share of the error under "auto": at most this times the polar stages' predicted
 #: error (-4.8 dB: the sum within 1.25 dB of the stages'). A third, not a quarter: on the peer's collect (fs/B 4)
 #: Lagrange on the pulses as they are (-56.6 dB) then serves kaiser6 up to os 2.5 with 2-3 merges; with a quarter, os
@@ -82,68 +81,6 @@ def kernel_table(kernel: str, oversample: float) -> np.ndarray:
     ``interpolation_error.kernel_values``)."""
     table = tabulate(lambda x: kernel_values(kernel, x, oversample), FFBP_KERNELS[kernel], _TABLE)
     return np.ascontiguousarray(table, dtype=np.float32)
-
-
-@dataclass(frozen=True)
-class FfbpPlan:
-    """How :func:`ffbp` factorises: subaperture sizes, polar sampling and the predicted error."""
-
-    base_pulses: int
-    merge: int
-    levels: int
-    oversample: float
-    bandwidth: float
-    n_stages: int
-    predicted_error_db: float
-    kernel: str = "kaiser6"
-
-    @property
-    def final_pulses(self) -> int:
-        return self.base_pulses * self.merge ** self.levels
-
-
-def ffbp_error_model(oversample: float, n_stages: int, data_error: float = 0.0, kernel: str = "kaiser6") -> float:
-    """Predicted image error [dB] of FFBP against exact back-projection (module doc): ``10 log10(n_stages *
-    eps_kernel_2d(os, os) + data_error)``; ``data_error`` (linear): the level-0 range interpolation's error."""
-    eps = n_stages * interpolation_error_2d(_kernel_arg(kernel), oversample, oversample) + data_error
-    return float(10.0 * math.log10(eps))
-
-
-def _kernel_arg(kernel):
-    if kernel not in FFBP_KERNELS:
-        raise ConfigError("kernel", f"must be one of {tuple(FFBP_KERNELS)}, got {kernel!r}")
-    return kernel
-
-
-def _int_arg(name, value, lo):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise ConfigError(name, f"must be an integer >= {lo}, got {value!r}")
-    return int(value)
-
-
-def ffbp_plan(n_pulses: int, *, base_pulses: int = 16, merge: int = 4, levels: int | None = None,
-              oversample: float = 2.0, bandwidth: float, cost=None, kernel: str = "kaiser6",
-              data_error: float = 0.0) -> FfbpPlan:
-    """Choose the factorisation and predict its error (``data_error``: the level-0 range interpolation's, linear).
-
-    Default ``levels``: the one of 0 .. (as many merges as fit) that minimises ``cost(levels)``
-    (operation count estimate, see :func:`ffbp`), or the largest when ``cost`` is None.
-    """
-    base_pulses = _int_arg("base_pulses", base_pulses, 1)
-    merge = _int_arg("merge", merge, 2)
-    _kernel_arg(kernel)
-    if not (isinstance(oversample, (int, float)) and math.isfinite(oversample) and oversample >= 1.5):
-        raise ConfigError("oversample", f"must be a number >= 1.5 (polar samples per Nyquist sample), got {oversample!r}")
-    if levels is None:
-        levels = 0
-        while base_pulses * merge ** (levels + 1) <= n_pulses:
-            levels += 1
-        if cost is not None:
-            levels = min(range(levels + 1), key=cost)
-    levels = _int_arg("levels", levels, 0)
-    n_stages = levels + 1
-    return FfbpPlan(base_pulses, merge, levels, float(oversample), float(bandwidth), n_stages,
-                    ffbp_error_model(oversample, n_stages, data_error, kernel=kernel), kernel)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -304,10 +241,10 @@ def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: 
     u = d @ v / r
     length = float(np.ptp((pos - c) @ v)) + spacing
     du = lam_eff / (2.0 * length * os)
-    r0 = float(r.min()) - _MARGIN * dr
-    u0 = float(u.min()) - _MARGIN * du
-    nr = int(math.ceil((float(r.max()) + _MARGIN * dr - r0) / dr)) + 1
-    nu = int(math.ceil((float(u.max()) + _MARGIN * du - u0) / du)) + 1
+    r0 = float(r.min()) - POLAR_MARGIN * dr
+    u0 = float(u.min()) - POLAR_MARGIN * du
+    nr = int(math.ceil((float(r.max()) + POLAR_MARGIN * dr - r0) / dr)) + 1
+    nu = int(math.ceil((float(u.max()) + POLAR_MARGIN * du - u0) / du)) + 1
     return _Polar(c, w, r0, dr, nr, u0, du, nu)
 
 
@@ -418,33 +355,6 @@ def _evaluate(g: _Polar, q, ref_r, v, lam, ktab, out_re, out_im):
                 out_im)
 
 
-#: cost of one polar-image evaluation relative to one back-projected pixel-pulse: fixed part (locate, phase) and per
-#: tap (benchmarks/bench_ffbp.py, 2 cores: 16 taps ~5)
-_EVAL_COST_FIXED, _EVAL_COST_TAP = 1.0, 0.25
-
-
-def _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base, merge, taps):
-    """Operation count (pixel-pulse units) of the factorisation as a function of its number of levels."""
-    c = pos.mean(axis=0)
-    d = hull - c
-    r = np.linalg.norm(d, axis=1)
-    u = d @ v / r
-    n_r = np.ptp(r) * 2.0 * bw * os_ / _C + 2 * _MARGIN
-    eval_cost = _EVAL_COST_FIXED + _EVAL_COST_TAP * taps * taps
-
-    def n_u(n_pulses):
-        return np.ptp(u) * 2.0 * n_pulses * spacing * os_ / lam_eff + 2 * _MARGIN
-
-    def cost(levels):
-        total = p * n_r * n_u(base)                                  # level-0 exact formation
-        for lev in range(1, levels + 1):
-            size = base * merge ** lev
-            total += eval_cost * (p / size) * n_r * n_u(size) * merge
-        return total + eval_cost * n_pix * math.ceil(p / (base * merge ** levels))
-
-    return cost
-
-
 def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing, lam_eff):
     """(plan, range interpolation, upsample): "auto" -> ``resolve_ffbp_range`` for eps_data <= ``_RANGE_SHARE`` x the
     polar stages' predicted error (for the level-0 grid's points per pulse); "precise" as ``backproject``'s."""
@@ -460,7 +370,7 @@ def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacin
 
 
 def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
-         base_pulses: int = 16, merge: int = 4, levels: int | None = None, oversample: float = 2.0,
+         base_pulses: int | None = None, merge: int = 4, levels: int | None = None, oversample: float = 2.0,
          kernel: str = "kaiser6", interpolation: str = "auto", upsample: int = 8) -> SarImage:
     """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
 
@@ -470,8 +380,8 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
         antenna positions in one Cartesian frame, float64).
     bandwidth : signal bandwidth B [Hz] (sets the polar range sampling); default the data's sample
         rate c / (2 dr).
-    base_pulses, merge, levels : factorisation: subapertures of ``base_pulses`` pulses formed exactly,
-        then ``levels`` merges of ``merge`` children each (default: as many as fit).
+    base_pulses, merge, levels : factorisation: subapertures of ``base_pulses`` pulses formed exactly, then ``levels``
+        merges of ``merge`` children each (default: the (base, levels) of least operation count, ``ffbp_plan``).
     oversample : polar samples per Nyquist sample in range and angle (>= 1.5; error model in
         :func:`ffbp_error_model`).
     kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
@@ -519,9 +429,8 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     fc = _C / lam
     lam_eff = lam / (1.0 + bw / (2.0 * fc))
     os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
-    cost = _cost_model(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, base_pulses, merge, FFBP_KERNELS[
-        _kernel_arg(kernel)]) if isinstance(os_, float) and os_ >= 1.5 and isinstance(base_pulses, int) \
-        and isinstance(merge, int) and base_pulses >= 1 and merge >= 2 else None
+    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, FFBP_KERNELS[check_kernel(kernel)]) \
+        if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
     check_interpolation(interpolation, upsample)
     kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
               kernel=kernel)

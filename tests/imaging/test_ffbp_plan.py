@@ -1,0 +1,68 @@
+"""FFBP's plan (``sarnav.imaging.ffbp_plan``): the cost model chooses the subaperture length and the merges; the error
+model counts the interpolation stages; bad options are named."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sarnav.errors import ConfigError
+from sarnav.imaging.ffbp_plan import BASE_CHOICES, ffbp_error_model, ffbp_plan, plan_cost
+from sarnav.imaging.interpolation_error import interpolation_error_2d
+
+
+def test_the_plan_is_the_least_cost_pair_of_base_and_levels():
+    """Without base_pulses the plan is the (base, levels) of least cost over BASE_CHOICES x every number of merges
+    that fits; a given base or number of levels is kept."""
+    calls = []
+
+    def cost(base, levels):                       # any function: the plan must take its minimum
+        calls.append((base, levels))
+        return (math.log2(base) - 5) ** 2 + (levels - 2) ** 2
+
+    plan = ffbp_plan(2048, bandwidth=1e8, cost=cost)
+    assert (plan.base_pulses, plan.levels) == (32, 2) and plan.final_pulses == 512
+    assert {b for b, _ in calls} == set(BASE_CHOICES)
+    assert all(b * 4 ** lev <= 2048 for b, lev in calls)            # only factorisations that fit
+    assert (64, 2) in calls and (64, 3) not in calls                  # 64 x 4^3 = 4096 > 2048 pulses
+    assert (ffbp_plan(2048, bandwidth=1e8, cost=cost, base_pulses=16).base_pulses,
+            ffbp_plan(2048, bandwidth=1e8, cost=cost, base_pulses=16).levels) == (16, 2)
+    assert ffbp_plan(2048, bandwidth=1e8, cost=cost, levels=1).levels == 1
+    # without a cost model: 16 pulses and as many merges as fit (the former default)
+    plan = ffbp_plan(2048, bandwidth=1e8)
+    assert (plan.base_pulses, plan.levels) == (16, 3)
+
+
+def test_plan_cost_counts_the_level0_points_merges_and_final_evaluations():
+    """plan_cost against its terms written out: level 0 P x n_r x n_u(base); each merge (P / size) x n_r x n_u(size) x
+    merge evaluations; the final (P / final) x pixels evaluations, each evaluation (1 + taps^2 / 4) units."""
+    p, npx = 1024, 256 * 256
+    pos = np.zeros((p, 3))
+    pos[:, 0] = np.arange(p) * 0.1
+    pos[:, 2] = 1000.0
+    v = np.array([1.0, 0.0, 0.0])
+    hull = np.array([[20.0, 3000.0, 0.0], [80.0, 3000.0, 0.0], [20.0, 3100.0, 0.0], [80.0, 3100.0, 0.0]])
+    bw, os_, lam_eff = 1e8, 2.0, 0.03
+    cost = plan_cost(p, npx, pos, v, hull, bw, os_, 0.1, lam_eff, 4, 6)
+    c = pos.mean(axis=0)
+    r = np.linalg.norm(hull - c, axis=1)
+    u = (hull - c) @ v / r
+    n_r = np.ptp(r) * 2 * bw * os_ / 299792458.0 + 8
+    n_u = lambda n: np.ptp(u) * 2 * n * 0.1 * os_ / lam_eff + 8     # noqa: E731
+    ev = 1 + 36 / 4
+    want = p * n_r * n_u(32) + ev * (p / 128) * n_r * n_u(128) * 4 + ev * npx * (p // 128)
+    assert cost(32, 1) == pytest.approx(want, rel=1e-12)
+
+
+def test_error_model_counts_stages_and_bad_options_are_named():
+    eps = interpolation_error_2d("kaiser6", 2.0, 2.0)
+    assert ffbp_error_model(2.0, 3) == pytest.approx(10 * math.log10(3 * eps))
+    assert ffbp_error_model(2.0, 3, 1e-6) == pytest.approx(10 * math.log10(3 * eps + 1e-6))
+    plan = ffbp_plan(1024, bandwidth=1e8, base_pulses=16, levels=2)
+    assert plan.n_stages == 3 and plan.predicted_error_db == pytest.approx(10 * math.log10(3 * eps))
+    for kw, key in ((dict(base_pulses=0), "^base_pulses"), (dict(merge=1), "^merge"), (dict(levels=-1), "^levels"),
+                    (dict(oversample=1.2), "^oversample"), (dict(kernel="sinc"), "^kernel")):
+        with pytest.raises(ConfigError, match=key):
+            ffbp_plan(1024, bandwidth=1e8, **kw)
