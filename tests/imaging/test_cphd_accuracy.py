@@ -105,3 +105,24 @@ def test_the_dft_lattice_alone_is_not_enough():
     pts = sample_points()
     err = gain_error_db(backproject(phase_history_to_pulses(ph, oversample=1.0), pts).data, exact_image(ph, pts))
     assert err > -60.0, err
+
+
+def test_fft_upsampling_of_a_slow_length_bridges_the_period_smoothly():
+    """Pulses of a length the FFT does slowly are upsampled at ``next_fast_len`` with a cubic Hermite bridge back to
+    the first samples (``imaging.kernels.upsample_pulses``). On the half-period window (257 samples, upsampled at 264)
+    "precise" reaches -84.6 dB against the exact sum: better than the unpadded FFT's own wrap (-80.6 dB) and than zero
+    samples in the gap (-73.1 dB), both of which fail this bound; the output keeps the original axis."""
+    import scipy.fft as sfft
+
+    from sarnav.imaging.kernels import upsample_pulses
+
+    ph = collect(0.5)
+    rc = phase_history_to_pulses(ph)
+    n = rc.data.shape[1]
+    assert sfft.next_fast_len(n) > n                             # the bridge is exercised
+    up, r = upsample_pulses(rc.data, rc.slant_range, 3)
+    assert up.shape == (rc.n_pulses, (n - 1) * 3 + 1)
+    assert np.allclose(r[::3], rc.slant_range, rtol=0, atol=1e-9)
+    pts = sample_points()
+    err = gain_error_db(backproject(rc, pts, interpolation="precise").data, exact_image(ph, pts))
+    assert err < -82.0, err

@@ -13,6 +13,9 @@ arrays):
   speed and its focusing shift modelled, innovation gate, receive window following the geometry.
   Again for issue 29 (f6cb414): the predicted registration sigma uses the gradient energy both images share and
   Rice-distributed magnitudes near the noise floor (R changes, the shifts do not; errors move by < 1e-3 relative).
+* ``image_point_target_bpa_hamming`` (issue 28, 2026-12-06): FFT upsampling of pulses whose length the FFT does
+  slowly runs at ``next_fast_len`` with a cubic Hermite bridge from the last samples to the first
+  (``imaging.kernels.upsample_pulses``): its 1e-5 relative change is the old wrap's interpolation error near the ends.
 * ``telemetry``, ``telemetry_maneuver_consumer`` (issue 10, 8da02ea): the Gaussian-sum update with second-order terms
   is the telemetry default (at most 4e-4 m from the EKF where nothing is split).
 

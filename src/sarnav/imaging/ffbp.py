@@ -47,7 +47,6 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-import scipy.fft as sfft
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
@@ -437,12 +436,6 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     plan, interpolation, upsample = _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing,
                                                 lam_eff)
     dr = _C / (2.0 * bw * plan.oversample)
-    if interpolation in UPSAMPLED and sfft.next_fast_len(data.shape[1]) > data.shape[1]:
-        # zero samples past the receive window (no echo there) to a length the FFT upsampling does fast (1896 = 8 x 3 x
-        # 79 bins take 3x the time of 1920)
-        n = sfft.next_fast_len(data.shape[1])
-        data = np.concatenate([data, np.zeros((data.shape[0], n - data.shape[1]), data.dtype)], axis=1)
-        rng = rng[0] + np.arange(n) * dr_data
     rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
     former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample)
     step = plan.final_pulses
