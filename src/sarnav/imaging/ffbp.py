@@ -387,7 +387,8 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
         sinc; -50.6 dB a stage at os 2) or "cubic" (4 x 4 Keys; -47.5 dB a stage at os 4).
     interpolation, upsample : range interpolation of the pulses in the level-0 formation, as ``backproject``'s; "auto"
         (default): the cheapest whose predicted error is a third of the polar stages' (``resolve_ffbp_range``: at
-        fs / B = 4 Lagrange on the pulses as they are, at 2 Lagrange on x2 upsampled pulses).
+        fs / B = 4 Lagrange on the pulses as they are; at 2 FFT-upsampled pulses, Lagrange x2 or linear x5-x6 as the
+        level-0 grid's points per pulse weigh against the FFTs).
 
     Returns
     -------

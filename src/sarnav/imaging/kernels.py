@@ -137,7 +137,7 @@ def upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int, dtype=np.com
         p0, p1 = data[:, -1:], data[:, :1]
         m0, m1 = (data[:, -1:] - data[:, -2:-1]) * g, (data[:, 1:2] - data[:, :1]) * g
         h00, h10, h01, h11 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t, -2 * t**3 + 3 * t**2, t**3 - t**2
-        data = np.concatenate([data, h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1], axis=1)
+        data = np.concatenate([data, (h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1).astype(data.dtype)], axis=1)
     workers = max(1, numba.get_num_threads())          # the FFTs use the kernel's threads
     spec = sfft.fft(np.asarray(data, dtype=dtype), axis=1, workers=workers)
     fine = np.zeros((data.shape[0], n * factor), dtype=dtype)
