@@ -4,19 +4,35 @@ See docs/architecture.md for the package layout and docs/conventions.md for fram
 units, attitude and error-state conventions.
 
 When this interpreter runs the ``sarnav`` command (the console script, ``python -m sarnav`` or
-``python -m sarnav.cli.main``; never a worker process, a test runner or a program importing sarnav), SIGINT and SIGTERM are deferred from the first line
+``python -m sarnav.cli.main``; never a worker process, a test runner or a program importing sarnav), SIGINT and SIGTERM are deferred from the first lines
 of this package on: a signal that arrives while the command is still importing is recorded in
 :data:`PENDING_SIGNALS` and answered by :func:`sarnav.cli.main.main` with the one "interrupted" line and exit
 status 128 + N. The handlers are installed through the built-in ``_signal`` module (the ``signal`` module alone
 imports ``enum`` and costs ~10 ms), so the only moment left to the operating system's defaults is the interpreter's
-own start-up, before it runs any sarnav code.
+own start-up and the first statements of this file, up to the handlers' installation (the deferral is installed in
+every process first, and given back at once where the interpreter does not run the command: the argv test that
+decides took long enough for a signal to land in it, 2026-12-06).
 
 From Python (docs/api.md): ``sarnav.run(scenario, runs=..., seed=..., **overrides)`` runs a campaign and returns its
 results Dataset; ``sarnav.figures`` draws them; ``sarnav.__version__`` is the version derived from git
 (:mod:`sarnav.version`). These are imported on first use: ``import sarnav`` stays light.
 """
 
-import sys as _sys
+import _signal as _sg  # the deferral first (the interpreter has this module loaded already): see the docstring
+
+
+def _defer(signum, frame):
+    PENDING_SIGNALS.append(signum)
+
+
+#: SIGINT / SIGTERM received before :func:`sarnav.cli.main.main` took over (kept only when running the command)
+PENDING_SIGNALS: list[int] = []
+try:
+    _BEFORE = (_sg.signal(_sg.SIGINT, _defer), _sg.signal(_sg.SIGTERM, _defer))
+except ValueError:  # imported outside the main thread: signals are the main thread's business
+    _BEFORE = None
+
+import sys as _sys  # noqa: E402
 
 
 def __getattr__(name):  # PEP 562: the version (asks git in a checkout) and the API on first use
@@ -30,9 +46,6 @@ def __getattr__(name):  # PEP 562: the version (asks git in a checkout) and the 
         return getattr(api, name)
     raise AttributeError(f"module 'sarnav' has no attribute {name!r}")
 
-
-#: SIGINT / SIGTERM received before :func:`sarnav.cli.main.main` took over (set only when running the command)
-PENDING_SIGNALS: list[int] = []
 
 _COMMAND_MODULES = ("sarnav", "sarnav.cli.main", "sarnav.cli")
 
@@ -57,12 +70,10 @@ def _runs_the_command(argv) -> bool:
     return False
 
 
-def _defer(signum, frame):
-    PENDING_SIGNALS.append(signum)
-
-
-if _runs_the_command(getattr(_sys, "orig_argv", ())):
-    import _signal
-
-    for _sig in (_signal.SIGINT, _signal.SIGTERM):
-        _signal.signal(_sig, _defer)
+if _BEFORE is not None and not _runs_the_command(getattr(_sys, "orig_argv", ())):
+    # a worker, a test runner or a program importing sarnav: its own handlers back, and a signal that came meanwhile
+    # delivered as it would have been
+    for _sig, _old in zip((_sg.SIGINT, _sg.SIGTERM), _BEFORE):
+        _sg.signal(_sig, _sg.SIG_DFL if _old is None else _old)
+    while PENDING_SIGNALS:
+        _sg.raise_signal(PENDING_SIGNALS.pop(0))
