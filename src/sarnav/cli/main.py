@@ -8,7 +8,7 @@ SIGTERM, at any moment after the interpreter has run the first line of ``sarnav/
 one ``sarnav: interrupted by signal N ...`` line and exit status 128 + N (130, 143); the console script then leaves at once (``os._exit``), so no worker
 pool or thread can keep it alive. Signals that arrive while the command is importing are deferred
 (``sarnav.PENDING_SIGNALS``); only one arriving in the interpreter's own start-up, before it runs any sarnav code
-(10-30 ms), gets the operating system's default.
+(10-30 ms), or in the first statements of ``sarnav/__init__.py`` (microseconds), gets the operating system's default.
 """
 
 from __future__ import annotations
