@@ -19,7 +19,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from sarnav.errors import ConfigError, InputDataError, RunFault, SarnavError, require_extra
+from sarnav.errors import ConfigError, InputDataError, RunFault, SarnavError, deferred_signals, require_extra
 from sarnav.montecarlo.record import RunRecord
 from sarnav.montecarlo.kind import ScenarioKind
 from sarnav.montecarlo.seeding import ChunkPlan, FixedChunks
@@ -327,8 +327,6 @@ class ChunkRunner:
 
     def _ensure_client(self):
         if self._client is None:
-            from sarnav.errors import deferred_signals
-
             with deferred_signals():
                 import logging
 
@@ -376,8 +374,10 @@ class ChunkRunner:
 
         def submit():
             ids = plan.next_chunk()
-            if ids is not None:
-                with _children_start_with_sigint_blocked():
+            if ids is not None:  # a signal is answered after the submit: a worker half spawned (its start-up data not
+                # yet written to it) is not in the pool's list the abort terminates, and reads EOF once this process
+                # leaves (an EOFError traceback on the terminal; CI, 2026-12-06)
+                with deferred_signals(), _children_start_with_sigint_blocked():
                     pending[pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids])] = ids
 
         try:
