@@ -193,3 +193,16 @@ def test_plane_grid_and_point_list_give_the_same_ffbp_image():
     a = ffbp(rc, grid, bandwidth=BW, base_pulses=8, levels=1).data
     b = ffbp(rc, PointGrid(grid.points()), bandwidth=BW, base_pulses=8, levels=1).data
     assert 10 * np.log10(np.sum(np.abs(a - b) ** 2) / np.sum(np.abs(b) ** 2)) < -110
+
+
+def test_the_default_band_is_the_signals_not_the_sample_rate():
+    """Without ``bandwidth`` FFBP takes the band back-projection's "auto" sees (``rc.bandwidth``, else the pulses'
+    spectrum), not the sample rate: on pulses at fs/B 4 (the CPHD reader's default axis) the sample rate made every
+    polar grid 4x finer in range and FFBP 3-4x slower (peer's collect, 2048^2: 5.5-6.7 s against 1.7 s)."""
+    rc, grid = scene(48, 64, 5e3, n_targets=20, fs_over_b=4.0)
+    fs = C / (2 * (rc.slant_range[1] - rc.slant_range[0]))
+    estimated = ffbp(rc, grid, base_pulses=8).metadata
+    assert abs(estimated["ffbp_bandwidth_hz"] / BW - 1) < 0.05, estimated["ffbp_bandwidth_hz"]   # spectrum: 1 % level
+    rc.bandwidth = BW
+    assert ffbp(rc, grid, base_pulses=8).metadata["ffbp_bandwidth_hz"] == pytest.approx(BW, rel=1e-12)
+    assert ffbp(rc, grid, base_pulses=8, bandwidth=fs).metadata["ffbp_bandwidth_hz"] == fs    # an explicit band wins

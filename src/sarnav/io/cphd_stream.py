@@ -31,7 +31,7 @@ __all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "D
            "read_budget_flag", "read_pulses_flag"]
 
 _C = 299792458.0
-_FFBP_UPSAMPLE = 8                 # ffbp's default level-0 range upsampling
+_FFBP_UPSAMPLE = 8                 # bound on ffbp's "auto" level-0 range upsampling (x5 at fs/B 1, none at 4)
 _PIXEL_BYTES = {"bpa": 64, "ffbp": 192}   # accumulator, the former's outputs (and FFBP's polar images) per pixel
 _FIXED_BYTES = 2**20               # small arrays, slack
 _BAND_VECTORS = 8                  # vectors in the middle of the selection whose spectrum gives the band
@@ -159,7 +159,7 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
         if weights is not None:
             rc.data *= weights[a:b, None]
         img = backproject(rc, grid, interpolation=mode, upsample=up, bandwidth=figures.bandwidth) \
-            if algorithm == "bpa" else ffbp(rc, grid)
+            if algorithm == "bpa" else ffbp(rc, grid, bandwidth=figures.bandwidth)
         acc = img.data if acc is None else acc + img.data
         del rc
     img.data = acc
