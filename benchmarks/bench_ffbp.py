@@ -9,7 +9,7 @@ Usage::
 Peer collect (``--peer-sizes``, ``benchmarks/peer_collect.py``; skipped with a note without fastsar and finufft):
 FastSAR's simulated X-band spotlight (9.6 GHz, 300 MHz, 5 km, 30 deg, 0.25 m pixels, 200 point targets) through
 sarnav's CPHD path (``phase_history_to_pulses``, default axis); printed for sarnav's FFBP (kaiser6 and cubic polar
-kernels, B = the stored band), sarnav's exact BP (default "auto", timed on ``--exact-pulses`` pulses and scaled) and
+kernels, B = the stored band; and ``ffbp(rc, grid)`` as a user calls it, B from the pulses), sarnav's exact BP (default "auto", timed on ``--exact-pulses`` pulses and scaled) and
 FastSAR's FFBP and exact BP (cubic x8; ``--peer-exact`` to time it, it takes as long as sarnav's): time,
 pixel-pulses/s, and the error after one complex gain against the exact float64 sum over every pulse and frequency
 sample on a uniform 16 x 16 pixel sample.
@@ -210,6 +210,13 @@ def peer_table(npx: int, args) -> None:
         print(f"  {f'sarnav ffbp {kernel} os {os_:g}':26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
               f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.1f}"
               f"{also}); {t_e / t_f:5.1f}x sarnav's exact BP; range {_range(img.metadata)}", flush=True)
+    # the call as a user writes it: no band given, ffbp takes the pulses' (ffbp_bandwidth_hz); before 2026-12-06 it took
+    # the sample rate (fs/B 4 here), which made every polar grid 4x finer in range
+    t_d, _, img = timed(lambda: ffbp(rc, grid), args.repeat)
+    print(f"  {'sarnav ffbp(rc, grid)':26s} {t_d:8.2f} s {work / t_d:9.3e} px-pulse/s  error vs exact "
+          f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.1f}); "
+          f"{t_e / t_d:5.1f}x sarnav's exact BP; band {img.metadata['ffbp_bandwidth_hz'] / 1e6:.1f} MHz (stored "
+          f"{rc.metadata['stored_band_hz'] / 1e6:.1f}); range {_range(img.metadata)}", flush=True)
     if args.no_fastsar or pc.peer_available() is not None:
         print("  fastsar skipped" + ("" if args.no_fastsar else f": {pc.peer_available()}"))
         return
