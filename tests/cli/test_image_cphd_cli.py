@@ -126,6 +126,8 @@ def test_ffbp_of_the_cphd_matches_bpa_within_its_error_model(outs):
     err = error_db(g * img, ref)
     print(f"FFBP of the CPHD vs its BPA image: {err:.1f} dB, predicted {m['ffbp']['predicted_error_db']:.1f} dB")
     assert m["algorithm"] == "ffbp" and err < m["ffbp"]["predicted_error_db"] + 2.0 and err < -40.0, (err, m["ffbp"])
+    # the polar grids at the signal's band (509 MHz here; the file stores 1 GHz), not at the pulses' 4x sample rate
+    assert m["ffbp"]["bandwidth_hz"] == pytest.approx(m["bandwidth_hz"], rel=1e-12), (m["ffbp"], m["bandwidth_hz"])
 
 
 def _rewrite(src, dst, *, drop=None, nan_pvp=None, line_spacing=None):

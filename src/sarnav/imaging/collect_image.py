@@ -59,7 +59,9 @@ def form_collect_image(rc: PulseData, grid, algorithm: str = "bpa", window=None,
     w = as_window(window or "none", window_field)
     if w.name != "none":
         rc = rc.__class__(**{**rc.__dict__, "data": rc.data * w.samples(rc.n_pulses)[:, None]})
-    img = backproject(rc, grid) if algorithm == "bpa" else ffbp(rc, grid, bandwidth=(rc.metadata or {}).get("stored_band_hz"))
+    # ffbp's default band is the signal's (the pulses' spectrum), as backproject's "auto" and collect_figures use: a
+    # file's stored band can be twice the signal's (guard bands), which made the polar grids twice as fine as needed
+    img = backproject(rc, grid) if algorithm == "bpa" else ffbp(rc, grid)
     img.metadata["window"] = w.label
     return img
 

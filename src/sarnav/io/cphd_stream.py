@@ -159,7 +159,7 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
         if weights is not None:
             rc.data *= weights[a:b, None]
         img = backproject(rc, grid, interpolation=mode, upsample=up, bandwidth=figures.bandwidth) \
-            if algorithm == "bpa" else ffbp(rc, grid, bandwidth=rc.metadata["stored_band_hz"])
+            if algorithm == "bpa" else ffbp(rc, grid, bandwidth=figures.bandwidth)
         acc = img.data if acc is None else acc + img.data
         del rc
     img.data = acc
