@@ -143,3 +143,20 @@ def test_ffbp_range_choice_meets_its_limit_with_the_least_upsampling_the_cost_al
     rc16 = data(np.array([0.0, EAST, 0.0]), 16.0 * BW, n=2400)
     assert resolve_ffbp_range(rc16, BW, 10 ** -5.7, 40_000)[0] == "linear"      # linear at fs/B 16: -60.3 dB
     assert range_error(rc16, "linear", 8, BW) == pytest.approx(summed_interpolation_error("linear", 16.0), rel=1e-9)
+
+
+def test_the_kaiser6_beta_table_is_the_search_and_costs_nothing_between_its_nodes():
+    """``kaiser_beta`` reads kaiser6's beta from a table at os 1.5, 1.6, ..., 4.0 (the search took 0.12-0.28 s of every
+    FFBP call's first use of an os): some nodes re-derived by the search, and the error interpolating between the
+    nodes costs against the searched optimum below 0.01 dB; outside the table the search."""
+    from sarnav.imaging.interpolation_error import (KAISER6_BETA, KAISER6_BETA_OS, interpolation_error, kaiser_beta,
+                                                    search_kaiser_beta)
+
+    nodes = np.linspace(*KAISER6_BETA_OS, len(KAISER6_BETA))
+    for i in (0, 5, 12, len(KAISER6_BETA) - 1):
+        assert search_kaiser_beta("kaiser6", float(nodes[i])) == pytest.approx(KAISER6_BETA[i], abs=2e-3)
+    for os_ in (1.55, 2.25, 2.37, 3.65):
+        table, best = kaiser_beta("kaiser6", os_), search_kaiser_beta("kaiser6", os_)
+        loss_db = 10 * np.log10(interpolation_error("kaiser6", os_, table) / interpolation_error("kaiser6", os_, best))
+        assert loss_db < 0.01, (os_, table, best, loss_db)
+    assert kaiser_beta("kaiser6", 4.5) == search_kaiser_beta("kaiser6", 4.5)

@@ -31,9 +31,8 @@ import numpy as np
 from sarnav.errors import ConfigError
 from sarnav.imaging.kernels import KERNELS, WINDOWED, point_kernel, windowed_sinc
 
-__all__ = ["kernel_spectrum", "interpolation_error", "interpolation_error_2d", "kaiser_beta", "windowed_sinc", "kernel_values",
-           "summed_interpolation_error",
-           "KERNELS", "WINDOWED"]
+__all__ = ["kernel_spectrum", "interpolation_error", "interpolation_error_2d", "kaiser_beta", "search_kaiser_beta",
+           "windowed_sinc", "kernel_values", "summed_interpolation_error", "KERNELS", "WINDOWED"]
 
 _ALIASES = 6          # images k = -6..6 in the alias sum (|K| falls as 1/f^2 .. 1/f^4)
 _BAND_POINTS = 401    # quadrature points across the band
@@ -119,8 +118,27 @@ def summed_interpolation_error(name: str, os: float) -> float:
     return float(np.mean((g - k0) ** 2) / g**2)
 
 
+#: kaiser6's beta searched (``search_kaiser_beta``) at os 1.5, 1.6, ..., 4.0: the search takes 0.12-0.28 s, which every
+#: FFBP call (a process's first at each os) paid; between the nodes ``kaiser_beta`` interpolates linearly (beta is
+#: smooth in os; the error it costs is < 0.01 dB, tests/imaging/test_interpolation_default.py re-derives the table)
+KAISER6_BETA_OS = (1.5, 4.0)
+KAISER6_BETA = (3.3194, 3.6764, 3.9882, 4.2653, 4.5158, 4.7454, 4.9590, 5.1609, 5.3543, 5.5411, 5.7215, 5.8936, 6.0555,
+                6.2056, 6.3434, 6.4694, 6.5844, 6.6893, 6.7853, 6.8732, 6.9537, 7.0282, 7.0970, 7.1605, 7.2196, 7.2748)
+
+
 @functools.lru_cache(maxsize=64)
 def kaiser_beta(name: str, os: float) -> float:
+    """The Kaiser window's beta of :data:`WINDOWED` kernel ``name`` at oversampling ``os``: the one that minimises its
+    1-D error (:func:`search_kaiser_beta`), for kaiser6 at os 1.5-4 read from :data:`KAISER6_BETA` (linear between
+    its 0.1 nodes)."""
+    if name == "kaiser6" and isinstance(os, (int, float)) and KAISER6_BETA_OS[0] <= os <= KAISER6_BETA_OS[1]:
+        nodes = np.linspace(KAISER6_BETA_OS[0], KAISER6_BETA_OS[1], len(KAISER6_BETA))
+        return float(np.interp(float(os), nodes, KAISER6_BETA))
+    return search_kaiser_beta(name, os)
+
+
+@functools.lru_cache(maxsize=64)
+def search_kaiser_beta(name: str, os: float) -> float:
     """The Kaiser window's beta that minimises the 1-D error of :data:`WINDOWED` kernel ``name`` at oversampling
     ``os`` (a bounded scalar search over 0 .. 3 taps; the 2-D optimum, searched with Nelder-Mead, differs by
     0.2-0.3 %: 4.734 against 4.745 at os 2, 6.45 against 6.47 at os 3)."""
