@@ -124,6 +124,8 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=2, help="FFBP and FastSAR calls timed (best of; the own exact BP is "
                     "best of 2, the peer-collect exact BP one call)")
     ap.add_argument("--no-fastsar", action="store_true", help="skip FastSAR's FFBP")
+    ap.add_argument("--peer-error-db", type=float, nargs="*", default=[],
+                    help="on the peer collect, also time ffbp(..., error_db=T) for each target T (the plan it picks)")
     ap.add_argument("--peer-sizes", type=int, nargs="*", default=[2048], help="image sizes on the peer's collect")
     ap.add_argument("--peer-exact", action="store_true", help="time FastSAR's exact BP (cubic x8) on the peer collect")
     args = ap.parse_args(argv)
@@ -210,6 +212,15 @@ def peer_table(npx: int, args) -> None:
         print(f"  {f'sarnav ffbp {kernel} os {os_:g}':26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
               f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.1f}"
               f"{also}); {t_e / t_f:5.1f}x sarnav's exact BP; range {_range(img.metadata)}", flush=True)
+    for target in args.peer_error_db:
+        kw = dict(bandwidth=rc.metadata["stored_band_hz"], error_db=target)
+        ffbp(rc, small, **kw)
+        t_f, _, img = timed(lambda: ffbp(rc, grid, **kw), args.repeat)
+        md = img.metadata
+        print(f"  {f'sarnav ffbp error_db {target:g}':26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
+              f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {md['ffbp_predicted_error_db']:.1f}); "
+              f"{t_e / t_f:5.1f}x sarnav's exact BP; os {md['ffbp_oversample']:g}, {md['ffbp_base_pulses']} pulses x "
+              f"{md['ffbp_levels']} merges, range {_range(md)}", flush=True)
     # the call as a user writes it: no band given, ffbp takes the pulses' (ffbp_bandwidth_hz); before 2026-12-06 it took
     # the sample rate (fs/B 4 here), which made every polar grid 4x finer in range
     t_d, _, img = timed(lambda: ffbp(rc, grid), args.repeat)

@@ -223,3 +223,19 @@ def test_a_weighted_band_keeps_the_error_model():
     assert 0.7 * BW < img.metadata["ffbp_bandwidth_hz"] < 0.95 * BW, img.metadata["ffbp_bandwidth_hz"]
     err = gain_error_db(img.data, ideal(rc, grid))
     assert err < img.metadata["ffbp_predicted_error_db"] + 2.0, (err, img.metadata["ffbp_predicted_error_db"])
+
+
+def test_a_target_error_chooses_the_oversampling():
+    """``error_db`` instead of ``oversample``: the plan's prediction (range interpolation included) is within the
+    target, a tighter target samples finer, and the image's error against the ideal stays within its prediction +
+    2 dB; giving both is refused, naming ``error_db``."""
+    rc, grid = scene(96, 128, 5e3, n_targets=60)
+    ref = ideal(rc, grid)
+    loose, tight = (ffbp(rc, grid, bandwidth=BW, error_db=t) for t in (-42.0, -52.0))
+    for img, target in ((loose, -42.0), (tight, -52.0)):
+        md = img.metadata
+        assert md["ffbp_predicted_error_db"] <= target
+        assert gain_error_db(img.data, ref) < md["ffbp_predicted_error_db"] + 2.0, md
+    assert tight.metadata["ffbp_oversample"] > loose.metadata["ffbp_oversample"]
+    with pytest.raises(ConfigError, match=r"^error_db: give error_db or oversample, not both"):
+        ffbp(rc, grid, bandwidth=BW, error_db=-45.0, oversample=2.0)

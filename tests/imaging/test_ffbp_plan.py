@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError
-from sarnav.imaging.ffbp_plan import BASE_CHOICES, ffbp_error_model, ffbp_plan, plan_cost
+from sarnav.imaging.ffbp_plan import (BASE_CHOICES, OVERSAMPLE_CHOICES, ffbp_error_model, ffbp_plan, plan_cost,
+                                     plan_for_error)
 from sarnav.imaging.interpolation_error import interpolation_error_2d
 
 
@@ -66,3 +67,35 @@ def test_error_model_counts_stages_and_bad_options_are_named():
                     (dict(oversample=1.2), "^oversample"), (dict(kernel="sinc"), "^kernel")):
         with pytest.raises(ConfigError, match=key):
             ffbp_plan(1024, bandwidth=1e8, **kw)
+
+
+def test_a_target_error_gets_the_least_cost_plan_that_meets_it():
+    """``plan_for_error`` against a brute-force search over the same grid: of every (os, base, levels) whose predicted
+    error, the range share included, is within the target, the one of least cost (a toy cost rising with os and with
+    the merges' count); a looser target never costs more; given base and levels are kept; an unreachable target and a
+    bad one name ``error_db``."""
+    def cost_at(os_):
+        return lambda base, levels: os_ ** 2 * (1.0 + 0.3 * levels) * (1.0 + abs(math.log2(base) - 5) / 4) * 1e9
+
+    def brute(target, share, bases=BASE_CHOICES):
+        ok = [(cost_at(o)(b, lev), o, b, lev) for o in OVERSAMPLE_CHOICES for b in bases for lev in range(6)
+              if b * 4 ** lev <= 2048
+              and 10 * math.log10((1 + share) * 10 ** (ffbp_error_model(o, lev + 1) / 10)) <= target]
+        return min(ok)[1:]
+
+    last = 0.0
+    for target in (-40.0, -45.0, -50.0, -55.0, -60.0):
+        got = plan_for_error(target, 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel="kaiser6",
+                             data_share=1 / 3)
+        assert got == brute(target, 1 / 3), target
+        cost = cost_at(got[0])(got[1], got[2])
+        assert cost >= last
+        last = cost
+    os_, base, levels = plan_for_error(-50.0, 2048, cost_at, base_pulses=16, merge=4, levels=1, kernel="kaiser6")
+    assert (base, levels) == (16, 1) and 10 ** (ffbp_error_model(os_, 2) / 10) <= 1e-5
+    with pytest.raises(ConfigError, match=r"^error_db: must be >= -6\d\.\d dB \(the least error a kaiser6 plan predicts"):
+        plan_for_error(-90.0, 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel="kaiser6")
+    with pytest.raises(ConfigError, match=r"^error_db: must be a finite number of dB"):
+        plan_for_error(float("nan"), 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel="kaiser6")
+    with pytest.raises(ConfigError, match=r"^merge"):
+        plan_for_error(-50.0, 2048, cost_at, base_pulses=None, merge=1, levels=None, kernel="kaiser6")

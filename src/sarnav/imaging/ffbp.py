@@ -59,7 +59,7 @@ from sarnav.imaging.kernels import (GATHER_MODE, PAD, UPSAMPLED, demodulate_part
 from sarnav.imaging.grid import as_grid
 from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, FfbpPlan, check_kernel,  # noqa: F401
-                                     ffbp_error_model, ffbp_plan, plan_cost)
+                                     ffbp_error_model, ffbp_plan, plan_cost, plan_for_error)
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS", "BASE_CHOICES", "polar_image",
            "kernel_table"]
@@ -368,9 +368,24 @@ def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacin
     return ffbp_plan(p, **kw, data_error=range_error(rc, interpolation, upsample, bw)), interpolation, upsample
 
 
+def _for_error(error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw, cost_at):
+    """(oversample, base_pulses, levels) of the cheapest plan predicted within ``error_db`` (``plan_for_error``; under
+    "auto" the range interpolation's share is ``_RANGE_SHARE``, else its error is known in advance)."""
+    if oversample is not None:
+        raise ConfigError("error_db", f"give error_db or oversample, not both (error_db chooses the oversampling; "
+                                      f"oversample={oversample!r})")
+    if interpolation == "auto":
+        share, fixed = _RANGE_SHARE, 0.0
+    else:
+        share, fixed = 0.0, range_error(rc, *resolve_interpolation(rc, interpolation, upsample, bw), bw)
+    return plan_for_error(error_db, p, cost_at, base_pulses=base_pulses, merge=merge, levels=levels, kernel=kernel,
+                          data_share=share, data_error=fixed)
+
+
 def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
-         base_pulses: int | None = None, merge: int = 4, levels: int | None = None, oversample: float = 2.0,
-         kernel: str = "kaiser6", interpolation: str = "auto", upsample: int = 8) -> SarImage:
+         base_pulses: int | None = None, merge: int = 4, levels: int | None = None, oversample: float | None = None,
+         kernel: str = "kaiser6", interpolation: str = "auto", upsample: int = 8,
+         error_db: float | None = None) -> SarImage:
     """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
 
     Parameters
@@ -383,13 +398,16 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     base_pulses, merge, levels : factorisation: subapertures of ``base_pulses`` pulses formed exactly, then ``levels``
         merges of ``merge`` children each (default: the (base, levels) of least operation count, ``ffbp_plan``).
     oversample : polar samples per Nyquist sample in range and angle (>= 1.5; error model in
-        :func:`ffbp_error_model`).
+        :func:`ffbp_error_model`); default 2, or chosen by ``error_db``.
     kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
         sinc; -50.6 dB a stage at os 2) or "cubic" (4 x 4 Keys; -47.5 dB a stage at os 4).
     interpolation, upsample : range interpolation of the pulses in the level-0 formation, as ``backproject``'s; "auto"
         (default): the cheapest whose predicted error is a third of the polar stages' (``resolve_ffbp_range``: at
         fs / B = 4 Lagrange on the pulses as they are; at 2 FFT-upsampled pulses, Lagrange x2 or linear x5-x6 as the
         level-0 grid's points per pulse weigh against the FFTs).
+    error_db : a target for the predicted error [dB] instead of ``oversample``: the plan of least operation count
+        (``ffbp_plan.plan_for_error``: os 1.6-4.0 in 0.1 steps and, unless given, the subaperture length and levels)
+        whose prediction, the range interpolation's included, is within it.
 
     Returns
     -------
@@ -432,10 +450,16 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     spacing = float(np.linalg.norm(track)) / (p - 1)
     fc = _C / lam
     lam_eff = lam / (1.0 + bw / (2.0 * fc))
-    os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
-    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, FFBP_KERNELS[check_kernel(kernel)]) \
-        if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
+    taps = FFBP_KERNELS[check_kernel(kernel)]
     check_interpolation(interpolation, upsample)
+    if error_db is not None:
+        oversample, base_pulses, levels = _for_error(
+            error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw,
+            lambda o: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, taps))
+    oversample = 2.0 if oversample is None else oversample
+    os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
+    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps) \
+        if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
     kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
               kernel=kernel)
     plan, interpolation, upsample = _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing,

@@ -15,8 +15,8 @@ import numpy as np
 from sarnav.errors import ConfigError
 from sarnav.imaging.interpolation_error import WINDOWED, interpolation_error_2d
 
-__all__ = ["FFBP_KERNELS", "BASE_CHOICES", "POLAR_MARGIN", "FfbpPlan", "ffbp_error_model", "ffbp_plan",
-           "plan_cost", "check_kernel"]
+__all__ = ["FFBP_KERNELS", "BASE_CHOICES", "POLAR_MARGIN", "OVERSAMPLE_CHOICES", "FfbpPlan", "ffbp_error_model",
+           "ffbp_plan", "plan_cost", "plan_for_error", "check_kernel"]
 
 _C = 299792458.0
 #: polar-image interpolation kernels: name -> taps per dimension (sarnav.imaging.interpolation_error)
@@ -97,6 +97,46 @@ def ffbp_plan(n_pulses: int, *, base_pulses: int | None = None, merge: int = 4, 
     n_stages = levels + 1
     return FfbpPlan(base_pulses, merge, levels, float(oversample), float(bandwidth), n_stages,
                     ffbp_error_model(oversample, n_stages, data_error, kernel=kernel), kernel)
+
+
+#: the oversampling factors a target error (``ffbp(..., error_db=)``) is met with: 1.6 .. 4.0 in steps of 0.1 (kaiser6's
+#: tabulated beta, ``interpolation_error.KAISER6_BETA``)
+OVERSAMPLE_CHOICES = tuple(round(1.6 + 0.1 * i, 1) for i in range(25))
+
+
+def plan_for_error(error_db, n_pulses: int, cost_at, *, base_pulses: int | None, merge: int, levels: int | None,
+                   kernel: str, data_share: float = 0.0, data_error: float = 0.0) -> tuple[float, int, int]:
+    """(oversample, base pulses, levels) of least cost whose predicted error is <= ``error_db``: over
+    :data:`OVERSAMPLE_CHOICES` and, unless given, :data:`BASE_CHOICES` and the levels that fit, the polar stages'
+    error (:func:`ffbp_error_model`) times 1 + ``data_share`` (the level-0 range interpolation's share under ``ffbp``'s
+    "auto" rule) plus ``data_error`` (linear: a range interpolation fixed in advance); ``cost_at(os)``: the
+    :func:`plan_cost` function at that os. A target no plan reaches is a ConfigError naming ``error_db`` and the least
+    error a plan predicts."""
+    if isinstance(error_db, bool) or not isinstance(error_db, (int, float)) or not math.isfinite(error_db):
+        raise ConfigError("error_db", f"must be a finite number of dB, got {error_db!r}")
+    check_kernel(kernel)
+    merge = _int_arg("merge", merge, 2)
+    base_pulses = None if base_pulses is None else _int_arg("base_pulses", base_pulses, 1)
+    levels = None if levels is None else _int_arg("levels", levels, 0)
+    bases = [base_pulses] if base_pulses is not None else [b for b in BASE_CHOICES if b <= max(n_pulses, BASE_CHOICES[0])]
+    best, reach = None, math.inf
+    for os_ in OVERSAMPLE_CHOICES:
+        cost, stage = None, interpolation_error_2d(kernel, os_, os_)      # one stage's error (ffbp_error_model)
+        for base in bases:
+            top = 0
+            while base * merge ** (top + 1) <= n_pulses:
+                top += 1
+            for lev in [levels] if levels is not None else range(top + 1):
+                err = 10.0 * math.log10((1.0 + data_share) * (lev + 1) * stage + data_error)
+                reach = min(reach, err)
+                if err <= error_db:
+                    cost = cost or cost_at(os_)
+                    c = cost(base, lev)
+                    best = (c, os_, base, lev) if best is None or c < best[0] else best
+    if best is None:
+        raise ConfigError("error_db", f"must be >= {reach:.1f} dB (the least error a {kernel} plan predicts at os <= "
+                                      f"{OVERSAMPLE_CHOICES[-1]}), got {error_db!r}")
+    return best[1], best[2], best[3]
 
 
 #: cost of one polar-image evaluation relative to one back-projected pixel-pulse: fixed part (locate, phase) and per
