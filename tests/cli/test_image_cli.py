@@ -101,6 +101,8 @@ def test_scatterers_are_reproducible_and_toml_round_trips(tmp_path):
     ("radar.carrier_ghz=0.0001", "radar.bandwidth_mhz"),
     ("radar.pulse_length_us=1e6", "radar.pulse_length_us"),
     ("radar.antenna_length_m=1e-9", "radar.antenna_length_m"),
+    # a margin wider than the nearest range: named radar.near_range (derived) until a property test drew it (2026-12-06)
+    ("radar.range_margin_m=10000.0", "radar.range_margin_m"),
 ])
 def test_bad_values_name_the_field(tmp_path, override, field):
     with pytest.raises(ConfigError) as err:
