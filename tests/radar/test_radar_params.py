@@ -223,6 +223,10 @@ def test_receive_window_bad_values():
     with pytest.raises(ConfigError, match="^margin: "):
         window_over((1.0, 2.0), 1e-6, 1e9, -1.0)
     assert window_over((10.0, 20.0), 0.0, 1e9)["near_range"] == 10.0  # no chirp: no padding
+    # a margin that alone pushes the window's start to <= 0 m is named by the caller's key, with its bound
+    with pytest.raises(ConfigError, match=r"^radar\.range_margin_m: must be < 10 m"):
+        window_over((10.0, 20.0), 0.0, 1e9, 10.0, "radar.range_margin_m")
+    assert window_over((10.0, 20.0), 0.0, 1e9, 9.5, "radar.range_margin_m")["near_range"] == 0.5
 
 
 @pytest.mark.parametrize("beam", [dict(antenna_length=0.2), dict(antenna_length=None, azimuth_beamwidth=0.5)])

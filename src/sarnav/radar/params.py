@@ -260,14 +260,16 @@ class RadarParams:
         return pulse_clock(n, self.prf, t0, ref_pulse)
 
     @staticmethod
-    def window_over(span, pulse_length: float, sample_rate: float, margin: float = 0.0) -> dict:
+    def window_over(span, pulse_length: float, sample_rate: float, margin: float = 0.0,
+                    margin_key: str = "margin") -> dict:
         """``near_range`` and ``n_range_samples`` of a receive window over the slant ranges ``span``.
 
         The window runs from ``span[0] - pad`` with ``pad = c T / 4 + margin`` (T the pulse length: a
         scatterer at R has its centred chirp on ``[R - cT/4, R + cT/4]`` in slant range, so every
         scatterer of the span has its whole chirp inside) for ``ceil((span[1] - span[0] + 2 pad) / dr)
         + 1`` samples of ``dr = c / (2 fs)``: the last sample lies at or beyond ``span[1] + pad``.
-        ``pulse_length`` 0 pads by ``margin`` alone.
+        ``pulse_length`` 0 pads by ``margin`` alone. A margin that alone pushes the window's start to or
+        below 0 m is refused naming ``margin_key`` (the caller's configuration key) and its bound.
         """
         lo, hi = span
         if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
@@ -278,6 +280,10 @@ class RadarParams:
         if not (math.isfinite(margin) and margin >= 0):
             raise ConfigError("margin", f"must be finite and >= 0 m, got {margin!r}")
         pad = C * pulse_length / 4.0 + margin
+        if lo - pad <= 0.0 < lo - pad + margin:  # the margin's fault: name it, not the derived near_range
+            raise ConfigError(margin_key, f"must be < {lo - pad + margin:.6g} m (the nearest imaged slant range less "
+                              f"the pulse half-extent): the receive window would start at {lo - pad:.6g} m, got "
+                              f"{margin!r}")
         dr = C / (2.0 * fs)
         return {"near_range": lo - pad, "n_range_samples": int(math.ceil((hi - lo + 2 * pad) / dr)) + 1}
 

@@ -163,12 +163,7 @@ def radar_params(cfg: dict):
         if field in fields:  # used for the receive window before RadarParams sees them
             require_positive(f"radar.{key}", fields[field])
     window = RadarParams.window_over(imaged_slant_ranges(cfg), fields.get("pulse_length", 0.0), fields["sample_rate"],
-                                     float(cfg["radar"]["range_margin_m"]))
-    near = window["near_range"] + float(cfg["radar"]["range_margin_m"])          # the window's start with no margin
-    if window["near_range"] <= 0.0 < near:  # the margin's fault: name it, not the derived radar.near_range
-        raise ConfigError("radar.range_margin_m", f"must be < {near:.6g} m (the nearest imaged slant range less the "
-                          f"pulse half-extent): the receive window would start at {window['near_range']:.6g} m, got "
-                          f"{cfg['radar']['range_margin_m']!r}")
+                                     float(cfg["radar"]["range_margin_m"]), "radar.range_margin_m")
     azimuth_window = {"azimuth_window": cfg["image"]["window"]} if preset is None else {}
     return make_radar(preset, dict(fields, **azimuth_window), **window)
 
