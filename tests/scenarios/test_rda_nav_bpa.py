@@ -135,10 +135,12 @@ def _range_slope(axis: int, dv: float = 0.03, runs: int = 8) -> np.ndarray:
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="known (issue 29, docs/scenarios/rda-nav.md §6 'Turning flight with BPA'): the "
                    "BPA range moves -5.5 mm per m/s of cross-track velocity error of the focusing track (straight "
-                   "flight; -7 to -10 on the turn), and the range row of H has no velocity column")
+                   "flight; -7 to -10 on the turn) through where the target falls on the ground lattice; the filter does not "
+                   "model it")
 def test_the_bpa_range_does_not_depend_on_the_focusing_velocity():
-    """The range measurement refers to the true geometry at the TOC (H_r has position and bias columns only), so a
-    velocity error of the focusing track must not move it: along track it does not (measured 0.15 mm per m/s);
+    """The range measurement refers to the true geometry at the TOC (H_r has position and bias columns only), and a
+    rigid tilt of the focusing track moves a back-projected image rigidly, so a velocity error of the focusing track
+    should not move the range: along track it does not (measured 0.15 mm per m/s);
     across track and vertically it does, by more than this 2 mm per m/s bound (measured -5.5 +- 1.2 and -1.9 +- 1.0
     mm per m/s, 8 runs): an error of 0.3-1 mm at the filter's velocity sigma of 0.05-0.1 m/s, the order of the
     unmodelled ~0.8 mm per image that leaves the turning BPA flight's range std/predicted at 1.18."""
