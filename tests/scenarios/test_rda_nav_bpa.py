@@ -21,18 +21,24 @@ RUNS = 4
 APERTURE = 3
 
 
+def _imager(cfg, runs: int):
+    """(params, reference targets, simulated imager) of a scenario, receiver noise seeded 500 .. 500 + runs - 1."""
+    prm = rn.parse(cfg)
+    targets = world.reference_targets(prm)
+    seeds = list(range(500, 500 + runs))
+    im = simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
+                          scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
+                          snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
+                          clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
+                          reference_truth=world.reference_track(prm), settings=prm.imaging)
+    return prm, targets, im
+
+
 def _measure(dp=(0.0, 0.0, 0.0), dv=(0.0, 0.0, 0.0), speed_sigma=1e-3):
     """Measurements of one sub-aperture, RUNS runs (receiver noise per run), the focusing track built from the truth
     moved by ``dp`` and with the velocity error ``dv`` (N, E, D)."""
     cfg = load_scenario("rda-nav", ["sar.algorithm=bpa", "trajectory.duration=6.0"], runs=RUNS)
-    prm = rn.parse(cfg)
-    targets = world.reference_targets(prm)
-    seeds = list(range(500, 500 + RUNS))
-    im = simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
-                           scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
-                           snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
-                           clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-                           reference_truth=world.reference_track(prm), settings=prm.imaging)
+    prm, targets, im = _imager(cfg, RUNS)
     u = APERTURE
     ap_t = u + np.linspace(0.0, 1.0, 11)
     st = prm.trajectory.state(ap_t)
@@ -111,14 +117,7 @@ def _range_slope(axis: int, dv: float = 0.03, runs: int = 8) -> np.ndarray:
     of a straight-flight BPA sub-aperture, from a consistent focusing track (the position error grows as dv t from
     the aperture start) at +dv and -dv, same receiver noise (paired: the noise cancels in the difference)."""
     cfg = load_scenario("rda-nav", ["sar.algorithm=bpa", "trajectory.duration=6.0"], runs=runs)
-    prm = rn.parse(cfg)
-    targets = world.reference_targets(prm)
-    seeds = list(range(500, 500 + runs))
-    im = simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
-                          scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
-                          snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
-                          clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-                          reference_truth=world.reference_track(prm), settings=prm.imaging)
+    prm, targets, im = _imager(cfg, runs)
     u = APERTURE
     ap_t = u + np.linspace(0.0, 1.0, 11)
     st = prm.trajectory.state(ap_t)
