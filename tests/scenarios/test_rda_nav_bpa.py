@@ -2,10 +2,13 @@
 
 The image is formed on a ground grid along the estimated (focusing) track; these tests put known navigation errors
 into that track and check the two things the filter relies on: the registration 1-sigma predicted from the image
-(not inflated by a fractional-pixel shift of the target in ground range, where one slant bin is near Nyquist), and
-the modelled dependence of the TOC on the focusing speed (twice the image point's shift: the stretched track also
+(not inflated by a fractional-pixel shift of the target in ground range, where one slant bin is near Nyquist), the
+range's independence of where the target falls between two ground-range nodes (two lattices), and the modelled
+dependence of the TOC on the focusing speed (twice the image point's shift: the stretched track also
 reaches the point at another time). docs/scenarios/rda-nav.md §6.
 """
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -21,8 +24,9 @@ RUNS = 4
 APERTURE = 3
 
 
-def _imager(cfg, runs: int):
-    """(params, reference targets, simulated imager) of a scenario, receiver noise seeded 500 .. 500 + runs - 1."""
+def _imager(cfg, runs: int, lattices: int | None = None):
+    """(params, reference targets, simulated imager) of a scenario, receiver noise seeded 500 .. 500 + runs - 1;
+    ``lattices``: the imager's ``range_lattices`` (default: the scenario's)."""
     prm = rn.parse(cfg)
     targets = world.reference_targets(prm)
     seeds = list(range(500, 500 + runs))
@@ -30,15 +34,16 @@ def _imager(cfg, runs: int):
                           scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
                           snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
                           clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-                          reference_truth=world.reference_track(prm), settings=prm.imaging)
+                          reference_truth=world.reference_track(prm),
+                          settings=prm.imaging if lattices is None else replace(prm.imaging, range_lattices=lattices))
     return prm, targets, im
 
 
-def _measure(dp=(0.0, 0.0, 0.0), dv=(0.0, 0.0, 0.0), speed_sigma=1e-3):
+def _measure(dp=(0.0, 0.0, 0.0), dv=(0.0, 0.0, 0.0), speed_sigma=1e-3, lattices=None):
     """Measurements of one sub-aperture, RUNS runs (receiver noise per run), the focusing track built from the truth
     moved by ``dp`` and with the velocity error ``dv`` (N, E, D)."""
     cfg = load_scenario("rda-nav", ["sar.algorithm=bpa", "trajectory.duration=6.0"], runs=RUNS)
-    prm, targets, im = _imager(cfg, RUNS)
+    prm, targets, im = _imager(cfg, RUNS, lattices)
     u = APERTURE
     ap_t = u + np.linspace(0.0, 1.0, 11)
     st = prm.trajectory.state(ap_t)
@@ -68,6 +73,20 @@ def test_a_fractional_ground_range_shift_does_not_inflate_the_predicted_sigma(ex
     ratio = off["sigma"][:, 0] / exact_track["sigma"][:, 0]
     assert np.all((ratio > 0.85) & (ratio < 1.15)), ratio
     assert np.all(np.abs(off["range_error"]) < 4 * off["sigma"][:, 0]), (off["range_error"], off["sigma"][:, 0])
+
+
+def test_the_range_does_not_lock_to_the_lattice_when_registered_on_two():
+    """The focusing track moved across by 0.1 - 1 m (same receiver noise): the target lands elsewhere between two
+    ground-range nodes, which should not move the range of closest approach. Registered on one lattice it moved by
+    0.1-0.37 mm rms (4 runs; range sigma 1.5 mm; a bias periodic in the fraction of a pixel, the part of the turning
+    BPA flight's range std/predicted of 1.18 that averaging removed); on two lattices half a pixel apart by 0.02-0.08
+    mm. The bound: a third of one lattice's change."""
+    change = {}
+    for n in (1, 2):
+        r = [_measure(dp=(0.0, d, 0.0), lattices=n)["range_error"] for d in (0.0, 0.1, 0.5, 1.0)]
+        change[n] = np.sqrt(np.mean((np.array(r[1:]) - r[0]) ** 2))
+    assert change[1] > 1e-4  # one lattice locks: there is something to remove
+    assert change[2] < change[1] / 3.0, change
 
 
 def test_the_toc_moves_twice_the_image_point_when_the_focusing_speed_is_wrong():
@@ -131,17 +150,13 @@ def _range_slope(axis: int, dv: float = 0.03, runs: int = 8) -> np.ndarray:
     return (out[0] - out[1]) / (2.0 * dv)
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="known (issue 29, docs/scenarios/rda-nav.md §6 'Turning flight with BPA'): the "
-                   "BPA range moves -5.5 mm per m/s of cross-track velocity error of the focusing track (straight "
-                   "flight; -7 to -10 on the turn) through where the target falls on the ground lattice; the filter does not "
-                   "model it")
 def test_the_bpa_range_does_not_depend_on_the_focusing_velocity():
     """The range measurement refers to the true geometry at the TOC (H_r has position and bias columns only), and a
     rigid tilt of the focusing track moves a back-projected image rigidly, so a velocity error of the focusing track
-    should not move the range: along track it does not (measured 0.15 mm per m/s);
-    across track and vertically it does, by more than this 2 mm per m/s bound (measured -5.5 +- 1.2 and -1.9 +- 1.0
-    mm per m/s, 8 runs): an error of 0.3-1 mm at the filter's velocity sigma of 0.05-0.1 m/s, the order of the
-    unmodelled ~0.8 mm per image that leaves the turning BPA flight's range std/predicted at 1.18."""
+    should not move the range. Along track it does not (0.17 mm per m/s). Across track it moved -5.5 +- 1.2 mm per
+    m/s (8 runs) while the chip was registered on one lattice: the tilt moves the target between two ground-range
+    nodes, and the magnitude shift locked to the lattice (the ~0.8 mm per image that left the turning BPA flight's
+    range std/predicted at 1.18). Registered on two lattices half a pixel apart: -0.96 +- 0.47 (vertical +0.65 +- 1.09,
+    before -1.9 +- 1.0). The bound: 2 mm per m/s (0.1 mm at the filter's velocity sigma of 0.05 m/s)."""
     assert abs(np.mean(_range_slope(0))) < 2e-3
     assert abs(np.mean(_range_slope(1))) < 2e-3

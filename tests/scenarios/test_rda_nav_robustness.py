@@ -39,8 +39,6 @@ VARIANTS = {
 #: fail, so that a fix is noticed (the test then fails and says to remove the entry)
 NOT_MET = {
     "terrain-other-pass": "speckle decorrelated between the passes: along-track std/predicted ~1.4",
-    "turning-bpa": "range std/predicted 1.18 leaves NIS/dof 1.055 just above its band (NEES and 3-sigma met); a "
-                   "candidate: the BPA range moves -5 to -10 mm per m/s of focusing velocity error (via the lattice)",
     "snr-25": "sigma predicted conservatively where the shared gradient energy is itself noisy: std/predicted "
               "0.63/0.67, NIS/dof 0.816 under its band (NEES 17.72 inside)",
 }

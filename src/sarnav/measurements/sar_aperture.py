@@ -47,6 +47,10 @@ class ImagingSettings:
         estimated speed is used.
     subpixel : sub-pixel method of the correlation peak ("parabola"), then refined by least squares
         (``imaging.registration.refine_shift``).
+    range_lattices : BPA: the chip is formed again on this many lattices offset across track by 1 / N of a
+        ground-range pixel and the registered points are averaged (cancels the bias a magnitude shift has with the
+        target's place between two nodes when ground range is sampled near Nyquist; 1: one lattice, as before
+        2026-12-06; docs/scenarios/rda-nav.md §6).
     min_correlation, max_ambiguity : a match is refused (``quality`` < min_correlation: the chip is not in the
         image; ``ambiguity`` > max_ambiguity: another place matches nearly as well) and the update skipped.
     """
@@ -64,6 +68,7 @@ class ImagingSettings:
     subpixel: str = "parabola"
     min_correlation: float = 0.5
     max_ambiguity: float = 0.9
+    range_lattices: int = 2
 
     def __post_init__(self):
         if self.algorithm not in ALGORITHMS:
@@ -72,6 +77,8 @@ class ImagingSettings:
             raise ConfigError("sar.focus", f"must be one of {FOCUS}, got {self.focus!r}")
         if self.algorithm == "bpa" and self.focus == "mapdrift":
             raise ConfigError("sar.focus", "'mapdrift' refocuses an RDA image; with sar.algorithm = 'bpa' use 'estimate'")
+        if not (isinstance(self.range_lattices, int) and 1 <= self.range_lattices <= 8):
+            raise ConfigError("range_lattices", f"must be an integer in [1, 8], got {self.range_lattices!r}")
 
 
 @dataclass(frozen=True)

@@ -44,10 +44,10 @@ from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_
 from sarnav.radar.params import RadarParams
 from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGES, ApertureMeasurements,
                                              AperturePasses, ApertureSource, ImagingSettings, ReferencePulses)
+from sarnav.measurements.ground_grid import GroundGrid, focusing_track, ground_frame
 from sarnav.measurements.read_ahead import ReadAhead
 from sarnav.measurements.sar_product import (ProductReference, closest_approaches, predicted_amplitude,
                                              product_noise_power, rda_pixels)
-from sarnav.rotations import dcm_to_euler, quat_to_dcm
 from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
@@ -80,38 +80,6 @@ def one_blas_thread():
     return _BLAS[0].limit(limits=1, user_api="blas")
 
 
-def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
-    """(P, 3) antenna positions at the pulse ``times`` that a back-projection along the estimated track focuses with:
-    the estimate's position and velocity at the aperture centre, the velocity turned by the change of the heading of
-    its attitude ``q`` (K, 4) (else of its velocity) at each epoch ``ap_t`` (K,): constant speed and climb rate, the
-    turn the gyros measured.
-
-    Why not the INS positions themselves: at 10 m/s and 2 km the azimuth FM rate is 3 Hz/s, and the INS's own
-    acceleration error (a 2 mrad tilt x g = 0.02 m/s^2 along the line of sight) changes it by half: focused along
-    the INS positions, a target's zero-Doppler time moves by up to a tenth of a second (1 m along track, measured;
-    thesis ch. 4: tilt errors blur BPA images). The heading change from the gyros is good to their drift
-    (1 deg/hr), so a real turn is kept and the spurious accelerations are not; what remains are the errors of
-    position and velocity at the aperture centre, which the measurement models (the lever and, by refocusing, the
-    speed: docs §2)."""
-    ap_t = np.asarray(ap_t, dtype=np.float64)
-    i_c = len(ap_t) // 2
-    t_c = ap_t[i_c]
-    if q is None:
-        psi = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
-    else:
-        psi = np.unwrap(dcm_to_euler(quat_to_dcm(np.asarray(q, dtype=np.float64)))[2])
-    fine = np.union1d(ap_t, times)
-    turn = np.interp(fine, ap_t, psi - psi[i_c])
-    c, s = np.cos(turn), np.sin(turn)
-    v0 = np.asarray(v[i_c], dtype=np.float64)
-    vel = np.stack([c * v0[0] - s * v0[1], s * v0[0] + c * v0[1], np.full(fine.size, v0[2])], axis=1)
-    steps = np.diff(fine)[:, None] * 0.5 * (vel[1:] + vel[:-1])
-    path = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
-    path -= path[int(np.searchsorted(fine, t_c))]
-    track = p[i_c] + path
-    return np.stack([np.interp(times, fine, track[:, i]) for i in range(3)], axis=1)
-
-
 def _crop_range(rc, r_lo, r_hi):
     r = rc.slant_range
     a = max(int(np.searchsorted(r, r_lo)), 0)
@@ -119,35 +87,6 @@ def _crop_range(rc, r_lo, r_hi):
     if b - a < 16:
         raise InputDataError("sar", f"predicted range window [{r_lo:.1f}, {r_hi:.1f}] m lies outside the receive window")
     return replace(rc, data=rc.data[:, a:b], slant_range=r[a:b])
-
-
-def _ground_frame(velocity, look_side: str):
-    """(along (3,), across (3,)): horizontal unit vectors along the velocity and toward the look side."""
-    vh = np.array([velocity[0], velocity[1], 0.0])
-    along = vh / np.linalg.norm(vh)
-    across = np.array([-along[1], along[0], 0.0]) * (1.0 if look_side == "right" else -1.0)
-    return along, across
-
-
-@dataclass(frozen=True)
-class _Grid:
-    """A BPA ground grid: ``centre`` + rows x ``along`` + columns x ``across`` (spacings ``da``, ``dg`` [m])."""
-
-    centre: np.ndarray
-    along: np.ndarray
-    across: np.ndarray
-    da: float
-    dg: float
-    shape: tuple
-
-    def points(self) -> np.ndarray:
-        i = (np.arange(self.shape[0]) - (self.shape[0] - 1) / 2) * self.da
-        j = (np.arange(self.shape[1]) - (self.shape[1] - 1) / 2) * self.dg
-        return self.centre + i[:, None, None] * self.along + j[None, :, None] * self.across
-
-    def point(self, row: float, col: float) -> np.ndarray:
-        return (self.centre + (row - (self.shape[0] - 1) / 2) * self.da * self.along
-                + (col - (self.shape[1] - 1) / 2) * self.dg * self.across)
 
 
 @dataclass
@@ -246,12 +185,12 @@ class SubApertureImager:
     def _reference_chip_bpa(self, u, k, ref: ReferencePulses, targ, eta, r0, v_ref) -> dict:
         st, times = self.settings, ref.times
         i_c = int(np.argmin(np.abs(times - eta)))
-        along, across = _ground_frame(ref.velocities[i_c], self.radar.look_side)
+        along, across = ground_frame(ref.velocities[i_c], self.radar.look_side)
         g0 = float(np.hypot(*(targ - ref.positions[i_c])[:2]))
         da, dg = self._bpa_spacing(r0, g0, v_ref)
         hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref) / da))
         hj = int(math.ceil(st.chip_half_range_m * r0 / g0 / dg))
-        grid = _Grid(targ, along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
+        grid = GroundGrid(targ, along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
         image = backproject(ref.pulses, grid.points(), positions=ref.positions)
         if (u, k) not in self._noise_cache:
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
@@ -288,12 +227,12 @@ class SubApertureImager:
         raw = ref.raw.with_positions(p_hat)
         if st.algorithm == "bpa":
             i_c = int(np.argmin(np.abs(times - eta_a)))
-            along, across = _ground_frame(p_hat[-1] - p_hat[0], look)
+            along, across = ground_frame(p_hat[-1] - p_hat[0], look)
             g0 = float(np.hypot(*(targ - p_hat[i_c])[:2]))
             da, dg = self._bpa_spacing(r_a, g0, speed)
             hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r_a, speed) / da))
             hj = int(math.ceil(st.chip_half_range_m * r_a / g0 / dg))
-            grid = _Grid(np.asarray(targ, dtype=np.float64), along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
+            grid = GroundGrid(np.asarray(targ, dtype=np.float64), along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
             eta, rng = closest_approaches(grid.points(), times, p_hat)
             rows, anchor, extra, window = np.arange(2 * hi + 1), (0.0, 0.0), {"grid": grid}, None
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
@@ -461,7 +400,7 @@ class SubApertureImager:
         t0 = time.perf_counter()
         ref_grid = ch["grid"]
         i_c = len(times) // 2
-        along, across = _ground_frame(p_hat[-1] - p_hat[0], self.radar.look_side)
+        along, across = ground_frame(p_hat[-1] - p_hat[0], self.radar.look_side)
         r0 = float(np.linalg.norm(targ - p_hat[i_c]))
         g0 = float(np.hypot(*(targ - p_hat[i_c])[:2]))
         # the target appears where its range history matches the estimated track's: moved along track by the
@@ -473,7 +412,7 @@ class SubApertureImager:
             raise InputDataError("sar", f"the along-track search ({half_along:.0f} m) exceeds {MAX_BPA_HALF_ALONG_M} m")
         shape = (2 * int(math.ceil(half_along / ref_grid.da)) + 1,
                  2 * int(math.ceil(st.search_half_range_m * r0 / g0 / ref_grid.dg)) + 1)
-        grid = _Grid(np.asarray(targ, dtype=np.float64), along, across, ref_grid.da, ref_grid.dg, shape)
+        grid = GroundGrid(np.asarray(targ, dtype=np.float64), along, across, ref_grid.da, ref_grid.dg, shape)
         data = backproject(rc, grid.points(), positions=p_hat).data
         t1 = time.perf_counter()
         out.keep(self.keep_images and r == 0, k, data, rc, grid, p_hat)
@@ -483,11 +422,7 @@ class SubApertureImager:
         # fraction of a pixel: ground range is sampled near Nyquist (one slant bin), where a spline shift of the
         # magnitude (or of the complex chip) misplaces a fractional shift and leaves a residual that reads as a
         # scene mismatch (kappa up to 13 at half a pixel; docs/scenarios/rda-nav.md §6)
-        chip_grid = replace(grid, centre=grid.point(row, col), shape=ch["chip"].shape)
-        hi, hj = ch["chip"].shape[0] // 2, ch["chip"].shape[1] // 2
-        row_c, col_c, info = self._fine(backproject(rc, chip_grid.points(), positions=p_hat).data, ch, hi, hj,
-                                        circular=False)
-        q_hat = chip_grid.point(row_c, col_c)
+        q_hat, info = self._on_lattices(rc, p_hat, ch, replace(grid, centre=grid.point(row, col), shape=ch["chip"].shape))
         eta, rng_ = self._closest(q_hat, times, p_hat)
         out.toc[r, k], out.range[r, k] = eta, rng_
         out.sigma[r, k] = (info["sigma_px"][1] * grid.dg * g0 / r0, info["sigma_px"][0] * grid.da)
@@ -525,6 +460,28 @@ class SubApertureImager:
                                correlation=(coarse.surface, coarse.lags_y, coarse.lags_x), speed_hat=speed_hat,
                                autofocus_speed=speed_hat, used="estimate", run=0, aperture=u)
         out.seconds[r, 1:] += (t1 - t0, 0.0, t2 - t1)
+
+    def _on_lattices(self, rc, p_hat, ch, chip_grid: GroundGrid):
+        """(matched ground point (3,), the first lattice's registration info): the chip formed again by back-projection
+        on ``settings.range_lattices`` = N lattices of the reference chip's spacing centred at the coarse match and
+        offset across track by j / N of a ground-range pixel (j = 0 .. N - 1), registered on each; the mean point.
+
+        Why: ground range is sampled at one slant bin (near Nyquist), and the least-squares shift of the magnitude
+        then depends on where the target falls between two nodes (the spline and the Gauss-Newton's sample gradient
+        misplace a fractional shift: a bias periodic in the fraction, "pixel locking"). Registrations half a pixel
+        apart differ by 1.0 mm rms on the turning flight (range sigma 1.5 mm); their mean cancels the odd harmonics
+        of that bias (docs/scenarios/rda-nav.md §6). The noise is the same field sampled elsewhere, so the predicted
+        sigma is the first lattice's."""
+        hi, hj = ch["chip"].shape[0] // 2, ch["chip"].shape[1] // 2
+        n = self.settings.range_lattices
+        points, info = [], None
+        for j in range(n):
+            lattice = replace(chip_grid, centre=chip_grid.point(hi, hj + j / n))
+            row, col, found = self._fine(backproject(rc, lattice.points(), positions=p_hat).data, ch, hi, hj,
+                                         precision=j == 0, circular=False)
+            points.append(lattice.point(row, col))
+            info = found if info is None else info
+        return np.mean(points, axis=0), info
 
     @staticmethod
     def _closest(q, times, p_hat):
