@@ -53,6 +53,8 @@ import numba
 import numpy as np
 
 from sarnav.imaging.backprojection import backproject, backproject_numpy, resolve_interpolation
+from sarnav.errors import ConfigError
+from sarnav.imaging.ffbp import ffbp
 from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
 from sarnav.signal.phase_history import phase_history_to_pulses, pulses_to_phase_history
@@ -253,9 +255,11 @@ def gain_error_db(img, ref) -> float:
     return error_db(g * img, ref)
 
 
-def peer_collect_table(npx: int, modes=None) -> None:
+def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
     """The peer's simulated collect through sarnav's CPHD path: every mode of both tools, one timed call each (after
-    a warm-up at 64^2), time, pixel-pulses/s and error against the exact float64 sum on the 16 x 16 sample."""
+    a warm-up at 64^2), time, pixel-pulses/s and error against the exact float64 sum on the 16 x 16 sample; with
+    ``ffbp_errors`` (dB) also sarnav's FFBP planned for each target error (``ffbp(rc, grid, error_db=...)``), the
+    nearest thing to an exact mode at that error."""
     import peer_collect as pc
 
     t_sim, made = pc.timed(lambda: pc.peer_collect(npx))
@@ -275,17 +279,27 @@ def peer_collect_table(npx: int, modes=None) -> None:
     small = pc.plane_grid(64)
     confs = {k: (fn, sarnav_confs(rc, small, npx * npx)[k]) for k, fn in sarnav_confs(rc, grid).items()
              if modes is None or k[len("sarnav "):] in modes}
+    for e in ffbp_errors:
+        confs[f"sarnav ffbp error_db {e:g}"] = (lambda e=e: ffbp(rc, grid, error_db=e),
+                                                lambda e=e: ffbp(rc, small, error_db=e))
     if pc.peer_available() is None:
         for interp in ("cubic", "linear"):
             confs[f"fastsar bp {interp} x8"] = (lambda i=interp: pc.fastsar_image(ph, npx, "bp", interp=i),
                                                 lambda i=interp: pc.fastsar_image(ph, 64, "bp", interp=i))
     for k, (fn, warm) in confs.items():
-        warm()
+        try:
+            warm()
+        except ConfigError as e:  # e.g. an FFBP error target no plan reaches: say so and go on
+            print(f"  {k:24s} refused: {e}", flush=True)
+            continue
         wall, img = pc.timed(fn)
         md = ""
         if k.startswith("sarnav"):
             md = f"  [{img.metadata['interpolation']}" if hasattr(img, "metadata") else ""
-        img = np.asarray(img)
+            if "ffbp_oversample" in getattr(img, "metadata", {}):
+                md += (f", os {img.metadata['ffbp_oversample']:g}, predicted "
+                       f"{img.metadata['ffbp_predicted_error_db']:.1f} dB (whole image)")
+        img = np.asarray(getattr(img, "data", img))
         print(f"  {k:24s} {wall:8.2f} s {work / wall:9.3e} px-pulse/s  error vs exact "
               f"{pc.gain_error_db(img[sample], exact):7.1f} dB{md}", flush=True)
 
@@ -302,6 +316,8 @@ def main(argv=None):
     ap.add_argument("--peer-modes", nargs="*", default=None,
                     help="sarnav modes timed on the peer's collect (labels of MODES, e.g. auto precise; default all)")
     ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
+    ap.add_argument("--peer-ffbp-error-db", type=float, nargs="*", default=[],
+                    help="also sarnav's FFBP planned for these target errors [dB] on the peer's collect")
     args = ap.parse_args(argv)
 
     threads = numba.get_num_threads()
@@ -310,7 +326,7 @@ def main(argv=None):
     if args.rounds > 0:
         own_collect(args, threads)
     for npx in args.peer_sizes:
-        peer_collect_table(npx, args.peer_modes)
+        peer_collect_table(npx, args.peer_modes, args.peer_ffbp_error_db)
     if not args.no_table:
         interpolation_table()
 
