@@ -173,6 +173,9 @@ def test_bad_inputs_are_one_line_errors_naming_the_field(shared):
         ImagingSettings(algorithm="omega-k")
     with pytest.raises(ConfigError, match="sar.focus"):
         ImagingSettings(algorithm="bpa", focus="mapdrift")
+    for bad in (0, 9, 1.5, True):
+        with pytest.raises(ConfigError, match=r"^range_lattices: must be an integer in \[1, 8\]"):
+            ImagingSettings(algorithm="bpa", range_lattices=bad)
 
 
 @pytest.mark.parametrize("algorithm", ["rda", "bpa"])

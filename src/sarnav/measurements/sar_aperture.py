@@ -77,7 +77,8 @@ class ImagingSettings:
             raise ConfigError("sar.focus", f"must be one of {FOCUS}, got {self.focus!r}")
         if self.algorithm == "bpa" and self.focus == "mapdrift":
             raise ConfigError("sar.focus", "'mapdrift' refocuses an RDA image; with sar.algorithm = 'bpa' use 'estimate'")
-        if not (isinstance(self.range_lattices, int) and 1 <= self.range_lattices <= 8):
+        n = self.range_lattices
+        if isinstance(n, bool) or not (isinstance(n, int) and 1 <= n <= 8):
             raise ConfigError("range_lattices", f"must be an integer in [1, 8], got {self.range_lattices!r}")
 
 
