@@ -23,21 +23,12 @@ import numpy as np
 from sarnav.scenarios import rda_nav as rn
 from sarnav.scenarios.config import load_scenario
 from sarnav.simulation import rda_nav_world as world
-from sarnav.simulation.sar_echoes import simulated_imager
 
 
 def imager(runs: int, lattices: int, straight: bool):
     sets = ["sar.algorithm=bpa"] + ([] if straight else ["trajectory.type=turning"])
     prm = rn.parse(load_scenario("rda-nav", sets, runs=runs))
-    targets = world.reference_targets(prm)
-    seeds = list(range(500, 500 + runs))
-    im = simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
-                          scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
-                          snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
-                          clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-                          reference_truth=world.reference_track(prm),
-                          settings=replace(prm.imaging, range_lattices=lattices))
-    return prm, im
+    return prm, world.world_imager(prm, list(range(500, 500 + runs)), replace(prm.imaging, range_lattices=lattices))[1]
 
 
 def measure(prm, im, u: int, runs: int) -> None:

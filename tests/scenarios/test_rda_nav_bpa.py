@@ -13,7 +13,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.scenarios import rda_nav as rn
 from sarnav.simulation import rda_nav_world as world
 from sarnav.scenarios.config import load_scenario
@@ -28,14 +27,8 @@ def _imager(cfg, runs: int, lattices: int | None = None):
     """(params, reference targets, simulated imager) of a scenario, receiver noise seeded 500 .. 500 + runs - 1;
     ``lattices``: the imager's ``range_lattices`` (default: the scenario's)."""
     prm = rn.parse(cfg)
-    targets = world.reference_targets(prm)
-    seeds = list(range(500, 500 + runs))
-    im = simulated_imager(radar=prm.radar, truth=prm.trajectory, targets=targets,
-                          scene_for=world.scene_factory(prm, targets), reflector_amplitude=prm.scene["reflector_amplitude"],
-                          snr_db=prm.snr_db, reference_seed=prm.scene["seed"], noise_seeds=seeds,
-                          clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-                          reference_truth=world.reference_track(prm),
-                          settings=prm.imaging if lattices is None else replace(prm.imaging, range_lattices=lattices))
+    settings = None if lattices is None else replace(prm.imaging, range_lattices=lattices)
+    targets, im = world.world_imager(prm, list(range(500, 500 + runs)), settings)
     return prm, targets, im
 
 

@@ -47,7 +47,6 @@ from sarnav.record import RunRecord
 from sarnav.radar.params import RadarParams
 from sarnav.simulation import rda_nav_world as world
 from sarnav.simulation.flight import ErrorStateFlight, FlightSpec, ImuSpec
-from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.trajectory.base import Trajectory
 from sarnav.trajectory.sampled import along_rate, closest_approach
 
@@ -275,13 +274,8 @@ def forget_shared_noise_models() -> None:
 def _imager(prm: RdaNavParams, fl: ErrorStateFlight, capture_aperture=None):
     if not (prm.sar_enabled and prm.measurement == "image"):
         return None
-    seeds = fl.extra  # the per-run clutter seeds (also keying the in-flight receiver noise)
-    targets = world.reference_targets(prm)
-    imager = simulated_imager(
-        radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=world.scene_factory(prm, targets),
-        reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
-        noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
-        reference_truth=world.reference_track(prm), settings=prm.imaging, capture_aperture=capture_aperture)
+    # the per-run clutter seeds (fl.extra) also key the in-flight receiver noise
+    imager = world.world_imager(prm, fl.extra, capture_aperture=capture_aperture)[1]
     imager.share_noise_models(_shared_store(prm))
     return imager
 

@@ -17,9 +17,10 @@ from sarnav.measurements.sar_image import AperturePasses
 from sarnav.radar.ground_scene import HillTerrain, distributed_clutter
 from sarnav.radar.params import window_over
 from sarnav.radar.scene import Scene, beside_trajectory, clutter_beside_trajectory, point_targets, slant_ranges
+from sarnav.simulation.sar_echoes import simulated_imager
 from sarnav.trajectory.offset import OffsetTrack
 
-__all__ = ["WorldFlight", "SCENE_TYPES", "terrain_of", "swath_extent", "reference_targets", "scene_factory", "reference_track", "map_errors",
+__all__ = ["WorldFlight", "SCENE_TYPES", "terrain_of", "swath_extent", "reference_targets", "scene_factory", "world_imager", "reference_track", "map_errors",
            "slant_range_span", "CLUTTER_MARGIN_M"]
 
 SCENE_TYPES = ("points", "terrain")
@@ -183,3 +184,18 @@ def receive_window(prm_radar_fields: dict, span: tuple[float, float]) -> dict:
     """``near_range`` and ``n_range_samples`` of a receive window over ``span`` (slant range [m]) plus the pulse's
     half-extent cT/4 (every scatterer's whole chirp inside the window, as the presets do)."""
     return window_over(span, prm_radar_fields["pulse_length"], prm_radar_fields["sample_rate"])
+
+
+def world_imager(prm, seeds, settings=None, capture_aperture=None):
+    """(reference targets (U, T, 3), the simulated world's ``SubApertureImager``) of a flight ``prm`` for runs whose
+    clutter and in-flight receiver noise are keyed by ``seeds`` (one per run), imaging with ``settings`` (default: the
+    scenario's ``prm.imaging``): the one wiring of the world's scene, reference pass and noise to the extractor that
+    the campaign, its tests and ``benchmarks/bench_bpa_chip.py`` share."""
+    targets = reference_targets(prm)
+    imager = simulated_imager(
+        radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=scene_factory(prm, targets),
+        reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
+        noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
+        reference_truth=reference_track(prm), settings=prm.imaging if settings is None else settings,
+        capture_aperture=capture_aperture)
+    return targets, imager
