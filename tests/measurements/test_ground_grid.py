@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sarnav.measurements.ground_grid import GroundGrid, focusing_track, ground_frame
+from sarnav.measurements.ground_grid import BpaGrid, focusing_track, ground_frame
 
 
 @pytest.mark.parametrize("look, sign", [("right", 1.0), ("left", -1.0)])
@@ -18,7 +18,7 @@ def test_the_ground_frame_is_horizontal_and_points_to_the_look_side(look, sign):
 
 def test_every_node_of_the_grid_is_its_point_and_fractions_interpolate():
     along, across = ground_frame(np.array([0.0, 1.0, 0.0]), "right")
-    g = GroundGrid(np.array([10.0, 20.0, 0.0]), along, across, 0.05, 0.7, (5, 7))
+    g = BpaGrid(np.array([10.0, 20.0, 0.0]), along, across, 0.05, 0.7, (5, 7))
     pts = g.points()
     assert pts.shape == (5, 7, 3)
     for i in range(5):

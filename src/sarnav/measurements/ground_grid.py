@@ -1,7 +1,7 @@
 """The ground lattices of back-projected sub-aperture images and the track they are focused along.
 
 A BPA image of the image-aided flight (docs/scenarios/rda-nav.md §6) is formed on a horizontal ground grid spanned by
-the along-track and the look-side across-track unit vectors (:func:`ground_frame`, :class:`GroundGrid`), along the
+the along-track and the look-side across-track unit vectors (:func:`ground_frame`, :class:`BpaGrid`), along the
 *focusing track* (:func:`focusing_track`): the estimate at the aperture centre turned by the gyros' heading change.
 """
 
@@ -13,7 +13,7 @@ import numpy as np
 
 from sarnav.rotations import dcm_to_euler, quat_to_dcm
 
-__all__ = ["focusing_track", "ground_frame", "GroundGrid"]
+__all__ = ["focusing_track", "ground_frame", "BpaGrid"]
 
 
 def focusing_track(times, ap_t, p, v, q=None) -> np.ndarray:
@@ -57,8 +57,10 @@ def ground_frame(velocity, look_side: str):
 
 
 @dataclass(frozen=True)
-class GroundGrid:
-    """A BPA ground grid: ``centre`` + rows x ``along`` + columns x ``across`` (spacings ``da``, ``dg`` [m])."""
+class BpaGrid:
+    """A BPA ground grid: ``centre`` + rows x ``along`` + columns x ``across`` (spacings ``da``, ``dg`` [m]), in the
+    flight's along / across-track frame at any centre and fractional node (``point``); the image formers' own grids
+    are ``imaging.grid`` (``GroundGrid``: a north x east lattice)."""
 
     centre: np.ndarray
     along: np.ndarray

@@ -44,7 +44,7 @@ from sarnav.imaging.registration import SeparableNoise, distinctness, magnitude_
 from sarnav.radar.params import RadarParams
 from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGES, ApertureMeasurements,
                                              AperturePasses, ApertureSource, ImagingSettings, ReferencePulses)
-from sarnav.measurements.ground_grid import GroundGrid, focusing_track, ground_frame
+from sarnav.measurements.ground_grid import BpaGrid, focusing_track, ground_frame
 from sarnav.measurements.read_ahead import ReadAhead
 from sarnav.measurements.sar_product import (ProductReference, closest_approaches, predicted_amplitude,
                                              product_noise_power, rda_pixels)
@@ -190,7 +190,7 @@ class SubApertureImager:
         da, dg = self._bpa_spacing(r0, g0, v_ref)
         hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r0, v_ref) / da))
         hj = int(math.ceil(st.chip_half_range_m * r0 / g0 / dg))
-        grid = GroundGrid(targ, along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
+        grid = BpaGrid(targ, along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
         image = backproject(ref.pulses, grid.points(), positions=ref.positions)
         if (u, k) not in self._noise_cache:
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
@@ -232,7 +232,7 @@ class SubApertureImager:
             da, dg = self._bpa_spacing(r_a, g0, speed)
             hi = int(math.ceil(st.chip_half_az_cells * self._az_resolution(r_a, speed) / da))
             hj = int(math.ceil(st.chip_half_range_m * r_a / g0 / dg))
-            grid = GroundGrid(np.asarray(targ, dtype=np.float64), along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
+            grid = BpaGrid(np.asarray(targ, dtype=np.float64), along, across, da, dg, (2 * hi + 1, 2 * hj + 1))
             eta, rng = closest_approaches(grid.points(), times, p_hat)
             rows, anchor, extra, window = np.arange(2 * hi + 1), (0.0, 0.0), {"grid": grid}, None
             wide = replace(grid, shape=(2 * hi + 1, 4 * (2 * hj + 1)))
@@ -412,7 +412,7 @@ class SubApertureImager:
             raise InputDataError("sar", f"the along-track search ({half_along:.0f} m) exceeds {MAX_BPA_HALF_ALONG_M} m")
         shape = (2 * int(math.ceil(half_along / ref_grid.da)) + 1,
                  2 * int(math.ceil(st.search_half_range_m * r0 / g0 / ref_grid.dg)) + 1)
-        grid = GroundGrid(np.asarray(targ, dtype=np.float64), along, across, ref_grid.da, ref_grid.dg, shape)
+        grid = BpaGrid(np.asarray(targ, dtype=np.float64), along, across, ref_grid.da, ref_grid.dg, shape)
         data = backproject(rc, grid.points(), positions=p_hat).data
         t1 = time.perf_counter()
         out.keep(self.keep_images and r == 0, k, data, rc, grid, p_hat)
@@ -461,7 +461,7 @@ class SubApertureImager:
                                autofocus_speed=speed_hat, used="estimate", run=0, aperture=u)
         out.seconds[r, 1:] += (t1 - t0, 0.0, t2 - t1)
 
-    def _on_lattices(self, rc, p_hat, ch, chip_grid: GroundGrid):
+    def _on_lattices(self, rc, p_hat, ch, chip_grid: BpaGrid):
         """(matched ground point (3,), the first lattice's registration info): the chip formed again by back-projection
         on ``settings.range_lattices`` = N lattices of the reference chip's spacing centred at the coarse match and
         offset across track by j / N of a ground-range pixel (j = 0 .. N - 1), registered on each; the mean point.
