@@ -469,8 +469,8 @@ class SubApertureImager:
         Why: ground range is sampled at one slant bin (near Nyquist), and the least-squares shift of the magnitude
         then depends on where the target falls between two nodes (the spline and the Gauss-Newton's sample gradient
         misplace a fractional shift: a bias periodic in the fraction, "pixel locking"). Registrations half a pixel
-        apart differ by 1.0 mm rms on the turning flight (range sigma 1.5 mm); their mean cancels the odd harmonics
-        of that bias (docs/scenarios/rda-nav.md §6). The noise is the same field sampled elsewhere, so the predicted
+        apart differ by 1.0 mm rms on the turning flight (range sigma 1.5 mm); the mean over N lattices cancels every
+        harmonic of that bias that is not a multiple of N (N = 2: the odd ones; docs/scenarios/rda-nav.md §6). The noise is the same field sampled elsewhere, so the predicted
         sigma is the first lattice's."""
         hi, hj = ch["chip"].shape[0] // 2, ch["chip"].shape[1] // 2
         n = self.settings.range_lattices
