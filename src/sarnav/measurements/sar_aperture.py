@@ -51,6 +51,11 @@ class ImagingSettings:
         ground-range pixel and the registered points are averaged (cancels the bias a magnitude shift has with the
         target's place between two nodes when ground range is sampled near Nyquist; 1: one lattice, as before
         2026-12-06; docs/scenarios/rda-nav.md §6).
+    terrain_correction : RDA with a CPHD reference whose source gives the scene's surface
+        (``ReferencePulses.surface``): the reference chip is taken through the DEM to the in-flight image's lattice
+        along the estimated track (``measurements.sar_product.reference_in_flight_geometry``), so that the terrain's
+        parallax between the two passes is not left to a rigid shift (docs/scenarios/rda-nav.md §6). False: the chip
+        as the reference pass saw it (before 2026-12-06).
     min_correlation, max_ambiguity : a match is refused (``quality`` < min_correlation: the chip is not in the
         image; ``ambiguity`` > max_ambiguity: another place matches nearly as well) and the update skipped.
     """
@@ -69,6 +74,7 @@ class ImagingSettings:
     min_correlation: float = 0.5
     max_ambiguity: float = 0.9
     range_lattices: int = 2
+    terrain_correction: bool = True
 
     def __post_init__(self):
         if self.algorithm not in ALGORITHMS:
@@ -80,6 +86,8 @@ class ImagingSettings:
         n = self.range_lattices
         if isinstance(n, bool) or not (isinstance(n, int) and 1 <= n <= 8):
             raise ConfigError("range_lattices", f"must be an integer in [1, 8], got {self.range_lattices!r}")
+        if not isinstance(self.terrain_correction, bool):
+            raise ConfigError("terrain_correction", f"must be true or false, got {self.terrain_correction!r}")
 
 
 @dataclass(frozen=True)
@@ -100,7 +108,9 @@ class ReferencePulses:
     acquisition's shape and radar fields (the noise model runs unit noise through the chain); amplitude, snr_db :
     the receiver noise per raw sample as ``radar.echoes`` defines it, the per-sample SNR of a scatterer of this
     amplitude (noise power amplitude^2 / 10^(snr_db / 10); a recording with a measured noise power N gives
-    sqrt(N), 0 dB); key : the chips are cached under it (None: a scene used once); seconds : the source's time.
+    sqrt(N), 0 dB); key : the chips are cached under it (None: a scene used once); seconds : the source's time;
+    surface : the scene's DEM as the reference product gives it (an object with ``surface_down(points)``, NED), or
+    None (``ImagingSettings.terrain_correction``).
     """
 
     times: np.ndarray
@@ -112,6 +122,7 @@ class ReferencePulses:
     snr_db: float
     key: object = None
     seconds: float = 0.0
+    surface: object = None
 
 
 class ApertureSource(Protocol):

@@ -47,7 +47,7 @@ from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGE
 from sarnav.measurements.ground_grid import BpaGrid, focusing_track, ground_frame
 from sarnav.measurements.read_ahead import ReadAhead
 from sarnav.measurements.sar_product import (ProductReference, closest_approaches, predicted_amplitude,
-                                             product_noise_power, rda_pixels)
+                                             product_noise_power, rda_pixels, reference_in_flight_geometry)
 from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
@@ -174,7 +174,9 @@ class SubApertureImager:
             self._noise_cache[(u, k)] = self._noise_model(
                 u, k, raw_ref, ref, lambda rc: range_doppler(_crop_range(rc, *win), v_ref).data, cols.size, win)
         return {"chip": image.data[np.ix_(rows, cols)], "anchor": (fi - i0, fj - j0), "rows": rows,
-                "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref}
+                "noise": self._noise_cache[(u, k)], "reference": image, "speed": v_ref,
+                "lattice": (np.arange(i0 - hi, i0 + hi + 1), cols), "target": targ, "track": ref.positions,
+                "surface": ref.surface}
 
     def _bpa_spacing(self, r0: float, g0: float, speed: float) -> tuple[float, float]:
         """(along, ground-range) pixel spacing [m] of BPA grids: a twentieth of the azimuth resolution (at most the
@@ -348,6 +350,9 @@ class SubApertureImager:
     def _measure_rda(self, u, r, k, ap, rc, p_hat, speed_hat, speed_sigma, targ, out) -> None:
         st, prf, times, ch = self.settings, self.radar.prf, ap["times"], ap["chips"][k]
         t0 = time.perf_counter()
+        if st.terrain_correction and ch.get("surface") is not None:  # the chip in this image's geometry, by the DEM
+            ch = {**ch, "chip": reference_in_flight_geometry(ch["reference"], *ch["lattice"], ch["target"], times, prf,
+                                                             p_hat, ch["track"], ch["surface"], self.radar.look_side)}
         if closest_sample_is_inside(targ, times, p_hat):
             r_hat = closest_approach(targ, times, p_hat)[1]
         else:

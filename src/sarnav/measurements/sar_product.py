@@ -1,5 +1,6 @@
 """Reference (b): the reference chip *predicted* from a geocoded image product (an orthoimage and a DEM) in the
-in-flight image's geometry along the navigator's estimated track (docs/recording.md §6b).
+in-flight image's geometry along the navigator's estimated track (docs/recording.md §6b); and reference (a) over
+terrain: a CPHD reference pass's chip taken through a DEM to that geometry (:func:`reference_in_flight_geometry`).
 
 Where the CPHD reference (``ReferencePulses``) is imaged along its trusted track and a chip cut around the target,
 a product reference (:class:`ProductReference`) is resampled: every pixel of the chip the in-flight image will be
@@ -37,8 +38,12 @@ from sarnav.errors import InputDataError
 from sarnav.signal.data import PulseData
 
 __all__ = ["GeocodedProduct", "ProductReference", "product_noise_power", "ground_points", "closest_approaches",
-           "rda_pixels", "track_at", "predicted_amplitude", "GROUND_ITERATIONS"]
+           "rda_pixels", "track_at", "predicted_amplitude", "reference_in_flight_geometry", "GROUND_ITERATIONS"]
 
+#: reference_in_flight_geometry: range samples kept beyond the chip's reach on each side of the segment it FFT-upsamples
+#: (the segment's ends ring) and the upsampling factor before the cubic spline
+WARP_MARGIN = 24
+WARP_UPSAMPLE = 8
 #: fixed-point iterations of the ground point on the DEM (each reduces a height error by the slope x grazing ratio)
 GROUND_ITERATIONS = 5
 
@@ -178,3 +183,45 @@ def predicted_amplitude(product: GeocodedProduct, times, track, eta, rng, look_s
     if not np.all(np.isfinite(amp)):
         raise InputDataError("reference.image", "does not cover the reference chip (NaN or nodata pixels)")
     return amp
+
+
+def reference_in_flight_geometry(image, rows, cols, target, times, prf: float, track, ref_track, surface,
+                                 look_side: str) -> np.ndarray:
+    """Reference (a) over terrain: the chip of the reference pass's RDA ``image`` (rows: the block's pulses, circular;
+    columns: slant range ``image.x``) at ``rows`` (m,) x ``cols`` (n,) around ``target``, taken to the in-flight
+    image's geometry along the estimated ``track`` (P, 3) through the DEM ``surface`` (``surface_down``).
+
+    From another pass a hill is seen from another look angle: the slant range of a ground point differs between the
+    passes by an amount that changes with its height (parallax), so the two images differ by a warp that a rigid
+    shift cannot follow (the terrain scene from a pass 30 m aside and 20 m up: along-track error 1.34-1.44 x its
+    predicted sigma, 0.89 on flat ground; docs/scenarios/rda-nav.md §6). Each pixel of the chip's lattice, moved to
+    where the target falls in the in-flight image (its time and range of closest approach to ``track`` instead of to
+    ``ref_track``), is the in-flight (time, range) of a ground point on the DEM (``ground_points``); the point's
+    closest approach to the reference pass's ``ref_track`` gives where the reference image saw it, read there by
+    cubic splines of the real and imaginary parts. The chip keeps its lattice's anchor and noise model (the same
+    pixel spacing; the warp is a small fraction of a pixel per pixel). InputDataError when a ground point is not on
+    the surface or falls outside the reference image."""
+    from scipy import ndimage, signal
+
+    n_p = int(image.shape[0])
+    eta0, r0 = (float(x) for x in closest_approaches(target, times, ref_track))
+    eta_a, r_a = (float(x) for x in closest_approaches(target, times, track))
+    x0, dx = float(image.x[0]), float(image.dx)
+    eta = times[0] + np.asarray(rows, dtype=np.float64)[:, None] / prf + (eta_a - eta0) + 0.0 * cols[None, :]
+    rng = x0 + np.asarray(cols, dtype=np.float64)[None, :] * dx + (r_a - r0) + 0.0 * eta
+    pos, d = track_at(times, track, eta)
+    q = ground_points(pos, d, rng, surface, look_side, float(target[2]))
+    if not np.all(np.isfinite(q)):
+        raise InputDataError("sar", "the reference chip's ground points do not reach the surface")
+    eta_r, r_r = closest_approaches(q, times, ref_track)
+    fi = ((eta_r - times[0]) * prf).reshape(eta.shape)
+    fj = ((r_r - x0) / dx).reshape(eta.shape)
+    c0, c1 = int(np.floor(fj.min())) - WARP_MARGIN, int(np.ceil(fj.max())) + WARP_MARGIN + 1
+    if c0 < 0 or c1 > image.shape[1]:
+        raise InputDataError("sar", "the reference chip taken through the DEM leaves the reference image")
+    # range is sampled near Nyquist (fs/B ~ 1.2): a cubic spline of the complex samples would add a -17 dB error
+    # (docs/backprojection.md); FFT-upsampled by WARP_UPSAMPLE first (band-limited), the spline's error is ~-56 dB
+    seg = signal.resample(np.asarray(image.data)[:, c0:c1], WARP_UPSAMPLE * (c1 - c0), axis=1)
+    at = [np.mod(fi, n_p), (fj - c0) * WARP_UPSAMPLE]
+    return (ndimage.map_coordinates(seg.real, at, order=3, mode="grid-wrap")
+            + 1j * ndimage.map_coordinates(seg.imag, at, order=3, mode="grid-wrap"))

@@ -62,6 +62,12 @@ class HillTerrain:
             h += a * np.exp(-((n - cn) ** 2 + (e - ce) ** 2) / (2.0 * w * w))
         return h
 
+    def surface_down(self, points) -> np.ndarray:
+        """The surface's down coordinate [m] (NED: -height) under ``points`` (..., 3): the DEM as a reference
+        product gives it (``measurements.sar_product.ground_points``)."""
+        q = np.asarray(points, dtype=np.float64)
+        return -self.height(q[..., 0], q[..., 1])
+
     def gradient(self, north, east) -> tuple[np.ndarray, np.ndarray]:
         """(dh/dN, dh/dE) at the points."""
         n, e = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)

@@ -190,12 +190,13 @@ def world_imager(prm, seeds, settings=None, capture_aperture=None):
     """(reference targets (U, T, 3), the simulated world's ``SubApertureImager``) of a flight ``prm`` for runs whose
     clutter and in-flight receiver noise are keyed by ``seeds`` (one per run), imaging with ``settings`` (default: the
     scenario's ``prm.imaging``): the one wiring of the world's scene, reference pass and noise to the extractor that
-    the campaign, its tests and ``benchmarks/bench_bpa_chip.py`` share."""
+    the campaign, its tests and ``benchmarks/bench_bpa_chip.py`` share. Over terrain the reference comes with the
+    scene's DEM (``ReferencePulses.surface``; the world's own heights: the DEM has no error here)."""
     targets = reference_targets(prm)
     imager = simulated_imager(
         radar=prm.radar, truth=prm.trajectory, targets=targets, scene_for=scene_factory(prm, targets),
         reflector_amplitude=prm.scene["reflector_amplitude"], snr_db=prm.snr_db, reference_seed=prm.scene["seed"],
         noise_seeds=seeds, clutter_seeds=seeds if prm.scene["clutter_per_run"] else None,
         reference_truth=reference_track(prm), settings=prm.imaging if settings is None else settings,
-        capture_aperture=capture_aperture)
+        capture_aperture=capture_aperture, surface=terrain_of(prm))
     return targets, imager

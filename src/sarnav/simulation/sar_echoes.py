@@ -45,6 +45,7 @@ class SimulatedApertures:
     noise_seeds: list
     clutter_seeds: list | None = None
     reference_truth: Trajectory | None = None
+    surface: object = None  # the scene's DEM given with the reference (ReferencePulses.surface), or None
     _cache: dict = field(default_factory=dict, repr=False)
     _last: tuple | None = field(default=None, repr=False)
 
@@ -85,7 +86,7 @@ class SimulatedApertures:
         key = [self.reference_seed, 3, u] if clutter_seed is None else [clutter_seed, 3, u]
         ref = ReferencePulses(times, self._noisy(raw_ref, key), ref_truth.position, ref_truth.velocity, raw_ref,
                               self.reflector_amplitude, self.snr_db, key=None if clutter_seed is not None else ("shared", u),
-                              seconds=time.perf_counter() - t0)
+                              seconds=time.perf_counter() - t0, surface=self.surface)
         entry = {"raw": raw, "reference": ref}
         if clutter_seed is None:  # a shared scene: kept for every run
             self._cache[(u, clutter_seed)] = entry
@@ -107,11 +108,12 @@ class SimulatedApertures:
 
 def simulated_imager(radar: RadarParams, truth: Trajectory, targets, scene_for, reflector_amplitude: float,
                      snr_db: float, reference_seed: int, noise_seeds, clutter_seeds=None, reference_truth=None,
-                     settings: ImagingSettings | None = None, capture_aperture: int | None = None) -> SubApertureImager:
+                     settings: ImagingSettings | None = None, capture_aperture: int | None = None,
+                     surface=None) -> SubApertureImager:
     """A :class:`~sarnav.measurements.sar_image.SubApertureImager` on the echoes of the simulated world
     (:class:`SimulatedApertures`); ``targets`` (U, T, 3) the reference targets (the product's geolocation is the
-    truth here; the map's own error is the navigator's business)."""
+    truth here; the map's own error is the navigator's business); ``surface``: the DEM given with the reference."""
     source = SimulatedApertures(radar, truth, scene_for, reflector_amplitude, snr_db, reference_seed, noise_seeds,
-                                clutter_seeds, reference_truth)
+                                clutter_seeds, reference_truth, surface)
     return SubApertureImager(radar, targets, source, reference_seed,
                              ImagingSettings() if settings is None else settings, capture_aperture)
