@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import datetime
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -270,7 +270,9 @@ class _Recorder:
 
 
 class _Tap:
-    """The simulated source, passed through, keeping the pulses of each aperture the extractor asked for."""
+    """The simulated source, passed through, keeping the pulses of each aperture the extractor asked for; the
+    reference as the recording carries it: a 'cphd-pass' reference has no DEM (docs/recording.md §6), so the run
+    recorded is the one ``sarnav navigate`` makes of the recording (no ``ImagingSettings.terrain_correction``)."""
 
     def __init__(self, source):
         self.source, self.last = source, {}
@@ -280,7 +282,7 @@ class _Tap:
         return self.source.runs
 
     def reference(self, u: int, run: int):
-        ref = self.source.reference(u, run)
+        ref = replace(self.source.reference(u, run), surface=None)
         self.last[u] = (ref, self.last.get(u, (None, None))[1])
         return ref
 
