@@ -207,8 +207,9 @@ def reference_in_flight_geometry(image, rows, cols, target, times, prf: float, t
     eta0, r0 = (float(x) for x in closest_approaches(target, times, ref_track))
     eta_a, r_a = (float(x) for x in closest_approaches(target, times, track))
     x0, dx = float(image.x[0]), float(image.dx)
-    eta = times[0] + np.asarray(rows, dtype=np.float64)[:, None] / prf + (eta_a - eta0) + 0.0 * cols[None, :]
-    rng = x0 + np.asarray(cols, dtype=np.float64)[None, :] * dx + (r_a - r0) + 0.0 * eta
+    shape = (len(rows), len(cols))  # the chip's lattice: a time per row, a slant range per column
+    eta = np.broadcast_to(times[0] + np.asarray(rows, dtype=np.float64)[:, None] / prf + (eta_a - eta0), shape)
+    rng = np.broadcast_to(x0 + np.asarray(cols, dtype=np.float64)[None, :] * dx + (r_a - r0), shape)
     pos, d = track_at(times, track, eta)
     q = ground_points(pos, d, rng, surface, look_side, float(target[2]))
     if not np.all(np.isfinite(q)):
