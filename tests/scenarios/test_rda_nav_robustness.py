@@ -38,8 +38,6 @@ VARIANTS = {
 #: variants that miss a Done-when criterion (measured, 40 runs; docs/scenarios/rda-nav.md §6): checked, and expected to
 #: fail, so that a fix is noticed (the test then fails and says to remove the entry)
 NOT_MET = {
-    "terrain-other-pass": "relief seen from another look angle: on a slope the passes share only 1 - q of their looks "
-                          "(q = B_perp s / (L sin theta), not removed by the DEM warp); along-track std/predicted ~1.4",
     "snr-25": "sigma predicted conservatively where the shared gradient energy is itself noisy: std/predicted "
               "0.63/0.67, NIS/dof 0.816 under its band (NEES 17.72 inside)",
 }

@@ -326,8 +326,21 @@ class SeparableNoise:
         return float(np.real(np.sum(C * (np.conj(h) @ P @ h.T)))) * self.power
 
 
+def _phase_turn(ref: np.ndarray, phase_turn, noise_power: float) -> tuple[np.ndarray | None, float]:
+    """(exp(j turn) - 1, the clutter's power per pixel) of :func:`magnitude_shift_precision`'s ``phase_turn`` (None,
+    0 without one). The clutter's power: the reference's median pixel power over ln 2 (a speckle pixel's power is
+    exponential: robust to the few bright points of a chip), less its noise."""
+    if phase_turn is None:
+        return None, 0.0
+    turn = np.asarray(phase_turn, dtype=np.float64)
+    if turn.shape != ref.shape or not np.all(np.isfinite(turn)):
+        raise InputDataError("phase_turn", f"must be finite and of the reference's shape {ref.shape}, got {turn.shape}")
+    clutter = max(float(np.median(np.abs(ref) ** 2)) / math.log(2.0) - float(noise_power), 0.0)
+    return np.exp(1j * turn) - 1.0, clutter
+
+
 def magnitude_shift_precision(reference, image, shift, noise_reference, noise_image,
-                              mismatch: bool = True) -> tuple[float, float]:
+                              mismatch: bool = True, phase_turn=None) -> tuple[float, float]:
     """Predicted 1-sigma [pixels] (rows, columns) of the least-squares shift (:func:`refine_shift`) of two *complex*
     images registered by their magnitudes: the first-order (Cramer-Rao-like) error of the shift from the receiver
     noise of both images and, with ``mismatch``, from whatever else differs between them.
@@ -355,7 +368,16 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     above 1 (beyond three standard errors of a noise-only ratio, ``sqrt(2 / n)`` over n pixels) scales the
     prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum (the shared gradient energy
     leaves out the decorrelated texture's gradients, which the other image does not have) (docs/scenarios/rda-nav.md
-    §6)."""
+    §6).
+
+    ``phase_turn`` (the reference's shape) [rad]: how far the phase of the scene's clutter at each pixel has turned
+    between the passes relative to the target's pixel (over relief seen from another pass:
+    ``measurements.sar_product.reference_in_flight``). Linearised about the target's phase, the image's clutter c
+    differs from the reference's by ``(exp(j turn) - 1) c``, a mismatch that is zero at the target and grows away from
+    it, where the registration's weights are; noise of the same spectrum scaled by kappa misses it (1.3-1.4 x too
+    small a sigma on slopes). Its variance is the image noise's quadratic form of ``h conj(exp(j turn) - 1)`` scaled
+    to the clutter's power C (the median pixel power of the reference over ln 2, less its noise), and kappa is taken on
+    the residual power it leaves unexplained, ``C |exp(j turn) - 1|^2 / 2`` per pixel."""
     from scipy import ndimage
 
     ref = np.asarray(reference, dtype=np.complex128)
@@ -370,9 +392,11 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     if mismatch:  # the residual of the complex-shifted template: the magnitude's own interpolation error is no mismatch
         cz = np.abs(shifted)
         (az, bz), *_ = np.linalg.lstsq(np.column_stack([cz.ravel(), np.ones(cz.size)]), np.abs(img).ravel(), rcond=None)
-        scale = mismatch_ratio(np.abs(img) - az * cz - bz, cz, az, noise_reference[0].power, noise_image[0].power)
+        turn, clutter = _phase_turn(ref, phase_turn, noise_reference[0].power)
+        scale = mismatch_ratio(np.abs(img) - az * cz - bz, cz, az, noise_reference[0].power, noise_image[0].power,
+                               explained=None if turn is None else 0.5 * clutter * np.abs(turn) ** 2)
     else:
-        scale = 1.0
+        scale, turn, clutter = 1.0, None, 0.0
     out = []
     w_img = np.sqrt(rician_weight(img, noise_image[0].power))
     w_ref = np.sqrt(rician_weight(shifted, noise_reference[0].power))
@@ -381,8 +405,12 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
         num = 0.5 * noise_image[0].quadratic(w_img * g * np.exp(1j * np.angle(img)), noise_image[1])
         num += 0.5 * a * a * noise_reference[0].quadratic(w_ref * g * np.exp(1j * np.angle(shifted)), noise_reference[1])
         # the curvature of the least-squares cost in s: the gradient energy both images share (see the docstring)
+        num *= scale
+        if turn is not None:  # the clutter turned against the target (docstring)
+            num += 0.5 * clutter / noise_image[0].power * noise_image[0].quadratic(
+                w_img * g * np.exp(1j * np.angle(img)) * np.conj(turn), noise_image[1])
         energy = min(float(np.sum(g * g)), max(float(np.sum(g * _spline_gradient(np.abs(img), (0.0, 0.0), axis))), 0.0))
-        out.append(np.sqrt(max(num * scale, 0.0)) / energy if energy > 0 else np.inf)
+        out.append(np.sqrt(max(num, 0.0)) / energy if energy > 0 else np.inf)
     return float(out[0]), float(out[1])
 
 
@@ -409,17 +437,18 @@ MISMATCH_KAPPA = 2.0
 BRIGHT_FACTOR = 10.0
 
 
-def mismatch_ratio(residual, template, a: float, n_reference: float, n_image: float) -> float:
+def mismatch_ratio(residual, template, a: float, n_reference: float, n_image: float, explained=None) -> float:
     """kappa (>= 1) of :func:`magnitude_shift_precision`: the residual power over the bright pixels (template power >
-    ``BRIGHT_FACTOR`` x the noise) against the receiver noise's expectation ``(N_image + a^2 N_reference) / 2``
-    there; 1 unless it exceeds both ``MISMATCH_KAPPA`` and 1 + three standard errors ``3 sqrt(2 / n)`` (n bright
-    pixels, at least 8)."""
+    ``BRIGHT_FACTOR`` x the noise), less the part ``explained`` (per pixel) by a modelled mismatch, against the
+    receiver noise's expectation ``(N_image + a^2 N_reference) / 2`` there; 1 unless it exceeds both
+    ``MISMATCH_KAPPA`` and 1 + three standard errors ``3 sqrt(2 / n)`` (n bright pixels, at least 8)."""
     bright = template**2 > BRIGHT_FACTOR * n_reference
     n = int(np.count_nonzero(bright))
     expected = 0.5 * (n_image + a * a * n_reference)
     if n < 8 or not expected > 0:
         return 1.0
-    kappa = float(np.mean(residual[bright] ** 2)) / expected
+    power = residual[bright] ** 2 - (0.0 if explained is None else np.asarray(explained)[bright])
+    kappa = float(np.mean(power)) / expected
     return kappa if kappa > max(MISMATCH_KAPPA, 1.0 + 3.0 * math.sqrt(2.0 / n)) else 1.0
 
 

@@ -53,9 +53,10 @@ class ImagingSettings:
         2026-12-06; docs/scenarios/rda-nav.md §6).
     terrain_correction : RDA with a CPHD reference whose source gives the scene's surface
         (``ReferencePulses.surface``): the reference chip is taken through the DEM to the in-flight image's lattice
-        along the estimated track (``measurements.sar_product.reference_in_flight_geometry``), so that the terrain's
-        parallax between the two passes is not left to a rigid shift (docs/scenarios/rda-nav.md §6). False: the chip
-        as the reference pass saw it (before 2026-12-06).
+        along the estimated track (``measurements.sar_product.reference_in_flight``), so that the terrain's
+        parallax between the two passes is not left to a rigid shift, and the registration sigma counts the phase the
+        clutter turned between the passes (``magnitude_shift_precision``'s ``phase_turn``; docs/scenarios/rda-nav.md
+        §6). False: the chip as the reference pass saw it, sigma without the turn (before 2026-12-06).
     min_correlation, max_ambiguity : a match is refused (``quality`` < min_correlation: the chip is not in the
         image; ``ambiguity`` > max_ambiguity: another place matches nearly as well) and the update skipped.
     """

@@ -47,7 +47,7 @@ from sarnav.measurements.sar_aperture import (ALGORITHMS, FAILURES, FOCUS, STAGE
 from sarnav.measurements.ground_grid import BpaGrid, focusing_track, ground_frame
 from sarnav.measurements.read_ahead import ReadAhead
 from sarnav.measurements.sar_product import (ProductReference, closest_approaches, predicted_amplitude,
-                                             product_noise_power, rda_pixels, reference_in_flight_geometry)
+                                             product_noise_power, rda_pixels, reference_in_flight)
 from sarnav.signal.data import SarImage
 from sarnav.trajectory.sampled import along_offset, closest_approach, closest_sample_is_inside
 
@@ -351,8 +351,9 @@ class SubApertureImager:
         st, prf, times, ch = self.settings, self.radar.prf, ap["times"], ap["chips"][k]
         t0 = time.perf_counter()
         if st.terrain_correction and ch.get("surface") is not None:  # the chip in this image's geometry, by the DEM
-            ch = {**ch, "chip": reference_in_flight_geometry(ch["reference"], *ch["lattice"], ch["target"], times, prf,
-                                                             p_hat, ch["track"], ch["surface"], self.radar.look_side)}
+            chip, turn = reference_in_flight(ch["reference"], *ch["lattice"], ch["target"], times, prf, p_hat,
+                                             ch["track"], ch["surface"], self.radar.look_side, self.radar.wavelength)
+            ch = {**ch, "chip": chip, "phase_turn": turn}
         if closest_sample_is_inside(targ, times, p_hat):
             r_hat = closest_approach(targ, times, p_hat)[1]
         else:
@@ -529,7 +530,8 @@ class SubApertureImager:
         shift = refine_shift(chip, cut, fine.shift_pixels)
         noise_rows = rows if circular else ch["rows"]
         sigma = (magnitude_shift_precision(chip_c, image[window], shift, (ch.get("chip_noise", ch["noise"]), ch["rows"]),
-                                           (ch["noise"], noise_rows)) if precision else (np.nan, np.nan))
+                                           (ch["noise"], noise_rows), phase_turn=ch.get("phase_turn"))
+                 if precision else (np.nan, np.nan))
         return i1 + shift[0] + anchor[0], j1 + shift[1] + anchor[1], {"sigma_px": sigma, "quality": fine.peak}
 
     @staticmethod

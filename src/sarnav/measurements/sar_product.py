@@ -38,7 +38,8 @@ from sarnav.errors import InputDataError
 from sarnav.signal.data import PulseData
 
 __all__ = ["GeocodedProduct", "ProductReference", "product_noise_power", "ground_points", "closest_approaches",
-           "rda_pixels", "track_at", "predicted_amplitude", "reference_in_flight_geometry", "GROUND_ITERATIONS"]
+           "rda_pixels", "track_at", "predicted_amplitude", "reference_in_flight_geometry", "reference_in_flight",
+           "GROUND_ITERATIONS"]
 
 #: reference_in_flight_geometry: range samples kept beyond the chip's reach on each side of the segment it FFT-upsamples
 #: (the segment's ends ring) and the upsampling factor before the cubic spline
@@ -187,7 +188,13 @@ def predicted_amplitude(product: GeocodedProduct, times, track, eta, rng, look_s
 
 def reference_in_flight_geometry(image, rows, cols, target, times, prf: float, track, ref_track, surface,
                                  look_side: str) -> np.ndarray:
-    """Reference (a) over terrain: the chip of the reference pass's RDA ``image`` (rows: the block's pulses, circular;
+    """The chip of :func:`reference_in_flight` alone."""
+    return reference_in_flight(image, rows, cols, target, times, prf, track, ref_track, surface, look_side)[0]
+
+
+def reference_in_flight(image, rows, cols, target, times, prf: float, track, ref_track, surface,
+                        look_side: str, wavelength: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """(chip, phase turn) of reference (a) over terrain: the chip of the reference pass's RDA ``image`` (rows: the block's pulses, circular;
     columns: slant range ``image.x``) at ``rows`` (m,) x ``cols`` (n,) around ``target``, taken to the in-flight
     image's geometry along the estimated ``track`` (P, 3) through the DEM ``surface`` (``surface_down``).
 
@@ -200,7 +207,14 @@ def reference_in_flight_geometry(image, rows, cols, target, times, prf: float, t
     closest approach to the reference pass's ``ref_track`` gives where the reference image saw it, read there by
     cubic splines of the real and imaginary parts. The chip keeps its lattice's anchor and noise model (the same
     pixel spacing; the warp is a small fraction of a pixel per pixel). InputDataError when a ground point is not on
-    the surface or falls outside the reference image."""
+    the surface or falls outside the reference image.
+
+    The warp moves the speckle, but cannot make it the same: each ground scatterer's phase differs between the passes
+    by (4 pi / lambda) (r_ref - r_flight), and over relief that difference turns from pixel to pixel (on a slope s
+    along track at k_z s, k_z = 4 pi B_perp / (lambda R sin theta): the two passes share only part of their looks;
+    docs/scenarios/rda-nav.md §6). With ``wavelength`` [m] the second value is that phase [rad] at each pixel's ground
+    point, relative to the lattice's centre pixel (the target's): the turn of the in-flight image's clutter against
+    the target (``imaging.registration.magnitude_shift_precision``'s ``phase_turn``); None without it."""
     from scipy import ndimage, signal
 
     n_p = int(image.shape[0])
@@ -224,5 +238,9 @@ def reference_in_flight_geometry(image, rows, cols, target, times, prf: float, t
     # (docs/backprojection.md); FFT-upsampled by WARP_UPSAMPLE first (band-limited), the spline's error is ~-56 dB
     seg = signal.resample(np.asarray(image.data)[:, c0:c1], WARP_UPSAMPLE * (c1 - c0), axis=1)
     at = [np.mod(fi, n_p), (fj - c0) * WARP_UPSAMPLE]
-    return (ndimage.map_coordinates(seg.real, at, order=3, mode="grid-wrap")
+    chip = (ndimage.map_coordinates(seg.real, at, order=3, mode="grid-wrap")
             + 1j * ndimage.map_coordinates(seg.imag, at, order=3, mode="grid-wrap"))
+    if wavelength is None:
+        return chip, None
+    phase = (4.0 * np.pi / float(wavelength)) * (r_r - closest_approaches(q, times, track)[1]).reshape(eta.shape)
+    return chip, phase - phase[len(rows) // 2, len(cols) // 2]
