@@ -68,7 +68,7 @@ def test_mapped_prediction_reproduces_the_joint_gaussian_and_its_conditional(cas
     cov_xz = Phi @ Pc @ np.swapaxes(Hc, -1, -2)  # cov(dx(t_k), z): w and v are independent of dx(t_c)
     var_z = Hc @ Pc @ np.swapaxes(Hc, -1, -2) + R
     pred = map_to_update_epoch(Prediction(np.zeros((2, M)), Hc, R), case["Phi_inv"], Qd)
-    H, Ht = pred.H, np.swapaxes(pred.H, -1, -2)
+    Ht = np.swapaxes(pred.H, -1, -2)
     np.testing.assert_allclose(Pk @ Ht + pred.C, cov_xz, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(update.innovation_covariance(Pk, pred), var_z, rtol=1e-10)
     z = case["rng"].normal(size=(2, M))

@@ -8,7 +8,7 @@ from sarnav.filters.mekf import (MekfModel, covariance_propagation_reference, di
                                  noise_input_matrix, process_noise, propagate, reset, transition_matrix)
 from sarnav.ins.orbital import OrbitalNavState, mechanization_step
 from sarnav.rotations import quat_normalize, quat_to_dcm, skew
-from sarnav.trajectory.orbit import initial_ecef_state, lvlh_dcm, table2_elements
+from sarnav.trajectory.orbit import initial_ecef_state, table2_elements
 
 RNG = np.random.default_rng(11)
 

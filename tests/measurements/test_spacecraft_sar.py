@@ -11,7 +11,7 @@ from sarnav.frames.earth import ecef_to_geodetic
 from sarnav.ins.orbital import OrbitalNavState
 from sarnav.measurements.spacecraft import (CenterPixelMeasurement, SarMeasurementNoise, boresight_intersection,
                                             simulate_image)
-from sarnav.rotations import quat_normalize, quat_to_dcm, rotvec_to_quat
+from sarnav.rotations import quat_normalize, rotvec_to_quat
 from sarnav.trajectory.orbit import antenna_dcm, initial_ecef_state, lvlh_dcm, table2_elements
 
 RNG = np.random.default_rng(21)

@@ -10,7 +10,6 @@ reference (a), the reference pass as CPHD, and reference (b), a GeoTIFF orthoima
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 

@@ -22,7 +22,6 @@ import sarkit.wgs84 as wgs84
 import xarray as xr
 
 from sarnav.cli.main import main
-from sarnav.errors import ConfigError
 from sarnav.io.frames import ned_to_ecef
 from sarnav.montecarlo.seeding import run_seeds
 from sarnav.recording import read_recording

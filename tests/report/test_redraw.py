@@ -7,7 +7,6 @@ removed; real drawing is covered by tests/cli/test_report_cli.py and test_figure
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import pytest
 

@@ -97,7 +97,7 @@ def test_a_short_flight_of_the_paper_scenario_runs_unaided(short_flight):
                       prm.n_updates, prm.samples_per_update, prm.samples_per_step)
     fl = ErrorStateFlight(spec, rn.STATE_LAYOUT, np.random.SeedSequence(3).spawn(4))
     for u in range(prm.n_updates):
-        iv = fl.fly_interval(u)
+        fl.fly_interval(u)
         fl.after_update(fl.j, np.zeros((4, rn.STATE_LAYOUT.n)), fl.P)
     assert fl.err.shape == (4, prm.n_updates * fl.steps + 1, rn.STATE_LAYOUT.n)
     # the velocity error grows like the accelerometer bias times t: within the filter's own 3 sigma
