@@ -58,18 +58,24 @@ def world():
     return SimpleNamespace(times=times, hills=hills, ref_track=ref_track, image=image)
 
 
-def _expected(w, track, rows, cols, target):
-    """The field at the ground points of the in-flight lattice: the chip's lattice moved to where the target falls
+def _lattice_ground(w, track, rows, cols, target) -> np.ndarray:
+    """The ground points (bisection) of the in-flight lattice: the chip's lattice moved to where the target falls
     from ``track`` (its time and range of closest approach there instead of from the reference pass)."""
     def approach(tr):
         d = np.linalg.norm(tr - target, axis=1)
         i = int(np.argmin(d))
         return w.times[0] + (target[0] - tr[0, 0]) / SPEED, float(np.hypot(*(target - tr[i])[1:]))
     (eta0, r0), (eta_a, r_a) = approach(w.ref_track), approach(track)
-    eta = w.times[0] + rows[:, None] / PRF + (eta_a - eta0) + 0.0 * cols[None, :]
-    r = w.image.x[0] + cols[None, :] * DX + (r_a - r0) + 0.0 * eta
-    P = np.stack([SPEED * eta, np.full(eta.shape, track[0, 1]), np.full(eta.shape, track[0, 2])], axis=-1)
-    return _field(_ground(P, r, w.hills))
+    shape = (rows.size, cols.size)
+    eta = np.broadcast_to(w.times[0] + rows[:, None] / PRF + (eta_a - eta0), shape)
+    r = np.broadcast_to(w.image.x[0] + cols[None, :] * DX + (r_a - r0), shape)
+    P = np.stack([SPEED * eta, np.full(shape, track[0, 1]), np.full(shape, track[0, 2])], axis=-1)
+    return _ground(P, r, w.hills)
+
+
+def _expected(w, track, rows, cols, target):
+    """The field at the ground points of the in-flight lattice."""
+    return _field(_lattice_ground(w, track, rows, cols, target))
 
 
 @pytest.mark.parametrize("east, up", [(0.0, 0.0), (3.0, -2.0)])
@@ -176,15 +182,8 @@ def test_the_phase_turn_is_the_two_passes_phase_difference_at_the_lattice_ground
     np.testing.assert_array_equal(chip, reference_in_flight_geometry(w.image, rows, cols, target, w.times, PRF, track,
                                                                      w.ref_track, w.hills, "right"))
     assert reference_in_flight(w.image, rows, cols, target, w.times, PRF, track, w.ref_track, w.hills, "right")[1] is None
-    # the bisection's ground points of the in-flight lattice (as _expected) and the passes' distances to them
-    def approach(tr):
-        i = int(np.argmin(np.linalg.norm(tr - target, axis=1)))
-        return w.times[0] + (target[0] - tr[0, 0]) / SPEED, float(np.hypot(*(target - tr[i])[1:]))
-    (eta0, r0), (eta_a, r_a) = approach(w.ref_track), approach(track)
-    eta = np.broadcast_to(w.times[0] + rows[:, None] / PRF + (eta_a - eta0), (rows.size, cols.size))
-    r = np.broadcast_to(w.image.x[0] + cols[None, :] * DX + (r_a - r0), eta.shape)
-    q = _ground(np.stack([SPEED * eta, np.full(eta.shape, track[0, 1]), np.full(eta.shape, track[0, 2])], axis=-1), r,
-                w.hills)
+    # the bisection's ground points of the in-flight lattice and the passes' perpendicular distances to them
+    q = _lattice_ground(w, track, rows, cols, target)
     dist = [np.hypot(q[..., 1] - tr[0, 1], q[..., 2] - tr[0, 2]) for tr in (w.ref_track, track)]
     want = 4 * np.pi / lam * (dist[0] - dist[1])
     want -= want[rows.size // 2, cols.size // 2]
