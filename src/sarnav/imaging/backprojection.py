@@ -73,7 +73,7 @@ DEFAULT_BLOCK = 512
 DEFAULT_PULSE_BLOCK = 128
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def _pass_points(px, py, pz, i0, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx, wgt, cph,
                  sph):  # pragma: no cover - compiled
     """Pass 1 of pulse k at the points i0 .. i0 + n - 1: float64 range and ``range_tap``, float32 ``cis32``."""
@@ -90,7 +90,7 @@ def _pass_points(px, py, pz, i0, n, ant, k, u_offset, inv_dr, u_max, shift, two_
         cph[i], sph[i] = cis32(cph[i])
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def _pass_row(rx, ry, rz, e_col, e2, jf, n, ant, k, u_offset, inv_dr, u_max, shift, two_over_lambda, idx, wgt,
               cph, sph):  # pragma: no cover - compiled
     """Pass 1 of pulse k along a grid row from (rx, ry, rz): R^2 = |w|^2 + j (2 w.e_col + j |e_col|^2)."""

@@ -286,7 +286,7 @@ def range_tap(r, u_offset, inv_dr, u_max, shift, two_over_lambda):  # pragma: no
     return np.uint32(fl), np.float32(uc - fl), np.float32(f if valid else 2.0)
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def gather(d, mode, n, idx, wgt, cph, sph, w4, acc_r, acc_i):  # pragma: no cover - compiled
     """acc += s(idx + wgt) * (cph + j sph) for one pulse's complex64 samples ``d`` (scalar gathers: re and im
     in one 8-byte load), interpolated as ``mode`` (:data:`GATHER_MODE`) says; float32 within a pulse block."""
@@ -360,7 +360,7 @@ def _lagrange_weights(wgt, n, w, r0):  # pragma: no cover - compiled
         w[r0 + 3, i] = xp * x * xm * np.float32(1.0 / 6.0)
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def gather_pair_lagrange(d, e, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w8, acc_r, acc_i):  # pragma: no cover
     """:func:`gather` of two pulses with the Lagrange kernel (mode 3) in one pass over the pixels (weights of the
     first pulse in rows 0-3 of the (8, n) work array ``w8``, of the second in rows 4-7)."""
@@ -382,7 +382,7 @@ def gather_pair_lagrange(d, e, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, w8
         acc_i[i] += (sr * s + si * c) + (tr * s2 + ti * c2)
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def gather_pair(d, e, mode, n, idx, wgt, cph, sph, idx2, wgt2, cph2, sph2, acc_r, acc_i):  # pragma: no cover
     """:func:`gather` of two pulses (samples d with idx, wgt, cph, sph; e with idx2, ...) in one pass over the
     pixels: one load and store of the accumulators per two pulses (nearest and linear)."""
@@ -442,7 +442,7 @@ def polar_tap(qx, qy, qz, ref_r, centre, v, r0, inv_dr, u0, inv_du, nr, nu, two_
             np.float32(f if valid else 2.0))
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def taps_2d(img, nu, n, base, wr, wu, f, ktab, out_re, out_im, o0):  # pragma: no cover - compiled
     """out[o0 + i] += the N x N kernel interpolation of the flat complex64 image (rows of ``nu``) at base[i] (the
     support's first sample; weights: the rows of the kernel table ``ktab`` (F + 1, N) (:func:`tabulate`) nearest the

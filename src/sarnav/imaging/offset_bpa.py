@@ -51,7 +51,7 @@ DEFAULT_BLOCK = 64
 DEFAULT_PULSE_BLOCK = 64
 
 
-@numba.njit(fastmath=True, cache=True, inline="always")
+@numba.njit(fastmath=True, cache=True)
 def _moment_block(x_, y_, z_, ant, lever, ex, ey, ez, dre, dim, k_start, k_stop, u_offset, inv_dr, u_max,
                   two_over_lambda, m_re, m_im, n_re, n_im, max_x):  # pragma: no cover - compiled
     """Accumulate pulses k_start..k_stop-1 into the moments of one block of pixels (m_*, n_*: (Q+1, n))."""
