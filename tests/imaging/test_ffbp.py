@@ -239,3 +239,18 @@ def test_a_target_error_chooses_the_oversampling():
     assert tight.metadata["ffbp_oversample"] > loose.metadata["ffbp_oversample"]
     with pytest.raises(ConfigError, match=r"^error_db: give error_db or oversample, not both"):
         ffbp(rc, grid, bandwidth=BW, error_db=-45.0, oversample=2.0)
+
+
+def test_a_polar_image_beyond_the_int32_index_is_refused_before_any_allocation():
+    """kernels.polar_tap's flat index is int32 (it vectorises without AVX-512): a polar grid of 2^31 samples or more is
+    refused with the key named; one just under is built (no array is allocated by _polar_grid)."""
+    from sarnav.imaging.ffbp import _polar_grid
+
+    pos = np.column_stack([np.zeros(3), np.array([-1.0, 0.0, 1.0]), np.full(3, 1000.0)])
+    hull = np.array([[1000.0, -100.0, 0.0], [1000.0, 100.0, 0.0], [1200.0, -100.0, 0.0], [1200.0, 100.0, 0.0]])
+    centre = hull.mean(axis=0)
+    v = np.array([0.0, 1.0, 0.0])
+    ok = _polar_grid(pos, v, hull, centre, 1e-3, 0.5, 0.03, 2.0)
+    assert ok.nr * ok.nu < 2**31
+    with pytest.raises(ConfigError, match=r"^grid: .*2\^31"):
+        _polar_grid(pos, v, hull, centre, 1e-6, 0.5, 0.03, 2.0)

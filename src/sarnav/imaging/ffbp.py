@@ -244,6 +244,8 @@ def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: 
     u0 = float(u.min()) - POLAR_MARGIN * du
     nr = int(math.ceil((float(r.max()) + POLAR_MARGIN * dr - r0) / dr)) + 1
     nu = int(math.ceil((float(u.max()) + POLAR_MARGIN * du - u0) / du)) + 1
+    if nr * nu >= 2**31:  # kernels.polar_tap's flat index is int32 (16 GiB of complex64 per polar image before that)
+        raise ConfigError("grid", f"a polar image of {nr} x {nu} samples: at most 2^31 - 1; form the image in tiles")
     return _Polar(c, w, r0, dr, nr, u0, du, nu)
 
 

@@ -88,11 +88,11 @@ def _moment_block(x_, y_, z_, ant, lever, ex, ey, ez, dre, dim, k_start, k_stop,
             u = r * inv_dr - u_offset
             valid = (u >= 0.0) & (u <= u_max)
             uc = min(max(u, 0.0), u_max) + PAD
-            fl = math.floor(uc)
-            idx[i] = np.uint64(fl)
+            fl = np.floor(uc)             # float, then int32: vectorises without AVX-512 (kernels.range_tap)
+            idx[i] = np.int32(fl)
             wgt[i] = uc - fl
             cyc = r * two_over_lambda
-            ph_c, ph_s = cis64(cyc - math.floor(cyc + 0.5))
+            ph_c, ph_s = cis64(cyc - np.floor(cyc + 0.5))
             m = 1.0 if valid else 0.0
             cph[i] = ph_c * m
             sph[i] = ph_s * m
