@@ -126,3 +126,33 @@ def test_fft_upsampling_of_a_slow_length_bridges_the_period_smoothly():
     pts = sample_points()
     err = gain_error_db(backproject(rc, pts, interpolation="precise").data, exact_image(ph, pts))
     assert err < -82.0, err
+
+
+@pytest.mark.parametrize("n0, factor", [(64, 2), (60, 3), (97, 4)])
+def test_padded_pulses_is_the_band_limited_signal_in_one_zero_padded_buffer(n0, factor):
+    """``padded_pulses`` FFT-upsamples in place in the buffer the kernels read: on a periodic band-limited pulse (a sum
+    of tones on the DFT lattice of a fast length, the Nyquist one a cosine) its samples are the tones at the fine positions to float64 rounding;
+    every column outside the m samples is zero; ``upsample_pulses`` returns the same samples. A slow length (97) takes
+    the Hermite bridge: the buffer is still zero outside and equal to ``upsample_pulses``."""
+    import scipy.fft as sfft
+
+    from sarnav.imaging.kernels import PAD, padded_pulses, upsample_pulses
+
+    rng = np.random.default_rng(n0)
+    k = np.array([0, 3, 7, -5, -(n0 // 2 - 1)])
+    amp = rng.standard_normal((2, k.size)) + 1j * rng.standard_normal((2, k.size))
+    nyq = (rng.standard_normal(2) + 1j * rng.standard_normal(2)) * (n0 % 2 == 0)   # split between +-n0/2: a cosine
+    pulses = amp @ np.exp(2j * np.pi * np.outer(k, np.arange(n0)) / n0) + np.outer(nyq, np.cos(np.pi * np.arange(n0)))
+    axis = 1000.0 + 0.5 * np.arange(n0)
+    buf, fine, m = padded_pulses(pulses, axis, factor)
+    assert m == (n0 - 1) * factor + 1 and buf.shape[1] >= m + 2 * PAD
+    assert np.array_equal(fine[::factor], axis) or np.allclose(fine[::factor], axis, rtol=0, atol=1e-9)
+    assert not buf[:, :PAD].any() and not buf[:, PAD + m:].any()
+    up, fine2 = upsample_pulses(pulses, axis, factor)
+    assert np.array_equal(up, buf[:, PAD:PAD + m]) and np.array_equal(fine, fine2)
+    if sfft.next_fast_len(n0) == n0:
+        x = np.arange(m) / factor
+        exact = amp @ np.exp(2j * np.pi * np.outer(k, x) / n0) + np.outer(nyq, np.cos(np.pi * x))
+        assert np.max(np.abs(buf[:, PAD:PAD + m] - exact)) < 1e-12 * np.max(np.abs(exact))
+    one, axis1, m1 = padded_pulses(pulses, axis, 1)
+    assert m1 == n0 and np.array_equal(one[:, PAD:PAD + n0], pulses) and not one[:, :PAD].any() and not one[:, PAD + n0:].any()

@@ -58,8 +58,8 @@ from sarnav.imaging.grid import GroundGrid, PlaneGrid, SlantGrid, as_grid
 from sarnav.imaging.interpolation_choice import (AUTO_MAX_ERROR, PRECISE_MAX_ERROR, data_oversampling,
                                                 resolve_interpolation)
 from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE_POLY_MAX_ERROR, UPSAMPLED, cis32,
-                                    gather, gather_pair, gather_pair_lagrange, point_kernel, range_tap,
-                                    upsample_pulses)
+                                    gather, gather_pair, gather_pair_lagrange, padded_pulses, point_kernel,
+                                    range_tap)
 
 __all__ = ["backproject", "backproject_numpy", "backproject_points", "backproject_fan", "resolve_interpolation",
            "data_oversampling", "plane_of", "PHASE_F32_MAX_ERROR",
@@ -282,12 +282,13 @@ def check_interpolation(interpolation: str, upsample: int) -> int:
 
 
 def _prepare(rc, positions, interpolation, upsample, wavelength, dtype=np.complex128):
+    """(padded samples, range axis, n samples, positions, wavelength): the pulses as the kernels read them
+    (``padded_pulses``: upsampled when the interpolation says so, n samples from column PAD, zeros around)."""
     upsample = check_interpolation(interpolation, upsample)
     data, rng, pos = check_pulses(rc, positions)
     lam = wavelength_of(rc, wavelength)
-    if interpolation in UPSAMPLED:
-        data, rng = upsample_pulses(data, rng, upsample, dtype)
-    return data, rng, pos, lam
+    padded, rng, n = padded_pulses(data, rng, upsample if interpolation in UPSAMPLED else 1, dtype)
+    return padded, rng, n, pos, lam
 
 
 def grid_points(grid) -> tuple[object, np.ndarray]:
@@ -372,10 +373,7 @@ def _form(rc, positions, interpolation, upsample, wavelength, block, pulse_block
     """(re, im) float64 of the compiled back-projection at ``flat`` (M, 3) points, on ``plane``
     (origin, e_row, e_col, ny, nx: pixels origin + i e_row + j e_col, row-major) or on ``fan`` (origins (ny, 3),
     e_cols (ny, 3), nx: points origins[i] + j e_cols[i], row-major)."""
-    data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength, np.complex64)
-    n = data.shape[1]
-    padded = np.zeros((data.shape[0], n + 2 * PAD), dtype=np.complex64)
-    padded[:, PAD:PAD + n] = data
+    padded, rng, n, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength, np.complex64)
     dr = float(rng[1] - rng[0])
     pos = np.ascontiguousarray(pos)
     common = (float(rng[0]) / dr, 1.0 / dr, float(n - 1), 2.0 / lam, GATHER_MODE[interpolation], int(block),
@@ -519,12 +517,9 @@ def backproject_numpy(rc: PulseData, grid, positions=None, interpolation: str = 
     check_interpolation(interpolation, upsample)
     if isinstance(rc, PulseData):
         interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bandwidth, int(np.prod(g.shape)))
-    data, rng, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
-    sel = np.arange(data.shape[0]) if pulses is None else np.arange(data.shape[0])[pulses]
+    padded, rng, n, pos, lam = _prepare(rc, positions, interpolation, upsample, wavelength)
+    sel = np.arange(padded.shape[0]) if pulses is None else np.arange(padded.shape[0])[pulses]
     flat = pts.reshape(-1, 3)
-    n = data.shape[1]
-    padded = np.zeros((data.shape[0], n + 2 * PAD), dtype=np.complex128)
-    padded[:, PAD:PAD + n] = data
     dr = rng[1] - rng[0]
     out = np.zeros(flat.shape[0], dtype=np.complex128)
     mode = GATHER_MODE[interpolation]

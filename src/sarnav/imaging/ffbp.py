@@ -54,8 +54,8 @@ from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, b
                                            check_interpolation, check_pulses, grid_points,
                                            plane_of, resolve_interpolation, sar_image, wavelength_of)
 from sarnav.imaging.interpolation_error import kernel_values
-from sarnav.imaging.kernels import (GATHER_MODE, PAD, UPSAMPLED, demodulate_parts, polar_tap,
-                                    tabulate, taps_2d, upsample_pulses)
+from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, demodulate_parts, polar_tap,
+                                    padded_pulses, tabulate, taps_2d)
 from sarnav.imaging.grid import as_grid
 from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, FfbpPlan, check_kernel,  # noqa: F401
@@ -300,12 +300,8 @@ class _Former:
 
     def _prepare(self, k0: int, k1: int) -> None:
         """Pulses k0..k1 (one top-level subimage) ready for the range kernel: FFT-upsampled (complex64), zero-padded."""
-        data, rng = self.rc.data[k0:k1], self.rc.slant_range
-        if self.interpolation in UPSAMPLED:
-            data, rng = upsample_pulses(data, rng, self.upsample, np.complex64)
-        n = data.shape[1]
-        padded = np.zeros((data.shape[0], n + 2 * PAD), dtype=np.complex64)
-        padded[:, PAD:PAD + n] = data
+        padded, rng, n = padded_pulses(self.rc.data[k0:k1], self.rc.slant_range,
+                                       self.upsample if self.interpolation in UPSAMPLED else 1, np.complex64)
         d = float(rng[1] - rng[0])
         self._pulses = (k0, k1, padded, (float(rng[0]) / d, 1.0 / d, float(n - 1), 2.0 / self.lam,
                                          GATHER_MODE[self.interpolation], DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK))

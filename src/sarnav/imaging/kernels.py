@@ -14,7 +14,7 @@ Kernels (distance x in samples; all interpolating: k(0) = 1, k(n) = 0 for the ot
 Users: back-projection (``backprojection``, FFBP's level 0 and ``offset_bpa``) interpolates each range-compressed
 pulse, zero-padded by :data:`PAD` samples at each end, at the fractional sample of a range (:func:`range_tap`) with
 nearest / linear / cubic / lagrange (:func:`gather`, :func:`gather_pair`; :data:`GATHER_MODE`) or FFT upsampling then linear
-(:func:`upsample_pulses`); FFBP interpolates its polar images with a separable N x N kernel read from a table
+(:func:`padded_pulses`: the buffer the kernels read; :func:`upsample_pulses`); FFBP interpolates its polar images with a separable N x N kernel read from a table
 (:func:`tabulate`; :func:`polar_tap` locates a point, :func:`taps_2d` sums the taps); the RDA reads
 :func:`rcmc_kernel_table` in its compiled RCMC loop. Every interpolated sample is rotated by exp(j 2 pi f), f the
 fractional cycle of 2 R / lambda reduced in float64: in float32 from quarter-wave polynomials (:func:`cis32`, max
@@ -35,7 +35,7 @@ import scipy.fft as sfft
 
 __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE", "RANGE_KERNEL", "UPSAMPLED",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
-           "rcmc_kernel_table", "upsample_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
+           "rcmc_kernel_table", "upsample_pulses", "padded_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
            "gather_pair", "gather_pair_lagrange", "polar_tap", "taps_2d"]
 
 # ---------------------------------------------------------------------------------------------
@@ -119,40 +119,71 @@ def rcmc_kernel_table(taps: int = 8, beta: float = 2.5, steps: int = RCMC_TABLE_
 
 def upsample_pulses(data: np.ndarray, rng: np.ndarray, factor: int, dtype=np.complex128):
     """Band-limited interpolation of every pulse by FFT zero-padding: (P, (N-1)*factor + 1) samples
-    on the range axis ``rng[0] + i dr / factor`` (the wrapped tail beyond the last sample dropped).
-    The FFTs run at N' = ``scipy.fft.next_fast_len(N)``: pulses of a length the FFT does slowly (the peer's CPHD
-    collect read at fs/B 4 has 6529 samples, a prime: x7 took 1.9 s for 1812 pulses, 0.33 s at 6534) are extended by
-    N' - N samples that bridge the last samples back to the first (a cubic Hermite curve matching values and one-sided
-    slopes), so the period the FFT assumes gains no new jump, and the output still stops at the last sample. Against
-    zero samples (a jump at each end of the gap: "precise" -73 dB on a CPHD window of half the period, -80.6 dB
-    unpadded) the bridge measures -84.6 dB there, -89.8 dB on the DFT lattice (-91.9 unpadded).
+    on the range axis ``rng[0] + i dr / factor`` (the wrapped tail beyond the last sample dropped): the
+    samples of :func:`padded_pulses` without its zero columns (a view of its buffer).
+    """
+    buf, fine, m = padded_pulses(data, rng, factor, dtype)
+    return buf[:, PAD:PAD + m], fine
+
+
+def padded_pulses(data: np.ndarray, rng: np.ndarray, factor: int = 1, dtype=np.complex128):
+    """(buffer, range axis, m): the pulses FFT-upsampled by ``factor`` (1: as they are) as the back-projection
+    kernels read them, m samples per pulse on ``rng[0] + i dr / factor`` in columns PAD .. PAD + m - 1 of a zeroed
+    (P, >= m + 2 PAD) buffer; every other column is zero.
+
+    Upsampling is FFT zero-padding. The FFTs run at N' = ``scipy.fft.next_fast_len(N)``: pulses of a length the FFT
+    does slowly (the peer's CPHD collect read at fs/B 4 has 6529 samples, a prime: x7 took 1.9 s for 1812 pulses,
+    0.33 s at 6534) are extended by N' - N samples that bridge the last samples back to the first (a cubic Hermite
+    curve matching values and one-sided slopes), so the period the FFT assumes gains no new jump, and the output
+    still stops at the last sample. Against zero samples (a jump at each end of the gap: "precise" -73 dB on a CPHD
+    window of half the period, -80.6 dB unpadded) the bridge measures -84.6 dB there, -89.8 dB on the DFT lattice
+    (-91.9 unpadded).
+    Both FFTs run in place in the one buffer that is returned: a large array's first write costs page faults
+    (on a Firecracker VM 0.3 s for the 47 MB of the peer's 1024^2 collect at x2, ~10 % of the image), so the
+    spectrum, the zero-padded spectrum and the padded samples share it instead of being three arrays.
     ``dtype`` complex64: FFTs in single precision (the compiled kernels keep complex64 samples anyway;
     rounding ~1e-7 of the samples, -130 dB), complex128 for the float64 reference (tests/imaging/test_cphd_accuracy.py).
     """
-    n0 = data.shape[1]
+    data = np.asarray(data)
+    n_p, n0 = data.shape
+    rng = np.asarray(rng, dtype=np.float64)
+    if factor == 1:
+        buf = np.zeros((n_p, n0 + 2 * PAD), dtype=dtype)
+        buf[:, PAD:PAD + n0] = data
+        return buf, rng, n0
     n = sfft.next_fast_len(n0)
+    size = n * factor
+    buf = np.zeros((n_p, size + 2 * PAD), dtype=dtype)
+    v = buf[:, PAD:PAD + size]             # one period of the upsampled pulse
+    v[:, :n0] = data
     if n > n0 and n0 >= 2:   # the gap bridged by a cubic Hermite curve from the last samples to the first ones
         g = n - n0 + 1
         t = np.arange(1, g) / g
         p0, p1 = data[:, -1:], data[:, :1]
         m0, m1 = (data[:, -1:] - data[:, -2:-1]) * g, (data[:, 1:2] - data[:, :1]) * g
         h00, h10, h01, h11 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t, -2 * t**3 + 3 * t**2, t**3 - t**2
-        data = np.concatenate([data, (h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1).astype(data.dtype)], axis=1)
+        v[:, n0:n] = h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1
     workers = max(1, numba.get_num_threads())          # the FFTs use the kernel's threads
-    spec = sfft.fft(np.asarray(data, dtype=dtype), axis=1, workers=workers)
-    fine = np.zeros((data.shape[0], n * factor), dtype=dtype)
-    h = (n + 1) // 2                      # non-negative frequencies 0 .. h-1
-    fine[:, :h] = spec[:, :h]
-    fine[:, n * factor - (n - h):] = spec[:, h:]
+    _in_place(sfft.fft, v[:, :n], workers)
+    h = (n + 1) // 2                      # non-negative frequencies 0 .. h-1 stay where they are
+    v[:, size - (n - h):] = v[:, h:n]     # the negative ones move to the end of the period (no overlap: factor >= 2)
+    v[:, h:n] = 0
+    v[:, :h] *= factor                    # the ifft's 1/size against the fft's n
+    v[:, size - (n - h):] *= factor
     if n % 2 == 0:                        # split the Nyquist bin symmetrically
-        nyq = spec[:, n // 2]
-        fine[:, n // 2] = 0.5 * nyq
-        fine[:, n * factor - n // 2] = 0.5 * nyq
-    out = sfft.ifft(fine, axis=1, workers=workers, overwrite_x=True)
-    out *= factor
+        v[:, size - n // 2] *= 0.5
+        v[:, n // 2] = v[:, size - n // 2]
+    _in_place(sfft.ifft, v, workers)
     m = (n0 - 1) * factor + 1
-    dr = (rng[1] - rng[0]) / factor
-    return out[:, :m], rng[0] + np.arange(m) * dr
+    buf[:, PAD + m:] = 0                  # the wrapped tail beyond the last sample
+    return buf, rng[0] + np.arange(m) * ((rng[1] - rng[0]) / factor), m
+
+
+def _in_place(transform, view, workers) -> None:
+    """``transform`` (scipy.fft.fft or ifft) of each row of ``view``, written back into it."""
+    out = transform(view, axis=1, workers=workers, overwrite_x=True)
+    if not np.shares_memory(out, view):   # scipy chose a new array (not the case on scipy 1.x for complex input)
+        view[...] = out
 
 
 # ---------------------------------------------------------------------------------------------
