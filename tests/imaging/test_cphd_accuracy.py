@@ -156,3 +156,17 @@ def test_padded_pulses_is_the_band_limited_signal_in_one_zero_padded_buffer(n0, 
         assert np.max(np.abs(buf[:, PAD:PAD + m] - exact)) < 1e-12 * np.max(np.abs(exact))
     one, axis1, m1 = padded_pulses(pulses, axis, 1)
     assert m1 == n0 and np.array_equal(one[:, PAD:PAD + n0], pulses) and not one[:, :PAD].any() and not one[:, PAD + n0:].any()
+
+
+@pytest.mark.parametrize("factor, data_shape, n_rng, key", [(0, (2, 8), 8, "upsample"), (65, (2, 8), 8, "upsample"),
+                                                          (2.0, (2, 8), 8, "upsample"), (True, (2, 8), 8, "upsample"),
+                                                          (2, (8,), 8, "data"), (2, (2, 0), 0, "data"),
+                                                          (2, (2, 8), 7, "slant_range")])
+def test_padded_pulses_refuses_bad_input_naming_the_key(factor, data_shape, n_rng, key):
+    """A factor outside [1, 64], pulses that are not (pulses, samples) and a range axis that is not one increasing
+    range per sample are refused with the key named, before any buffer is allocated."""
+    from sarnav.errors import SarnavError
+    from sarnav.imaging.kernels import padded_pulses
+
+    with pytest.raises(SarnavError, match=key):
+        padded_pulses(np.ones(data_shape, np.complex64), 1000.0 + np.arange(n_rng), factor)

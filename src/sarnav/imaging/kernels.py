@@ -33,6 +33,8 @@ import numba
 import numpy as np
 import scipy.fft as sfft
 
+from sarnav.errors import ConfigError, InputDataError
+
 __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE", "RANGE_KERNEL", "UPSAMPLED",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
            "rcmc_kernel_table", "upsample_pulses", "padded_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
@@ -145,8 +147,14 @@ def padded_pulses(data: np.ndarray, rng: np.ndarray, factor: int = 1, dtype=np.c
     rounding ~1e-7 of the samples, -130 dB), complex128 for the float64 reference (tests/imaging/test_cphd_accuracy.py).
     """
     data = np.asarray(data)
+    if data.ndim != 2 or data.shape[1] < 1:
+        raise InputDataError("data", f"must be (pulses, samples) with at least one sample, got shape {data.shape}")
+    if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or not 1 <= factor <= 64:
+        raise ConfigError("upsample", f"must be an integer in [1, 64], got {factor!r}")
     n_p, n0 = data.shape
     rng = np.asarray(rng, dtype=np.float64)
+    if rng.shape != (n0,) or (n0 > 1 and not rng[1] > rng[0]):
+        raise InputDataError("slant_range", f"must be {n0} increasing ranges, one per sample, got shape {rng.shape}")
     if factor == 1:
         buf = np.zeros((n_p, n0 + 2 * PAD), dtype=dtype)
         buf[:, PAD:PAD + n0] = data
