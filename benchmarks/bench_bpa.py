@@ -16,7 +16,9 @@ float64 image on a uniform 16 x 16 pixel sample after one complex gain:
 * the peer's (``benchmarks/peer_collect.py``, ``--peer-sizes``): FastSAR's simulated X-band spotlight (9.6 GHz,
   300 MHz, 5 km, 30 deg, 0.25 m pixels, 200 point targets, phase history by NUFFT), read by sarnav through its CPHD
   path (``phase_history_to_pulses`` with its default range axis); the exact image is the float64 sum over every
-  pulse and frequency sample. Skipped with a note when fastsar or finufft is not installed.
+  pulse and frequency sample. Skipped with a note when fastsar or finufft is not installed. Each sarnav mode also
+  prints the peak memory of a call on the 64^2 warm-up grid (``tracemalloc``: the upsampled, zero-padded pulses,
+  ``kernels.padded_pulses``, which dominate; FastSAR's C++ allocations are not traced, so it prints none).
 
 FastSAR (MIT, PyPI ``fastsar``): ``fastsar.form_image(S, ant, fmin, df, n, n, sp, sp, e1, e2,
 algorithm="bp")`` from the phase history of the same pulses (``sarnav.signal.phase_history``;
@@ -48,6 +50,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+import tracemalloc
 
 import numba
 import numpy as np
@@ -255,6 +258,17 @@ def gain_error_db(img, ref) -> float:
     return error_db(g * img, ref)
 
 
+def peak_mib(fn) -> float:
+    """Peak of the memory allocated through Python and numpy while fn() runs (``tracemalloc``), in MiB; the compiled
+    kernels' own work arrays (numba's allocator) are not counted."""
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1] / 2**20
+    finally:
+        tracemalloc.stop()
+
+
 def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
     """The peer's simulated collect through sarnav's CPHD path: every mode of both tools, one timed call each (after
     a warm-up at 64^2), time, pixel-pulses/s and error against the exact float64 sum on the 16 x 16 sample; with
@@ -299,9 +313,12 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
             if "ffbp_oversample" in getattr(img, "metadata", {}):
                 md += (f", os {img.metadata['ffbp_oversample']:g}, predicted "
                        f"{img.metadata['ffbp_predicted_error_db']:.1f} dB (whole image)")
+            md += "]" if md else ""
         img = np.asarray(getattr(img, "data", img))
+        # the pulses' buffers (upsampled, padded) dominate a call's memory: measured on the 64^2 warm-up grid
+        mem = f"; peak {peak_mib(warm):6.0f} MiB on 64^2" if k.startswith("sarnav") else ""
         print(f"  {k:24s} {wall:8.2f} s {work / wall:9.3e} px-pulse/s  error vs exact "
-              f"{pc.gain_error_db(img[sample], exact):7.1f} dB{md}", flush=True)
+              f"{pc.gain_error_db(img[sample], exact):7.1f} dB{md}{mem}", flush=True)
 
 
 def main(argv=None):

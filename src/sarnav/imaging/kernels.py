@@ -141,7 +141,7 @@ def padded_pulses(data: np.ndarray, rng: np.ndarray, factor: int = 1, dtype=np.c
     window of half the period, -80.6 dB unpadded) the bridge measures -84.6 dB there, -89.8 dB on the DFT lattice
     (-91.9 unpadded).
     Both FFTs run in place in the one buffer that is returned: a large array's first write costs page faults
-    (on a Firecracker VM 0.3 s for the 47 MB of the peer's 1024^2 collect at x2, ~10 % of the image), so the
+    (on a Firecracker VM 0.3 s for the 166 MB of the peer's 1024^2 collect at x7, ~10 % of the image), so the
     spectrum, the zero-padded spectrum and the padded samples share it instead of being three arrays.
     ``dtype`` complex64: FFTs in single precision (the compiled kernels keep complex64 samples anyway;
     rounding ~1e-7 of the samples, -130 dB), complex128 for the float64 reference (tests/imaging/test_cphd_accuracy.py).
