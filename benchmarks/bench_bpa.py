@@ -62,7 +62,7 @@ from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
 from sarnav.signal.phase_history import phase_history_to_pulses, pulses_to_phase_history
 from sarnav.imaging.interpolation_error import interpolation_error
-from sarnav.imaging.kernels import RANGE_KERNEL
+from sarnav.imaging.kernels import RANGE_KERNEL, UPSAMPLED
 from sarnav.units import C
 
 FC = 9.75e9
@@ -293,6 +293,7 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
     small = pc.plane_grid(64)
     confs = {k: (fn, sarnav_confs(rc, small, npx * npx)[k]) for k, fn in sarnav_confs(rc, grid).items()
              if modes is None or k[len("sarnav "):] in modes}
+    resolved = {f"sarnav {label}": resolve_interpolation(rc, m, up, None, npx * npx) for label, m, up in MODES}
     for e in ffbp_errors:
         confs[f"sarnav ffbp error_db {e:g}"] = (lambda e=e: ffbp(rc, grid, error_db=e),
                                                 lambda e=e: ffbp(rc, small, error_db=e))
@@ -308,7 +309,10 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
             continue
         wall, img = pc.timed(fn)
         md = ""
-        if k.startswith("sarnav"):
+        if k in resolved:                # the interpolation this image size resolves to ("auto" and "precise" vary)
+            m, up = resolved[k]
+            md = f"  [{m}" + (f" x{up}]" if m in UPSAMPLED else "]")
+        elif k.startswith("sarnav"):
             md = f"  [{img.metadata['interpolation']}" if hasattr(img, "metadata") else ""
             if "ffbp_oversample" in getattr(img, "metadata", {}):
                 md += (f", os {img.metadata['ffbp_oversample']:g}, predicted "
