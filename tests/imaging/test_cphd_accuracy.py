@@ -211,3 +211,19 @@ def test_padded_pulses_matches_a_plain_fft_upsampling_on_any_shape():
         assert np.max(np.abs(buf[:, PAD:PAD + m] - ref)) < 1e-12 * max(1.0, np.max(np.abs(ref)))
 
     check()
+
+
+def test_in_place_transform_copies_back_when_the_transform_returns_a_new_array():
+    """``padded_pulses`` relies on scipy writing its FFTs into the buffer; if a transform returns a new array instead,
+    ``kernels._in_place`` copies the result into the view, so the buffer still holds the transform."""
+    import scipy.fft as sfft
+
+    from sarnav.imaging.kernels import _in_place
+
+    rng = np.random.default_rng(5)
+    buf = np.zeros((2, 12), np.complex128)
+    view = buf[:, 2:10]
+    view[...] = rng.standard_normal((2, 8)) + 1j * rng.standard_normal((2, 8))
+    expected = np.fft.fft(view, axis=1)
+    _in_place(lambda x, axis, workers, overwrite_x: sfft.fft(x.copy(), axis=axis, workers=workers), view, 1)
+    assert np.allclose(buf[:, 2:10], expected, rtol=0, atol=1e-12) and not buf[:, :2].any() and not buf[:, 10:].any()
