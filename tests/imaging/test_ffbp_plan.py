@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError
-from sarnav.imaging.ffbp_plan import (BASE_CHOICES, OVERSAMPLE_CHOICES, ffbp_error_model, ffbp_plan, plan_cost,
-                                     plan_for_error)
+from sarnav.imaging.ffbp_plan import (BASE_CHOICES, OVERSAMPLE_CHOICES, ffbp_error_model, ffbp_plan, merge_cost,
+                                     plan_cost, plan_for_error)
 from sarnav.imaging.interpolation_error import interpolation_error_2d
 
 
@@ -55,6 +55,10 @@ def test_plan_cost_counts_the_level0_points_merges_and_final_evaluations():
     ev = 1 + 36 / 4
     want = p * n_r * n_u(32) + ev * (p / 128) * n_r * n_u(128) * 4 + ev * npx * (p // 128)
     assert cost(32, 1) == pytest.approx(want, rel=1e-12)
+    # two-pass merges (ffbp_merge): 3 + N (1 + 1 / merge) / 4 units a merge point; level 0 and the final unchanged
+    two = plan_cost(p, npx, pos, v, hull, bw, os_, 0.1, lam_eff, 4, 6, two_pass=True)
+    assert merge_cost(6, 4, True) == 3 + 6 * 1.25 / 4 and merge_cost(6, 4, False) == ev
+    assert two(32, 1) == pytest.approx(want - (ev - merge_cost(6, 4, True)) * (p / 128) * n_r * n_u(128) * 4, rel=1e-12)
 
 
 def test_error_model_counts_stages_and_bad_options_are_named():

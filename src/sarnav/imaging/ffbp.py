@@ -15,7 +15,8 @@ Algorithm (Ulander, Hellsten & Stenstrom, IEEE TAES 39(3) 2003, "fast factorized
    a band-limited function of (r, u): |f_r| <= B/c, |f_u| <= l_J (1 + B / 2 f_c) / lambda (l_J the
    subaperture length along v).
 3. Each merge groups ``merge`` consecutive subapertures into a parent with a ``merge`` times finer u
-   sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (separable 2-D
+   sampling: ``I_P(q) = sum_children I_j(r_j(q), u_j(q)) e^{j4pi(r_j(q) - r_P(q))/lambda}`` (in two 1-D passes,
+   ``ffbp_merge.merge_two_pass``, where the band is narrow enough: ``ffbp_merge.two_pass_applies``; else separable 2-D
    interpolation of each child at the parent's grid points with ``kernel``: the 6-tap Kaiser-windowed sinc
    "kaiser6" or 4-tap Keys "cubic", both tabulated; float64 geometry). Compiled kernels: per block of points a
    vectorised float64 pass locates each point on the child (``polar_tap``), a scalar pass reads the two kernel
@@ -57,6 +58,7 @@ from sarnav.imaging.interpolation_error import kernel_values
 from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, demodulate_parts, polar_tap,
                                     padded_pulses, tabulate, taps_2d)
 from sarnav.imaging.grid import as_grid
+from sarnav.imaging.ffbp_merge import merge_two_pass, two_pass_applies
 from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, FfbpPlan, check_kernel,  # noqa: F401
                                      ffbp_error_model, ffbp_plan, plan_cost, plan_for_error)
@@ -291,8 +293,8 @@ def _demodulate(values: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
 class _Former:
     """Builds polar images recursively (depth first: memory of one branch only)."""
 
-    def __init__(self, rc, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample):
-        self.rc, self.pos, self.lam, self.v = rc, pos, lam, v
+    def __init__(self, rc, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass):
+        self.rc, self.pos, self.lam, self.v, self.two_pass = rc, pos, lam, v, two_pass
         self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
         self.plan, self.interpolation, self.upsample = plan, interpolation, upsample
         self.ktab = kernel_table(plan.kernel, plan.oversample)
@@ -335,8 +337,9 @@ class _Former:
         step = self.plan.base_pulses * self.plan.merge ** (level - 1)
         for j0 in range(k0, k1, step):
             child = self.build(j0, min(k1, j0 + step), level - 1)
-            _merge(grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
-                   1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, self.ktab, acc)
+            (merge_two_pass if self.two_pass else _merge)(
+                grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
+                1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, self.ktab, acc)
         grid.img = acc
         return grid
 
@@ -410,8 +413,9 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     Returns
     -------
     SarImage (complex128), ``metadata["algorithm"] = "ffbp"`` plus the plan and its predicted error against an ideal
-    (band-limited) back-projection: the polar stages' plus the level-0 range interpolation's, and the band B it
-    assumed (``ffbp_bandwidth_hz``).
+    (band-limited) back-projection: the polar stages' plus the level-0 range interpolation's, the band B it
+    assumed (``ffbp_bandwidth_hz``) and how the merges interpolated (``ffbp_merge_passes``: 2 for two 1-D passes, 1
+    for the 2-D kernel).
     """
     g = as_grid(grid)
     plane = plane_of(g)
@@ -450,13 +454,14 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     lam_eff = lam / (1.0 + bw / (2.0 * fc))
     taps = FFBP_KERNELS[check_kernel(kernel)]
     check_interpolation(interpolation, upsample)
+    two_pass = isinstance(merge, (int, np.integer)) and merge >= 2 and two_pass_applies(int(merge), bw, fc)
     if error_db is not None:
         oversample, base_pulses, levels = _for_error(
             error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw,
-            lambda o: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, taps))
+            lambda o: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, taps, two_pass))
     oversample = 2.0 if oversample is None else oversample
     os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
-    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps) \
+    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps, two_pass) \
         if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
     kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
               kernel=kernel)
@@ -464,7 +469,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
                                                 lam_eff)
     dr = _C / (2.0 * bw * plan.oversample)
     rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
-    former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample)
+    former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass)
     step = plan.final_pulses
     if plane is not None:                        # pixels generated tile by tile (no coordinates read)
         acc = np.zeros(ny * nx, np.complex64)
@@ -488,7 +493,8 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     img = sar_image(g, values.reshape(shape), rc, lam, interpolation, upsample, "ffbp")
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
                          "ffbp_oversample": plan.oversample, "ffbp_kernel": plan.kernel,
-                         "ffbp_predicted_error_db": plan.predicted_error_db, "ffbp_bandwidth_hz": bw})
+                         "ffbp_predicted_error_db": plan.predicted_error_db, "ffbp_bandwidth_hz": bw,
+                         "ffbp_merge_passes": 2 if two_pass else 1})
     return img
 
 

@@ -38,7 +38,7 @@ from sarnav.errors import ConfigError, InputDataError
 __all__ = ["KEYS_A", "KERNELS", "WINDOWED", "RCMC_KERNELS", "RCMC_TABLE_STEPS", "PAD", "GATHER_MODE", "RANGE_KERNEL", "UPSAMPLED",
            "PHASE_POLY_MAX_ERROR", "PHASE_F32_MAX_ERROR", "keys_cubic", "point_kernel", "windowed_sinc", "tabulate",
            "rcmc_kernel_table", "upsample_pulses", "padded_pulses", "lagrange_cubic", "cis32", "cis64", "demodulate_parts", "range_tap", "gather",
-           "gather_pair", "gather_pair_lagrange", "polar_tap", "taps_2d"]
+           "gather_pair", "gather_pair_lagrange", "polar_tap", "taps_2d", "taps_down", "taps_along"]
 
 # ---------------------------------------------------------------------------------------------
 # kernel definitions and tables (numpy)
@@ -520,3 +520,35 @@ def _taps_n(img, nu, n, base, wr, wu, f, ktab, nt, out_re, out_im, o0):  # pragm
         cs, sn = cis32(f[i])
         out_re[o0 + i] += sr * cs - si * sn
         out_im[o0 + i] += sr * sn + si * cs
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def taps_down(flat, cnu, base, w, cs, sn, ktab, nt, scale, jre, jim):  # pragma: no cover - compiled
+    """jre[k] + j jim[k] = the nt-tap interpolation of the flat complex64 image ``flat`` (rows of ``cnu``) down a column
+    from the flat index base[k] (fraction w[k]: the nearest row of the kernel table ``ktab``, ``scale`` = its rows - 1)
+    times (cs[k] + j sn[k]): pass 1 of FFBP's two-pass merge (``ffbp_merge``)."""
+    for k in range(base.size):
+        t0 = np.int64(w[k] * scale + np.float32(0.5))
+        sr = np.float32(0.0)
+        si = np.float32(0.0)
+        for t in range(nt):
+            p = flat[base[k] + t * cnu]
+            sr += ktab[t0, t] * p.real
+            si += ktab[t0, t] * p.imag
+        jre[k] = sr * cs[k] - si * sn[k]
+        jim[k] = sr * sn[k] + si * cs[k]
+
+
+@numba.njit(fastmath=True, cache=True, inline="always")
+def taps_along(jre, jim, base, w, cs, sn, ktab, nt, scale, are, aim):  # pragma: no cover - compiled
+    """are[j] + j aim[j] = the nt-tap interpolation of the row (jre, jim) from base[j] (fraction w[j]) times
+    (cs[j] + j sn[j]): pass 2 of FFBP's two-pass merge (``ffbp_merge``)."""
+    for j in range(base.size):
+        t0 = np.int64(w[j] * scale + np.float32(0.5))
+        sr = np.float32(0.0)
+        si = np.float32(0.0)
+        for t in range(nt):
+            sr += ktab[t0, t] * jre[base[j] + t]
+            si += ktab[t0, t] * jim[base[j] + t]
+        are[j] = sr * cs[j] - si * sn[j]
+        aim[j] = sr * sn[j] + si * cs[j]
