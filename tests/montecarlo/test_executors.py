@@ -37,3 +37,41 @@ def test_a_pool_started_outside_does_not_block_sigint():
     with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
         pid = pool.submit(os.getpid).result(timeout=60)
         assert not _blocked(pid) & (1 << (signal.SIGINT - 1))
+
+
+def test_a_pool_that_breaks_between_chunks_is_the_worker_line_not_a_traceback():
+    """A worker killed just after another chunk finished: the pool refuses the next submit with BrokenProcessPool
+    (tests/cli/test_faults.py met this once under load, a traceback instead of the one line). The submit's refusal is
+    the same RunFault as a broken future's, naming the runs in flight."""
+    from concurrent.futures import Future
+    from concurrent.futures.process import BrokenProcessPool
+
+    import numpy as np
+
+    from sarnav.errors import RunFault
+    from sarnav.montecarlo.executors import ChunkRunner
+
+    class BreaksOnThirdSubmit:
+        _processes: dict = {}
+
+        def __init__(self):
+            self.calls = 0
+
+        def submit(self, fn, kind, cfg, ids, seeds):
+            self.calls += 1
+            if self.calls == 3:
+                raise BrokenProcessPool("A child process terminated abruptly")
+            fut = Future()
+            if self.calls == 1:
+                fut.set_result(([], 0.01, 1234))      # the first chunk finishes; the second stays in flight
+            return fut
+
+        def shutdown(self, wait=True, cancel_futures=False):
+            pass
+
+    runner = ChunkRunner("processes", workers=2)
+    runner._pool = BreaksOnThirdSubmit()
+    seeds = np.random.SeedSequence(0).spawn(6)
+    with pytest.raises(RunFault, match=r"^--workers: a worker process died .* simulating runs 2-3; .*--resume"):
+        for _ in runner.run(None, {}, [[0, 1], [2, 3], [4, 5]], seeds):
+            pass

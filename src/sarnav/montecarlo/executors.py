@@ -14,6 +14,7 @@ import os
 import signal
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from typing import Iterator, Sequence
 
@@ -111,16 +112,19 @@ def _dask_faults() -> tuple:
             OSError)
 
 
+def worker_died(ids) -> RunFault:
+    """The one line for a local worker process that died while ``ids`` (the runs in flight) were simulated."""
+    return RunFault("--workers", f"a worker process died (killed, or out of memory) while simulating "
+                    f"{_runs(sorted(ids))}; " + RESUME_HINT)
+
+
 def _result(fut, ids, executor: str):
     """A finished future's result; a worker that died, or a dask scheduler or worker lost, becomes one
     :class:`RunFault` line (issue 31: a ``BrokenProcessPool`` traceback)."""
-    from concurrent.futures.process import BrokenProcessPool
-
     try:
         return fut.result()
     except BrokenProcessPool:
-        raise RunFault("--workers", f"a worker process died (killed, or out of memory) while simulating {_runs(ids)}; "
-                       + RESUME_HINT) from None
+        raise worker_died(ids) from None
     except Exception as err:  # noqa: BLE001 - dask: KilledWorker, CommClosedError, CancelledError, timeouts
         if executor != "dask" or not isinstance(err, _dask_faults()):
             raise
@@ -378,7 +382,10 @@ class ChunkRunner:
                 # yet written to it) is not in the pool's list the abort terminates, and reads EOF once this process
                 # leaves (an EOFError traceback on the terminal; CI, 2026-12-06)
                 with deferred_signals(), _children_start_with_sigint_blocked():
-                    pending[pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids])] = ids
+                    try:
+                        pending[pool.submit(_chunk_task, kind, cfg, ids, [seeds[i] for i in ids])] = ids
+                    except BrokenProcessPool:  # a worker died after the last chunk finished: the pool refuses more
+                        raise worker_died([i for chunk in pending.values() for i in chunk] or ids) from None
 
         try:
             for _ in range(self.workers):
