@@ -169,9 +169,12 @@ def main(argv=None):
 
 
 def _range(md) -> str:
-    """The level-0 range interpolation an FFBP image used (its metadata)."""
+    """The level-0 range interpolation an FFBP image used and its plan (its metadata): subaperture pulses, merges and
+    how they interpolated (two 1-D passes or the 2-D kernel, ``ffbp_merge``)."""
     mode = md.get("interpolation")
-    return f"{mode} x{md.get('upsample')}" if str(mode).startswith("upsample") else str(mode)
+    rng = f"{mode} x{md.get('upsample')}" if str(mode).startswith("upsample") else str(mode)
+    passes = {2: "two-pass", 1: "2-D"}.get(md.get("ffbp_merge_passes"), "?")
+    return f"{rng}; base {md.get('ffbp_base_pulses')}, {md.get('ffbp_levels')} {passes} merges"
 
 
 def peer_table(npx: int, args) -> None:
@@ -219,8 +222,7 @@ def peer_table(npx: int, args) -> None:
         md = img.metadata
         print(f"  {f'sarnav ffbp error_db {target:g}':26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
               f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {md['ffbp_predicted_error_db']:.1f}); "
-              f"{t_e / t_f:5.1f}x sarnav's exact BP; os {md['ffbp_oversample']:g}, {md['ffbp_base_pulses']} pulses x "
-              f"{md['ffbp_levels']} merges, range {_range(md)}", flush=True)
+              f"{t_e / t_f:5.1f}x sarnav's exact BP; os {md['ffbp_oversample']:g}, range {_range(md)}", flush=True)
     # the call as a user writes it: no band given, ffbp takes the pulses' (ffbp_bandwidth_hz); before 2026-12-06 it took
     # the sample rate (fs/B 4 here), which made every polar grid 4x finer in range
     t_d, _, img = timed(lambda: ffbp(rc, grid), args.repeat)
