@@ -85,15 +85,12 @@ def merge_two_pass(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cd
     b = dlt[0] * pw[0] + dlt[1] * pw[1] + dlt[2] * pw[2]
     c = dlt[0] * pn[0] + dlt[1] * pn[1] + dlt[2] * pn[2]
     c2 = c * c if abs(c) > 1e-9 else 0.0
-    ex = np.empty(nu)                         # the parent's directions, shared by its rows
-    ey = np.empty(nu)
-    ez = np.empty(nu)
+    uj = np.empty(nu)                         # the parent's directions e_j = u_j v + sqrt(1 - u_j^2) w_P: their
+    gj = np.empty(nu)                         # direction cosine u_j and g_j = (c_C - c_P).e_j, shared by its rows
     for j in range(nu):
-        u = pu0 + j * pdu
-        sw = math.sqrt(max(1.0 - u * u, 0.0))
-        ex[j] = u * pv[0] + sw * pw[0]
-        ey[j] = u * pv[1] + sw * pw[1]
-        ez[j] = u * pv[2] + sw * pw[2]
+        uj[j] = pu0 + j * pdu
+        gj[j] = a * uj[j] + b * math.sqrt(max(1.0 - uj[j] * uj[j], 0.0))
+    d2 = a * a + b * b + c * c
     mus = np.empty(cnu)
     sns = np.empty(cnu)
     for k in range(cnu):
@@ -110,6 +107,9 @@ def merge_two_pass(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cd
         base2 = np.empty(nu, np.int64)
         w2 = np.empty(nu, np.float32)
         c2_ = np.empty(nu, np.float32)
+        ok2 = np.empty(nu, np.bool_)
+        off = np.empty(nu)
+        mu2 = np.empty(nu)
         s2 = np.empty(nu, np.float32)
         are = np.empty(nu, np.float32)
         aim = np.empty(nu, np.float32)
@@ -137,18 +137,22 @@ def merge_two_pass(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cd
             else:
                 taps_down(flat, cnu, base1, w1, c1, s1, ktab, nt, scale, jre, jim)
             for j in range(nu):               # pass 2 geometry: each parent point's child direction cosine
-                dx = pc[0] - cc[0] + r * ex[j]
-                dy = pc[1] - cc[1] + r * ey[j]
-                dz = pc[2] - cc[2] + r * ez[j]
-                mu = (dx * pv[0] + dy * pv[1] + dz * pv[2]) / math.sqrt(dx * dx + dy * dy + dz * dz)
+                # q - c_C = r e_j - (c_C - c_P): (q - c_C).v = r u_j - a, |q - c_C|^2 = r^2 - 2 r g_j + |c_C - c_P|^2
+                mu = (r * uj[j] - a) / math.sqrt(r * r - 2.0 * r * gj[j] + d2)
                 fu = (mu - cu0) * inv_cdu
                 iu = np.floor(fu)
-                valid = (iu >= lo) & (iu <= cnu - 1.0 - half)
+                ok2[j] = (iu >= lo) & (iu <= cnu - 1.0 - half)
                 iuc = min(max(iu, float(lo)), cnu - 1.0 - half)
                 base2[j] = np.int64(np.int32(iuc - lo))
                 w2[j] = np.float32(fu - iu)
-                cyc = -(a * mu + b * math.sqrt(max(1.0 - mu * mu, 0.0))) * two_over_lambda
-                c2_[j], s2[j] = cis32(np.float32(cyc - np.floor(cyc + 0.5)) if valid else np.float32(2.0))
+                off[j] = a * mu
+                mu2[j] = mu
+            if b != 0.0:                      # a child centre off the track line: the b term (module doc)
+                for j in range(nu):
+                    off[j] += b * math.sqrt(max(1.0 - mu2[j] * mu2[j], 0.0))
+            for j in range(nu):
+                cyc = -off[j] * two_over_lambda
+                c2_[j], s2[j] = cis32(np.float32(cyc - np.floor(cyc + 0.5)) if ok2[j] else np.float32(2.0))
             if nt == 6:
                 taps_along(jre, jim, base2, w2, c2_, s2, ktab, 6, scale, are, aim)
             elif nt == 4:
