@@ -107,3 +107,25 @@ def test_two_passes_where_the_band_is_narrow_and_the_2d_kernel_where_it_is_wide(
         assert abs(other - err) < 0.3, (err, other)
     else:
         assert other > err + 3.0, (err, other)
+
+
+def test_a_block_of_one_child_is_that_childs_image_not_a_merge(monkeypatch):
+    """200 pulses, base 8, two merges of 4: the top blocks are [0, 128) and [128, 200); the last level-1 block,
+    [192, 200), holds one child, whose grid is the parent's (same pulses), so it is taken as it is: 4 + 3 merges at
+    level 2 and 16 + 8 at level 1, 31 in all (32 with that block merged onto itself, which interpolates for nothing and
+    at its grid's edge columns decides validity on rounding). The image stays within its prediction."""
+    import test_ffbp as T
+
+    calls = []
+    real = F.merge_two_pass
+
+    def counting(*a):
+        calls.append(a[-1].shape)
+        return real(*a)
+
+    monkeypatch.setattr(F, "merge_two_pass", counting)
+    rc, grid = scene(96, 200, 5e3, n_targets=40)
+    img = F.ffbp(rc, grid, bandwidth=BW, base_pulses=8, merge=4, levels=2, oversample=2.0)
+    assert len(calls) == 31, len(calls)
+    err = gain_error_db(img.data, T.ideal(rc, grid))
+    assert abs(err - img.metadata["ffbp_predicted_error_db"]) < 2.0, (err, img.metadata["ffbp_predicted_error_db"])

@@ -55,7 +55,7 @@ from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, b
                                            check_interpolation, check_pulses, grid_points,
                                            plane_of, resolve_interpolation, sar_image, wavelength_of)
 from sarnav.imaging.interpolation_error import kernel_values
-from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, demodulate_parts, polar_tap,
+from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, cis64, demodulate_parts, polar_tap,
                                     padded_pulses, tabulate, taps_2d)
 from sarnav.imaging.grid import as_grid
 from sarnav.imaging.ffbp_merge import merge_two_pass, two_pass_applies
@@ -202,6 +202,21 @@ def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, 
             taps_2d(flat, cnu, nu, base, wr, wu, f, ktab, ore, oim, i * nu)
 
 
+@numba.njit(fastmath=True, cache=True)
+def _demodulate_lines(out_re, out_im, r0, dr, two_over_lambda, img):  # pragma: no cover - compiled
+    """img (nr, nu) complex64 = the level-0 sums (nu lines of nr ranges, line-major float64 parts) times
+    exp(-j 4 pi r / lambda), r = r0 + i dr (the phase reduced to its fractional cycle in float64, ``cis64``): the
+    demodulation and the transpose in one pass."""
+    nr, nu = img.shape
+    for i in range(nr):
+        cyc = (r0 + i * dr) * two_over_lambda
+        c, s_ = cis64(-(cyc - np.floor(cyc + 0.5)))
+        for j in range(nu):
+            re = out_re[j * nr + i]
+            im = out_im[j * nr + i]
+            img[i, j] = np.complex64(complex(re * c - im * s_, re * s_ + im * c))
+
+
 # ---------------------------------------------------------------------------------------------
 # polar grids
 
@@ -261,10 +276,17 @@ def _hull_points(pts: np.ndarray) -> np.ndarray:
 
 
 def _plane_hull(origin, e_row, e_col, ny, nx) -> np.ndarray:
-    """:func:`_hull_points` of the plane grid origin + i e_row + j e_col (i < ny, j < nx), without listing its pixels."""
+    """:func:`_hull_points` of the plane grid origin + i e_row + j e_col (i < ny, j < nx), without listing its pixels.
+    The edges at most 257 points each, ends included: between two of them a range or direction cosine can pass its
+    sampled extreme by at most (step x pixel)^2 / (8 r), 1e-4 m for 2-m steps at 5 km, against the polar grids' margin
+    of POLAR_MARGIN samples (every subaperture's polar grid is sized from these points: 0.1 s at 2048^2 with every
+    edge pixel)."""
     step = max(1, min(ny, nx) // 32) if min(ny, nx) >= 2 else 1
     iy, ix = np.arange(ny, dtype=np.float64), np.arange(nx, dtype=np.float64)
-    parts = [(np.zeros(nx), ix), (np.full(nx, ny - 1.0), ix), (iy, np.zeros(ny)), (iy, np.full(ny, nx - 1.0))]
+    ey = np.append(iy[::max(1, -(-ny // 256))], ny - 1.0)
+    ex = np.append(ix[::max(1, -(-nx // 256))], nx - 1.0)
+    parts = [(np.zeros(ex.size), ex), (np.full(ex.size, ny - 1.0), ex), (ey, np.zeros(ey.size)),
+             (ey, np.full(ey.size, nx - 1.0))]
     a, b = np.meshgrid(iy[::step], ix[::step], indexing="ij")
     parts.append((a.ravel(), b.ravel()))
     i = np.concatenate([q[0] for q in parts])
@@ -320,21 +342,22 @@ class _Former:
         out_im = np.zeros(grid.nu * grid.nr)
         bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
                         np.ascontiguousarray(self.pos[k0:k1]), padded[k0 - b0:k1 - b0], *common, out_re, out_im)
-        r = grid.r0 + np.arange(grid.nr) * grid.dr
-        d_re, d_im = demodulate_parts(np.ones(grid.nr, np.complex128), r, self.lam)
-        vals = (out_re + 1j * out_im).reshape(grid.nu, grid.nr)
-        return np.ascontiguousarray((vals * (d_re + 1j * d_im)[None, :]).T, dtype=np.complex64)
+        img = np.empty((grid.nr, grid.nu), np.complex64)
+        _demodulate_lines(out_re, out_im, grid.r0, grid.dr, 2.0 / self.lam, img)
+        return img
 
     def build(self, k0: int, k1: int, level: int) -> _Polar:
+        if level > 0 and level == self.plan.levels:
+            self._prepare(k0, k1)
+        step = self.plan.base_pulses * self.plan.merge ** (level - 1) if level > 0 else 0
+        if level > 0 and k1 - k0 <= step:    # one child (the aperture's last, short block): the parent's grid is the
+            return self.build(k0, k1, level - 1)  # child's (the same pulses), so it is the image, not interpolated
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
                            self.plan.oversample)
         if level == 0:
             grid.img = self._level0(grid, k0, k1)
             return grid
-        if level == self.plan.levels:
-            self._prepare(k0, k1)
         acc = np.zeros((grid.nr, grid.nu), np.complex64)
-        step = self.plan.base_pulses * self.plan.merge ** (level - 1)
         for j0 in range(k0, k1, step):
             child = self.build(j0, min(k1, j0 + step), level - 1)
             (merge_two_pass if self.two_pass else _merge)(
