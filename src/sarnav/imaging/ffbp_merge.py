@@ -1,4 +1,4 @@
-"""FFBP's merge in two 1-D passes: a child polar image onto its parent's grid with 2 N taps a point instead of N^2.
+"""FFBP's merge in two 1-D passes: a child polar image onto its parent's grid, N + N / merge taps a point, not N^2.
 
 The child image I_C(rho, mu) (range rho from its centre c_C, direction cosine mu against the track direction v) is
 wanted at the parent's grid points q(r, u) = c_P + r (u v + sqrt(1 - u^2) w_P), remodulated by
@@ -47,6 +47,7 @@ def two_pass_applies(merge: int, bandwidth: float, carrier: float) -> bool:
     """Whether a merge of ``merge`` children widens the pass-1 band by at most :data:`TWO_PASS_MAX_WIDENING`: the
     outermost child sits (merge - 1) / 2 child lengths from the parent's centre (module doc)."""
     return 0.5 * (merge - 1) * bandwidth / carrier <= TWO_PASS_MAX_WIDENING
+
 
 #: parent rows per parallel work item
 _ROWS = 8
