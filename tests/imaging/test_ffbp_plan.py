@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from sarnav.errors import ConfigError
-from sarnav.imaging.ffbp_plan import (BASE_CHOICES, OVERSAMPLE_CHOICES, ffbp_error_model, ffbp_plan, merge_cost,
-                                     plan_cost, plan_for_error)
+from sarnav.imaging.ffbp_plan import (BASE_CHOICES, ERROR_KERNELS, FFBP_KERNELS, OVERSAMPLE_CHOICES, TABLE_STEPS,
+                                     ffbp_error_model, ffbp_plan, merge_cost, plan_cost, plan_for_error, polar_margins,
+                                     stage_error, table_error)
 from sarnav.imaging.interpolation_error import interpolation_error_2d
 
 
@@ -62,7 +63,9 @@ def test_plan_cost_counts_the_level0_points_merges_and_final_evaluations():
 
 
 def test_error_model_counts_stages_and_bad_options_are_named():
-    eps = interpolation_error_2d("kaiser6", 2.0, 2.0)
+    eps = stage_error("kaiser6", 2.0)
+    assert eps == interpolation_error_2d("kaiser6", 2.0, 2.0) + 2 * table_error(2.0, TABLE_STEPS["kaiser6"])
+    assert table_error(2.5, 2048) == pytest.approx(10 ** -7.98, rel=0.01)          # -79.8 dB a 1-D interpolation
     assert ffbp_error_model(2.0, 3) == pytest.approx(10 * math.log10(3 * eps))
     assert ffbp_error_model(2.0, 3, 1e-6) == pytest.approx(10 * math.log10(3 * eps + 1e-6))
     plan = ffbp_plan(1024, bandwidth=1e8, base_pulses=16, levels=2)
@@ -78,28 +81,55 @@ def test_a_target_error_gets_the_least_cost_plan_that_meets_it():
     error, the range share included, is within the target, the one of least cost (a toy cost rising with os and with
     the merges' count); a looser target never costs more; given base and levels are kept; an unreachable target and a
     bad one name ``error_db``."""
-    def cost_at(os_):
-        return lambda base, levels: os_ ** 2 * (1.0 + 0.3 * levels) * (1.0 + abs(math.log2(base) - 5) / 4) * 1e9
+    def cost_at(os_, kernel):
+        taps = FFBP_KERNELS[kernel]
+        return lambda base, levels: (os_ ** 2 * (1.0 + 0.3 * levels * taps / 6) * (1.0 + abs(math.log2(base) - 5) / 4)
+                                     * (1.0 + taps / 60) * 1e9)
 
-    def brute(target, share, bases=BASE_CHOICES):
-        ok = [(cost_at(o)(b, lev), o, b, lev) for o in OVERSAMPLE_CHOICES for b in bases for lev in range(6)
-              if b * 4 ** lev <= 2048
-              and 10 * math.log10((1 + share) * 10 ** (ffbp_error_model(o, lev + 1) / 10)) <= target]
+    def brute(target, share, kernels, bases=BASE_CHOICES):
+        ok = [(cost_at(o, k)(b, lev), o, b, lev, k) for k in kernels for o in OVERSAMPLE_CHOICES for b in bases
+              for lev in range(6) if b * 4 ** lev <= 2048
+              and 10 * math.log10((1 + share) * 10 ** (ffbp_error_model(o, lev + 1, kernel=k) / 10)) <= target]
         return min(ok)[1:]
 
     last = 0.0
     for target in (-40.0, -45.0, -50.0, -55.0, -60.0):
         got = plan_for_error(target, 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel="kaiser6",
                              data_share=1 / 3)
-        assert got == brute(target, 1 / 3), target
-        cost = cost_at(got[0])(got[1], got[2])
+        assert got == brute(target, 1 / 3, ["kaiser6"]), target
+        cost = cost_at(got[0], got[3])(got[1], got[2])
         assert cost >= last
         last = cost
-    os_, base, levels = plan_for_error(-50.0, 2048, cost_at, base_pulses=16, merge=4, levels=1, kernel="kaiser6")
+    # no kernel given: the cheapest of kaiser6, kaiser8 and kaiser10; below kaiser6's reach a longer kernel
+    for target in (-50.0, -70.0, -90.0):
+        got = plan_for_error(target, 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel=None,
+                             data_share=1 / 3)
+        assert got == brute(target, 1 / 3, ERROR_KERNELS), target
+        assert got[3] != "kaiser6" or target > -67
+    os_, base, levels, kern = plan_for_error(-50.0, 2048, cost_at, base_pulses=16, merge=4, levels=1,
+                                             kernel="kaiser6")
+    assert kern == "kaiser6"
     assert (base, levels) == (16, 1) and 10 ** (ffbp_error_model(os_, 2) / 10) <= 1e-5
     with pytest.raises(ConfigError, match=r"^error_db: must be >= -6\d\.\d dB \(the least error a kaiser6 plan predicts"):
         plan_for_error(-90.0, 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel="kaiser6")
+    with pytest.raises(ConfigError, match=r"^error_db: must be >= -9\d\.\d dB \(the least error a kaiser6 / kaiser8 / kaiser10 plan"):
+        plan_for_error(-200.0, 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel=None)
     with pytest.raises(ConfigError, match=r"^error_db: must be a finite number of dB"):
         plan_for_error(float("nan"), 2048, cost_at, base_pulses=None, merge=4, levels=None, kernel="kaiser6")
     with pytest.raises(ConfigError, match=r"^merge"):
         plan_for_error(-50.0, 2048, cost_at, base_pulses=None, merge=1, levels=None, kernel="kaiser6")
+
+
+def test_polar_margins_cover_every_tap_a_parent_margin_reads():
+    """Range: the child has the parent's dr, so a level down needs the parent's margin plus the half-width h; angle:
+    the parent's margin is ``merge`` times finer, so m_child >= ceil(m_parent / merge) + h; the final image keeps
+    h + 1 (at least 4, kaiser6's and cubic's margin as before)."""
+    for kernel, taps in FFBP_KERNELS.items():
+        h = taps // 2
+        for merge in (2, 4, 8):
+            m = polar_margins(kernel, merge, 3)
+            assert len(m) == 4 and m[-1] == (max(4, h + 1), max(4, h + 1))
+            for (cr, cu), (pr, pu) in zip(m[:-1], m[1:]):          # child (one level down), parent
+                assert cr == pr + h and cu >= math.ceil(pu / merge) + h and cu >= pu
+    assert polar_margins("kaiser6", 4, 2) == [(10, 4), (7, 4), (4, 4)]
+    assert polar_margins("kaiser10", 4, 1) == [(11, 7), (6, 6)]

@@ -145,18 +145,20 @@ def test_ffbp_range_choice_meets_its_limit_with_the_least_upsampling_the_cost_al
     assert range_error(rc16, "linear", 8, BW) == pytest.approx(summed_interpolation_error("linear", 16.0), rel=1e-9)
 
 
-def test_the_kaiser6_beta_table_is_the_search_and_costs_nothing_between_its_nodes():
-    """``kaiser_beta`` reads kaiser6's beta from a table at os 1.5, 1.6, ..., 4.0 (the search took 0.12-0.28 s of every
-    FFBP call's first use of an os): some nodes re-derived by the search, and the error interpolating between the
-    nodes costs against the searched optimum below 0.01 dB; outside the table the search."""
-    from sarnav.imaging.interpolation_error import (KAISER6_BETA, KAISER6_BETA_OS, interpolation_error, kaiser_beta,
-                                                    search_kaiser_beta)
+@pytest.mark.parametrize("kernel", ["kaiser6", "kaiser8", "kaiser10"])
+def test_the_kaiser_beta_tables_are_the_search_and_cost_nothing_between_their_nodes(kernel):
+    """``kaiser_beta`` reads each windowed kernel's beta from a table at os 1.5, 1.6, ..., 4.0 (the search took
+    0.12-0.28 s of every FFBP call's first use of an os): some nodes re-derived by the search, and the error
+    interpolating between the nodes costs against the searched optimum below 0.01 dB; outside the table the search."""
+    from sarnav.imaging.interpolation_error import (KAISER6_BETA, KAISER_BETA, KAISER_BETA_OS, interpolation_error,
+                                                    kaiser_beta, search_kaiser_beta)
 
-    nodes = np.linspace(*KAISER6_BETA_OS, len(KAISER6_BETA))
-    for i in (0, 5, 12, len(KAISER6_BETA) - 1):
-        assert search_kaiser_beta("kaiser6", float(nodes[i])) == pytest.approx(KAISER6_BETA[i], abs=2e-3)
+    assert KAISER6_BETA == KAISER_BETA["kaiser6"]
+    nodes = np.linspace(*KAISER_BETA_OS, len(KAISER_BETA[kernel]))
+    for i in (0, 5, 12, len(nodes) - 1):
+        assert search_kaiser_beta(kernel, float(nodes[i])) == pytest.approx(KAISER_BETA[kernel][i], abs=2e-3)
     for os_ in (1.55, 2.25, 2.37, 3.65):
-        table, best = kaiser_beta("kaiser6", os_), search_kaiser_beta("kaiser6", os_)
-        loss_db = 10 * np.log10(interpolation_error("kaiser6", os_, table) / interpolation_error("kaiser6", os_, best))
+        table, best = kaiser_beta(kernel, os_), search_kaiser_beta(kernel, os_)
+        loss_db = 10 * np.log10(interpolation_error(kernel, os_, table) / interpolation_error(kernel, os_, best))
         assert loss_db < 0.01, (os_, table, best, loss_db)
-    assert kaiser_beta("kaiser6", 4.5) == search_kaiser_beta("kaiser6", 4.5)
+    assert kaiser_beta(kernel, 4.5) == search_kaiser_beta(kernel, 4.5)

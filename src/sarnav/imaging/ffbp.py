@@ -60,8 +60,9 @@ from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, cis64, demodulate_pa
 from sarnav.imaging.grid import as_grid
 from sarnav.imaging.ffbp_merge import merge_two_pass, two_pass_applies
 from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
-from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, FfbpPlan, check_kernel,  # noqa: F401
-                                     ffbp_error_model, ffbp_plan, plan_cost, plan_for_error)
+from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, TABLE_STEPS, FfbpPlan,  # noqa: F401
+                                      check_kernel, ffbp_error_model, ffbp_plan, plan_cost, plan_for_error,
+                                      polar_margins)
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS", "BASE_CHOICES", "polar_image",
            "kernel_table"]
@@ -72,15 +73,14 @@ _C = 299792458.0
 #: Lagrange on the pulses as they are (-56.6 dB) then serves kaiser6 up to os 2.5 with 2-3 merges; with a quarter, os
 #: 2.4-2.5 needed x2 FFT upsampling for 0.1-0.4 dB, which cost up to half the time again (docs/backprojection.md)
 _RANGE_SHARE = 1 / 3
-#: fractions per sample of the tabulated kernels (nearest row: position error <= 1/(2 F) sample, ~-73 dB at os 2)
-_TABLE = 2048
 
 
 def kernel_table(kernel: str, oversample: float) -> np.ndarray:
     """(F + 1, N) float32: the N tap weights of ``kernel`` for a point at fraction w = i / F past sample floor:
     tap t sits at offset t - (N/2 - 1), at distance w - t + N/2 - 1 (``kernels.tabulate``; the kernel at ``oversample``:
-    ``interpolation_error.kernel_values``)."""
-    table = tabulate(lambda x: kernel_values(kernel, x, oversample), FFBP_KERNELS[kernel], _TABLE)
+    ``interpolation_error.kernel_values``; F = ``ffbp_plan.TABLE_STEPS[kernel]``: a point reads the nearest row, whose
+    rounding the error model counts, ``ffbp_plan.table_error``)."""
+    table = tabulate(lambda x: kernel_values(kernel, x, oversample), FFBP_KERNELS[kernel], TABLE_STEPS[kernel])
     return np.ascontiguousarray(table, dtype=np.float32)
 
 
@@ -244,7 +244,7 @@ class _Polar:
 
 
 def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: np.ndarray, dr: float,
-                spacing: float, lam_eff: float, os: float) -> _Polar:
+                spacing: float, lam_eff: float, os: float, margin: tuple[int, int] = (POLAR_MARGIN, POLAR_MARGIN)) -> _Polar:
     c = pos.mean(axis=0)
     off = scene_centre - c
     w = off - np.dot(off, v) * v
@@ -257,10 +257,11 @@ def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: 
     u = d @ v / r
     length = float(np.ptp((pos - c) @ v)) + spacing
     du = lam_eff / (2.0 * length * os)
-    r0 = float(r.min()) - POLAR_MARGIN * dr
-    u0 = float(u.min()) - POLAR_MARGIN * du
-    nr = int(math.ceil((float(r.max()) + POLAR_MARGIN * dr - r0) / dr)) + 1
-    nu = int(math.ceil((float(u.max()) + POLAR_MARGIN * du - u0) / du)) + 1
+    m_r, m_u = margin                          # samples beyond the pixels' extent (ffbp_plan.polar_margins)
+    r0 = float(r.min()) - m_r * dr
+    u0 = float(u.min()) - m_u * du
+    nr = int(math.ceil((float(r.max()) + m_r * dr - r0) / dr)) + 1
+    nu = int(math.ceil((float(u.max()) + m_u * du - u0) / du)) + 1
     if nr * nu >= 2**31:  # kernels.polar_tap's flat index is int32 (16 GiB of complex64 per polar image before that)
         raise ConfigError("grid", f"a polar image of {nr} x {nu} samples: at most 2^31 - 1; form the image in tiles")
     return _Polar(c, w, r0, dr, nr, u0, du, nu)
@@ -320,6 +321,7 @@ class _Former:
         self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
         self.plan, self.interpolation, self.upsample = plan, interpolation, upsample
         self.ktab = kernel_table(plan.kernel, plan.oversample)
+        self.margins = polar_margins(plan.kernel, plan.merge, plan.levels)
         self._pulses = None                     # (k0, k1, padded samples, kernel constants) of the current top block
 
     def _prepare(self, k0: int, k1: int) -> None:
@@ -353,7 +355,7 @@ class _Former:
         if level > 0 and k1 - k0 <= step:    # one child (the aperture's last, short block): the parent's grid is the
             return self.build(k0, k1, level - 1)  # child's (the same pulses), so it is the image, not interpolated
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
-                           self.plan.oversample)
+                           self.plan.oversample, self.margins[level])
         if level == 0:
             grid.img = self._level0(grid, k0, k1)
             return grid
@@ -385,7 +387,7 @@ def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacin
     if interpolation == "auto":
         polar = ffbp_plan(p, **kw)
         g0 = _polar_grid(pos[:polar.base_pulses], v, hull, centre, _C / (2 * bw * polar.oversample), spacing, lam_eff,
-                         polar.oversample)
+                         polar.oversample, polar_margins(polar.kernel, polar.merge, polar.levels)[0])
         interpolation, upsample = resolve_ffbp_range(rc, bw, _RANGE_SHARE * 10 ** (polar.predicted_error_db / 10),
                                                      g0.nr * g0.nu)
     interpolation, upsample = resolve_interpolation(rc, interpolation, upsample, bw)
@@ -393,7 +395,7 @@ def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacin
 
 
 def _for_error(error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw, cost_at):
-    """(oversample, base_pulses, levels) of the cheapest plan predicted within ``error_db`` (``plan_for_error``; under
+    """(oversample, base_pulses, levels, kernel) of the cheapest plan predicted within ``error_db`` (``plan_for_error``; under
     "auto" the range interpolation's share is ``_RANGE_SHARE``, else its error is known in advance)."""
     if oversample is not None:
         raise ConfigError("error_db", f"give error_db or oversample, not both (error_db chooses the oversampling; "
@@ -406,9 +408,37 @@ def _for_error(error_db, oversample, rc, p, base_pulses, merge, levels, kernel, 
                           data_share=share, data_error=fixed)
 
 
+def _plan(rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, fact, oversample, kernel, error_db,
+          interpolation, upsample):
+    """(plan, range interpolation, upsample, two-pass merges) for ``ffbp``'s arguments (``fact``: base_pulses, merge,
+    levels as given): with ``error_db`` the cheapest (os, base, levels, kernel) predicted within it."""
+    base_pulses, merge, levels = fact["base_pulses"], fact["merge"], fact["levels"]
+    if kernel is not None:
+        check_kernel(kernel)
+    check_interpolation(interpolation, upsample)
+
+    def passes(kern):                          # whether kern's merges run in two 1-D passes (ffbp_merge)
+        return isinstance(merge, (int, np.integer)) and merge >= 2 and two_pass_applies(int(merge), bw, fc, kern)
+
+    if error_db is not None:
+        oversample, base_pulses, levels, kernel = _for_error(
+            error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw,
+            lambda o, kern: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, FFBP_KERNELS[kern],
+                                      passes(kern)))
+    kernel = "kaiser6" if kernel is None else kernel
+    taps, two_pass = FFBP_KERNELS[kernel], passes(kernel)
+    oversample = 2.0 if oversample is None else oversample
+    os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
+    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps, two_pass) \
+        if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
+    kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
+              kernel=kernel)
+    return (*_plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing, lam_eff), two_pass)
+
+
 def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
          base_pulses: int | None = None, merge: int = 4, levels: int | None = None, oversample: float | None = None,
-         kernel: str = "kaiser6", interpolation: str = "auto", upsample: int = 8,
+         kernel: str | None = None, interpolation: str = "auto", upsample: int = 8,
          error_db: float | None = None) -> SarImage:
     """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
 
@@ -424,7 +454,9 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     oversample : polar samples per Nyquist sample in range and angle (>= 1.5; error model in
         :func:`ffbp_error_model`); default 2, or chosen by ``error_db``.
     kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
-        sinc; -50.6 dB a stage at os 2) or "cubic" (4 x 4 Keys; -47.5 dB a stage at os 4).
+        sinc; -50.6 dB a stage at os 2; the default), "kaiser8" / "kaiser10" (8 x 8 / 10 x 10 taps: -73.3 / -90.6 dB
+        a stage at os 2.5; their merges use the 2-D kernel, ``ffbp_merge.TWO_PASS_KERNELS``) or "cubic" (4 x 4 Keys;
+        -47.5 dB a stage at os 4). With ``error_db`` and no kernel, the cheapest of kaiser6, kaiser8 and kaiser10.
     interpolation, upsample : range interpolation of the pulses in the level-0 formation, as ``backproject``'s; "auto"
         (default): the cheapest whose predicted error is a third of the polar stages' (``resolve_ffbp_range``: at
         fs / B = 4 Lagrange on the pulses as they are; at 2 FFT-upsampled pulses, Lagrange x2 or linear x5-x6 as the
@@ -475,21 +507,10 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     spacing = float(np.linalg.norm(track)) / (p - 1)
     fc = _C / lam
     lam_eff = lam / (1.0 + bw / (2.0 * fc))
-    taps = FFBP_KERNELS[check_kernel(kernel)]
-    check_interpolation(interpolation, upsample)
-    two_pass = isinstance(merge, (int, np.integer)) and merge >= 2 and two_pass_applies(int(merge), bw, fc)
-    if error_db is not None:
-        oversample, base_pulses, levels = _for_error(
-            error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw,
-            lambda o: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, taps, two_pass))
-    oversample = 2.0 if oversample is None else oversample
-    os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
-    cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps, two_pass) \
-        if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
-    kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
-              kernel=kernel)
-    plan, interpolation, upsample = _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing,
-                                                lam_eff)
+    plan, interpolation, upsample, two_pass = _plan(
+        rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, dict(base_pulses=base_pulses, merge=merge,
+                                                                           levels=levels), oversample, kernel,
+        error_db, interpolation, upsample)
     dr = _C / (2.0 * bw * plan.oversample)
     rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
     former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass)

@@ -15,13 +15,22 @@ import numpy as np
 from sarnav.errors import ConfigError
 from sarnav.imaging.interpolation_error import WINDOWED, interpolation_error_2d
 
-__all__ = ["FFBP_KERNELS", "BASE_CHOICES", "POLAR_MARGIN", "OVERSAMPLE_CHOICES", "FfbpPlan", "ffbp_error_model",
-           "ffbp_plan", "merge_cost", "plan_cost", "plan_for_error", "check_kernel"]
+__all__ = ["FFBP_KERNELS", "TABLE_STEPS", "BASE_CHOICES", "POLAR_MARGIN", "OVERSAMPLE_CHOICES", "FfbpPlan",
+           "ffbp_error_model", "stage_error", "table_error", "polar_margin", "polar_margins", "ffbp_plan", "merge_cost", "plan_cost",
+           "plan_for_error", "check_kernel", "ERROR_KERNELS"]
 
 _C = 299792458.0
-#: polar-image interpolation kernels: name -> taps per dimension (sarnav.imaging.interpolation_error)
-FFBP_KERNELS = {"kaiser6": WINDOWED["kaiser6"], "cubic": 4}
-#: extra polar samples beyond the pixels' extent on each side (the 6-tap kernel's support is 3)
+#: polar-image interpolation kernels: name -> taps per dimension (sarnav.imaging.interpolation_error); kaiser8 and
+#: kaiser10 for images within -70 to -90 dB of exact (``ffbp(..., error_db=)`` weighs them all)
+FFBP_KERNELS = {"kaiser6": WINDOWED["kaiser6"], "kaiser8": WINDOWED["kaiser8"], "kaiser10": WINDOWED["kaiser10"],
+                "cubic": 4}
+#: fractions per sample of each kernel's weight table (``ffbp.kernel_table``: a tap reads the nearest row): the rounding
+#: of the fraction costs :func:`table_error`, -80 dB a 1-D interpolation at os 2.5 with 2048 rows, under kaiser6's
+#: -60 dB but the floor of kaiser10's -94 dB (measured at 2048^2 on the peer's collect, kaiser10 os 3: -68.1 dB on the
+#: uniform sample with 2048 rows, -81.4 dB with 16384); 16384 rows of 10 float32 are 640 KiB
+TABLE_STEPS = {"kaiser6": 2048, "cubic": 2048, "kaiser8": 8192, "kaiser10": 16384}
+#: extra polar samples beyond the pixels' extent on each side for kernels of up to 6 taps (support 3):
+#: :func:`polar_margin` gives a longer kernel one more than its half-width
 POLAR_MARGIN = 4
 #: subaperture lengths [pulses] the cost model chooses from when ``base_pulses`` is not given (2048 pixels and pulses:
 #: 32 with two merges of 4 was the fastest plan on the own and the peer's collect, 8-13 % ahead of 16 with 2-3,
@@ -47,11 +56,47 @@ class FfbpPlan:
         return self.base_pulses * self.merge ** self.levels
 
 
+def table_error(oversample: float, steps: int) -> float:
+    """Relative mean-square error (linear) of reading a kernel's weights at the fraction rounded to 1 / ``steps``, one
+    1-D interpolation of a flat band at ``oversample``: the position error d, uniform in +-1 / (2 steps), times the
+    band's rms derivative, E|x'|^2 = (2 pi)^2 E[f^2] = pi^2 / (3 os^2): pi^2 / (36 steps^2 os^2)."""
+    return math.pi ** 2 / (36.0 * steps * steps * oversample * oversample)
+
+
+def stage_error(kernel: str, oversample: float) -> float:
+    """One polar stage's error (linear): the kernel's 2-D error at ``oversample`` in both dimensions plus its weight
+    table's rounding in each (:func:`table_error`)."""
+    return interpolation_error_2d(check_kernel(kernel), oversample, oversample) + \
+        2.0 * table_error(oversample, TABLE_STEPS[kernel])
+
+
 def ffbp_error_model(oversample: float, n_stages: int, data_error: float = 0.0, kernel: str = "kaiser6") -> float:
     """Predicted image error [dB] of FFBP against exact back-projection (module doc): ``10 log10(n_stages *
-    eps_kernel_2d(os, os) + data_error)``; ``data_error`` (linear): the level-0 range interpolation's error."""
-    eps = n_stages * interpolation_error_2d(check_kernel(kernel), oversample, oversample) + data_error
+    stage_error(kernel, os) + data_error)``; ``data_error`` (linear): the level-0 range interpolation's error."""
+    eps = n_stages * stage_error(kernel, oversample) + data_error
     return float(10.0 * math.log10(eps))
+
+
+def polar_margin(kernel: str) -> int:
+    """Polar samples kept beyond the pixels' extent on each side of the final polar image: :data:`POLAR_MARGIN`, or the
+    kernel's half-width plus one for a longer kernel (every tap of a pixel's support then lies on the image)."""
+    return max(POLAR_MARGIN, FFBP_KERNELS[check_kernel(kernel)] // 2 + 1)
+
+
+def polar_margins(kernel: str, merge: int, levels: int) -> list[tuple[int, int]]:
+    """(range, angle) margins [samples] of the polar images of each level 0 .. ``levels``, such that every tap a parent
+    sample in its own margin reads lies on the child: in range the child has the parent's dr, so it needs the parent's
+    margin plus the kernel's half-width h (a margin growing by h a level down); in angle the parent's margin is
+    ``merge`` times finer than the child's samples, so the child needs m / merge + h (a fixed point: 4 for kaiser6, as
+    :data:`POLAR_MARGIN`; 7 for kaiser10). With one margin at every level, kaiser10's merges left the parent's outer
+    samples partly unread: -75 dB of error a merge on the 192^2 test scene, the same at os 2.5 and 4."""
+    half = FFBP_KERNELS[check_kernel(kernel)] // 2
+    m_r = m_u = polar_margin(kernel)
+    out = [(m_r, m_u)]
+    for _ in range(levels):
+        m_r, m_u = m_r + half, max(m_u, math.ceil(m_u / merge) + half)
+        out.append((m_r, m_u))
+    return out[::-1]
 
 
 def check_kernel(kernel):
@@ -104,39 +149,45 @@ def ffbp_plan(n_pulses: int, *, base_pulses: int | None = None, merge: int = 4, 
 OVERSAMPLE_CHOICES = tuple(round(1.6 + 0.1 * i, 1) for i in range(25))
 
 
+#: the kernels ``ffbp(..., error_db=)`` weighs when no kernel is given
+ERROR_KERNELS = ("kaiser6", "kaiser8", "kaiser10")
+
+
 def plan_for_error(error_db, n_pulses: int, cost_at, *, base_pulses: int | None, merge: int, levels: int | None,
-                   kernel: str, data_share: float = 0.0, data_error: float = 0.0) -> tuple[float, int, int]:
-    """(oversample, base pulses, levels) of least cost whose predicted error is <= ``error_db``: over
-    :data:`OVERSAMPLE_CHOICES` and, unless given, :data:`BASE_CHOICES` and the levels that fit, the polar stages'
-    error (:func:`ffbp_error_model`) times 1 + ``data_share`` (the level-0 range interpolation's share under ``ffbp``'s
-    "auto" rule) plus ``data_error`` (linear: a range interpolation fixed in advance); ``cost_at(os)``: the
-    :func:`plan_cost` function at that os. A target no plan reaches is a ConfigError naming ``error_db`` and the least
-    error a plan predicts."""
+                   kernel: str | None, data_share: float = 0.0,
+                   data_error: float = 0.0) -> tuple[float, int, int, str]:
+    """(oversample, base pulses, levels, kernel) of least cost whose predicted error is <= ``error_db``: over
+    :data:`OVERSAMPLE_CHOICES`, ``kernel`` (None: each of :data:`ERROR_KERNELS`) and, unless given,
+    :data:`BASE_CHOICES` and the levels that fit, the polar stages' error (:func:`ffbp_error_model`) times 1 +
+    ``data_share`` (the level-0 range interpolation's share under ``ffbp``'s "auto" rule) plus ``data_error`` (linear:
+    a range interpolation fixed in advance); ``cost_at(os, kernel)``: the :func:`plan_cost` function at that os and
+    kernel. A target no plan reaches is a ConfigError naming ``error_db`` and the least error a plan predicts."""
     if isinstance(error_db, bool) or not isinstance(error_db, (int, float)) or not math.isfinite(error_db):
         raise ConfigError("error_db", f"must be a finite number of dB, got {error_db!r}")
-    check_kernel(kernel)
+    kernels = ERROR_KERNELS if kernel is None else (check_kernel(kernel),)
     merge = _int_arg("merge", merge, 2)
     base_pulses = None if base_pulses is None else _int_arg("base_pulses", base_pulses, 1)
     levels = None if levels is None else _int_arg("levels", levels, 0)
     bases = [base_pulses] if base_pulses is not None else [b for b in BASE_CHOICES if b <= max(n_pulses, BASE_CHOICES[0])]
     best, reach = None, math.inf
-    for os_ in OVERSAMPLE_CHOICES:
-        cost, stage = None, interpolation_error_2d(kernel, os_, os_)      # one stage's error (ffbp_error_model)
-        for base in bases:
-            top = 0
-            while base * merge ** (top + 1) <= n_pulses:
-                top += 1
-            for lev in [levels] if levels is not None else range(top + 1):
-                err = 10.0 * math.log10((1.0 + data_share) * (lev + 1) * stage + data_error)
-                reach = min(reach, err)
-                if err <= error_db:
-                    cost = cost or cost_at(os_)
-                    c = cost(base, lev)
-                    best = (c, os_, base, lev) if best is None or c < best[0] else best
+    for kern in kernels:
+        for os_ in OVERSAMPLE_CHOICES:
+            cost, stage = None, stage_error(kern, os_)                     # one stage's error (ffbp_error_model)
+            for base in bases:
+                top = 0
+                while base * merge ** (top + 1) <= n_pulses:
+                    top += 1
+                for lev in [levels] if levels is not None else range(top + 1):
+                    err = 10.0 * math.log10((1.0 + data_share) * (lev + 1) * stage + data_error)
+                    reach = min(reach, err)
+                    if err <= error_db:
+                        cost = cost or cost_at(os_, kern)
+                        c = cost(base, lev)
+                        best = (c, os_, base, lev, kern) if best is None or c < best[0] else best
     if best is None:
-        raise ConfigError("error_db", f"must be >= {reach:.1f} dB (the least error a {kernel} plan predicts at os <= "
-                                      f"{OVERSAMPLE_CHOICES[-1]}), got {error_db!r}")
-    return best[1], best[2], best[3]
+        raise ConfigError("error_db", f"must be >= {reach:.1f} dB (the least error a {' / '.join(kernels)} plan "
+                                      f"predicts at os <= {OVERSAMPLE_CHOICES[-1]}), got {error_db!r}")
+    return best[1], best[2], best[3], best[4]
 
 
 #: cost of one polar-image evaluation relative to one back-projected pixel-pulse: fixed part (locate, phase) and per
@@ -163,12 +214,13 @@ def plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps, tw
     d = hull - c
     r = np.linalg.norm(d, axis=1)
     u = d @ v / r
-    n_r = np.ptp(r) * 2.0 * bw * os_ / _C + 2 * POLAR_MARGIN
+    margin = max(POLAR_MARGIN, taps // 2 + 1)                         # polar_margin
+    n_r = np.ptp(r) * 2.0 * bw * os_ / _C + 2 * margin
     eval_cost = _EVAL_COST_FIXED + _EVAL_COST_TAP * taps * taps
     step_cost = merge_cost(taps, merge, two_pass)
 
     def n_u(n_pulses):
-        return np.ptp(u) * 2.0 * n_pulses * spacing * os_ / lam_eff + 2 * POLAR_MARGIN
+        return np.ptp(u) * 2.0 * n_pulses * spacing * os_ / lam_eff + 2 * margin
 
     def cost(base, levels):
         total = p * n_r * n_u(base)                                  # level-0 exact formation

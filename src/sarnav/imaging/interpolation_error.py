@@ -118,22 +118,33 @@ def summed_interpolation_error(name: str, os: float) -> float:
     return float(np.mean((g - k0) ** 2) / g**2)
 
 
-#: kaiser6's beta searched (``search_kaiser_beta``) at os 1.5, 1.6, ..., 4.0: the search takes 0.12-0.28 s, which every
-#: FFBP call (a process's first at each os) paid; between the nodes ``kaiser_beta`` interpolates linearly (beta is
-#: smooth in os; the error it costs is < 0.01 dB, tests/imaging/test_interpolation_default.py re-derives the table)
-KAISER6_BETA_OS = (1.5, 4.0)
-KAISER6_BETA = (3.3194, 3.6764, 3.9882, 4.2653, 4.5158, 4.7454, 4.9590, 5.1609, 5.3543, 5.5411, 5.7215, 5.8936, 6.0555,
-                6.2056, 6.3434, 6.4694, 6.5844, 6.6893, 6.7853, 6.8732, 6.9537, 7.0282, 7.0970, 7.1605, 7.2196, 7.2748)
+#: the windowed kernels' beta searched (``search_kaiser_beta``) at os 1.5, 1.6, ..., 4.0: the search takes 0.12-0.28 s,
+#: which every FFBP call (a process's first at each os) paid, and ``ffbp(..., error_db=)`` weighs 26 os per kernel;
+#: between the nodes ``kaiser_beta`` interpolates linearly (beta is smooth in os; the error it costs is < 0.01 dB,
+#: tests/imaging/test_interpolation_default.py re-derives the tables)
+KAISER_BETA_OS = (1.5, 4.0)
+KAISER_BETA = {
+    "kaiser6": (3.3194, 3.6764, 3.9882, 4.2653, 4.5158, 4.7454, 4.9590, 5.1609, 5.3543, 5.5411, 5.7215, 5.8936, 6.0555,
+                6.2056, 6.3434, 6.4694, 6.5844, 6.6893, 6.7853, 6.8732, 6.9537, 7.0282, 7.0970, 7.1605, 7.2196, 7.2748),
+    "kaiser8": (4.3301, 4.8220, 5.2632, 5.6669, 6.0428, 6.3946, 6.7206, 7.0169, 7.2834, 7.5220, 7.7363, 7.9293, 8.1043,
+                8.2637, 8.4100, 8.5445, 8.6691, 8.7844, 8.8922, 8.9925, 9.0864, 9.1745, 9.2576, 9.3358, 9.4099, 9.4803),
+    "kaiser10": (5.3595, 6.0004, 6.5834, 7.1145, 7.5925, 8.0179, 8.3962, 8.7346, 9.0393, 9.3152, 9.5668, 9.7968, 10.0082,
+                 10.2039, 10.3860, 10.5569, 10.7185, 10.8726, 11.0201, 11.1616, 11.2979, 11.4279, 11.5516, 11.6687,
+                 11.7796, 11.8840),
+}
+#: kaiser6's table and its os range under their earlier names
+KAISER6_BETA_OS, KAISER6_BETA = KAISER_BETA_OS, KAISER_BETA["kaiser6"]
 
 
 @functools.lru_cache(maxsize=64)
 def kaiser_beta(name: str, os: float) -> float:
     """The Kaiser window's beta of :data:`WINDOWED` kernel ``name`` at oversampling ``os``: the one that minimises its
-    1-D error (:func:`search_kaiser_beta`), for kaiser6 at os 1.5-4 read from :data:`KAISER6_BETA` (linear between
-    its 0.1 nodes)."""
-    if name == "kaiser6" and isinstance(os, (int, float)) and KAISER6_BETA_OS[0] <= os <= KAISER6_BETA_OS[1]:
-        nodes = np.linspace(KAISER6_BETA_OS[0], KAISER6_BETA_OS[1], len(KAISER6_BETA))
-        return float(np.interp(float(os), nodes, KAISER6_BETA))
+    1-D error (:func:`search_kaiser_beta`), at os 1.5-4 read from :data:`KAISER_BETA` (linear between its 0.1
+    nodes)."""
+    table = KAISER_BETA.get(name)
+    if table is not None and isinstance(os, (int, float)) and KAISER_BETA_OS[0] <= os <= KAISER_BETA_OS[1]:
+        nodes = np.linspace(KAISER_BETA_OS[0], KAISER_BETA_OS[1], len(table))
+        return float(np.interp(float(os), nodes, table))
     return search_kaiser_beta(name, os)
 
 

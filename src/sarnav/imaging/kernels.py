@@ -48,7 +48,7 @@ KEYS_A = -0.5
 #: piecewise-polynomial kernels of back-projection's range interpolation (:func:`point_kernel`)
 KERNELS = ("nearest", "linear", "cubic", "lagrange")
 #: windowed-sinc kernels: name -> taps (beta from the oversampling, ``interpolation_error.kaiser_beta``)
-WINDOWED = {"kaiser6": 6}
+WINDOWED = {"kaiser6": 6, "kaiser8": 8, "kaiser10": 10}
 #: RCMC interpolation kernels of the RDA: name -> (taps, Kaiser beta); "none" skips RCMC.
 RCMC_KERNELS = {"sinc8": (8, 2.5), "sinc16": (16, 2.5), "none": (0, 0.0)}
 #: fractional positions per sample of :func:`rcmc_kernel_table`
