@@ -315,7 +315,7 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
         elif k.startswith("sarnav"):
             md = f"  [{img.metadata['interpolation']}" if hasattr(img, "metadata") else ""
             if "ffbp_oversample" in getattr(img, "metadata", {}):
-                md += (f", os {img.metadata['ffbp_oversample']:g}, predicted "
+                md += (f", {img.metadata['ffbp_kernel']} os {img.metadata['ffbp_oversample']:g}, predicted "
                        f"{img.metadata['ffbp_predicted_error_db']:.1f} dB (whole image)")
             md += "]" if md else ""
         img = np.asarray(getattr(img, "data", img))

@@ -11,7 +11,7 @@ import pytest
 from test_ffbp import C, gain_error_db, scene
 
 import sarnav.imaging.ffbp as F
-from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, _newton, merge_two_pass, two_pass_applies
+from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, _newton, child_widening, merge_two_pass, two_pass_applies
 
 FC, BW = 9.75e9, 150e6
 LAM = C / FC
@@ -97,9 +97,11 @@ def test_two_passes_where_the_band_is_narrow_and_the_2d_kernel_where_it_is_wide(
     img = F.ffbp(rc, grid, **kw)
     assert img.metadata["ffbp_merge_passes"] == passes
     assert two_pass_applies(4, BW, fc) == (passes == 2) and 1.5 * BW / fc != TWO_PASS_MAX_WIDENING
+    assert child_widening(-1.5 * 40.0, 40.0, BW / fc) == pytest.approx(1.5 * BW / fc, rel=1e-15)    # the outermost child
     err = gain_error_db(img.data, ref)
     assert abs(err - img.metadata["ffbp_predicted_error_db"]) < 1.5
-    monkeypatch.setattr(F, "two_pass_applies", lambda *a: passes == 1)     # the other merge
+    monkeypatch.setattr(F, "two_pass_applies", lambda *a: passes == 1)     # the other merge, for every child
+    monkeypatch.setattr(F, "TWO_PASS_MAX_WIDENING", np.inf if passes == 1 else TWO_PASS_MAX_WIDENING)
     other = gain_error_db(F.ffbp(rc, grid, **kw).data, ref)
     print(f"B/fc {BW / fc:.3f}: {passes}-pass merge {err:.2f} dB (predicted {img.metadata['ffbp_predicted_error_db']:.2f}), "
           f"the other {other:.2f} dB")

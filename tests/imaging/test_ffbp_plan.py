@@ -10,7 +10,8 @@ import pytest
 
 from sarnav.errors import ConfigError
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, ERROR_KERNELS, FFBP_KERNELS, OVERSAMPLE_CHOICES, TABLE_STEPS,
-                                     ffbp_error_model, ffbp_plan, merge_cost, plan_cost, plan_for_error, polar_margins,
+                                     child_margin, ffbp_error_model, ffbp_plan, merge_cost, plan_cost, plan_for_error,
+                                     polar_margins,
                                      stage_error, table_error)
 from sarnav.imaging.interpolation_error import interpolation_error_2d
 
@@ -130,6 +131,9 @@ def test_polar_margins_cover_every_tap_a_parent_margin_reads():
             m = polar_margins(kernel, merge, 3)
             assert len(m) == 4 and m[-1] == (max(4, h + 1), max(4, h + 1))
             for (cr, cu), (pr, pu) in zip(m[:-1], m[1:]):          # child (one level down), parent
-                assert cr == pr + h and cu >= math.ceil(pu / merge) + h and cu >= pu
+                assert cr == pr + h and cu == max(math.ceil(pu / merge) + h, 4) and cu >= pu
     assert polar_margins("kaiser6", 4, 2) == [(10, 4), (7, 4), (4, 4)]
+    # an uneven split: a child of 32 of its parent's 33 pulses has angle samples 32/33 of the parent's
+    assert child_margin((6, 6), 33, 32, 5) == (11, 11) and child_margin((6, 6), 33, 1, 5) == (11, 6)
+    assert child_margin((6, 6), 128, 32, 5) == (11, 7)
     assert polar_margins("kaiser10", 4, 1) == [(11, 7), (6, 6)]

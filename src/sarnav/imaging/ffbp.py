@@ -58,11 +58,11 @@ from sarnav.imaging.interpolation_error import kernel_values
 from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, cis64, demodulate_parts, polar_tap,
                                     padded_pulses, tabulate, taps_2d)
 from sarnav.imaging.grid import as_grid
-from sarnav.imaging.ffbp_merge import merge_two_pass, two_pass_applies
+from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, child_widening, merge_two_pass, two_pass_applies
 from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, TABLE_STEPS, FfbpPlan,  # noqa: F401
-                                      check_kernel, ffbp_error_model, ffbp_plan, plan_cost, plan_for_error,
-                                      polar_margins)
+                                      check_kernel, child_margin, ffbp_error_model, ffbp_plan, plan_cost,
+                                      plan_for_error, polar_margins)
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS", "BASE_CHOICES", "polar_image",
            "kernel_table"]
@@ -318,10 +318,13 @@ class _Former:
 
     def __init__(self, rc, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass):
         self.rc, self.pos, self.lam, self.v, self.two_pass = rc, pos, lam, v, two_pass
+        self.b_over_fc = 2.0 * (lam / lam_eff - 1.0)      # lam_eff = lam / (1 + B / (2 f_c))
+        self.wide_children = 0                             # children merged with the 2-D kernel in a two-pass plan
         self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
         self.plan, self.interpolation, self.upsample = plan, interpolation, upsample
         self.ktab = kernel_table(plan.kernel, plan.oversample)
         self.margins = polar_margins(plan.kernel, plan.merge, plan.levels)
+        self.half = FFBP_KERNELS[plan.kernel] // 2
         self._pulses = None                     # (k0, k1, padded samples, kernel constants) of the current top block
 
     def _prepare(self, k0: int, k1: int) -> None:
@@ -348,21 +351,28 @@ class _Former:
         _demodulate_lines(out_re, out_im, grid.r0, grid.dr, 2.0 / self.lam, img)
         return img
 
-    def build(self, k0: int, k1: int, level: int) -> _Polar:
+    def build(self, k0: int, k1: int, level: int, margin: tuple[int, int] | None = None) -> _Polar:
+        """The polar image of pulses k0..k1 at ``level`` with ``margin`` (range, angle) samples beyond the pixels' extent
+        (default: the final image's; each child's from its parent's, ``ffbp_plan.child_margin``)."""
+        margin = self.margins[-1] if margin is None else margin
         if level > 0 and level == self.plan.levels:
             self._prepare(k0, k1)
         step = self.plan.base_pulses * self.plan.merge ** (level - 1) if level > 0 else 0
         if level > 0 and k1 - k0 <= step:    # one child (the aperture's last, short block): the parent's grid is the
-            return self.build(k0, k1, level - 1)  # child's (the same pulses), so it is the image, not interpolated
+            return self.build(k0, k1, level - 1, margin)  # child's (the same pulses), so it is the image as it is
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
-                           self.plan.oversample, self.margins[level])
+                           self.plan.oversample, margin)
         if level == 0:
             grid.img = self._level0(grid, k0, k1)
             return grid
         acc = np.zeros((grid.nr, grid.nu), np.complex64)
         for j0 in range(k0, k1, step):
-            child = self.build(j0, min(k1, j0 + step), level - 1)
-            (merge_two_pass if self.two_pass else _merge)(
+            j1 = min(k1, j0 + step)
+            child = self.build(j0, j1, level - 1, child_margin(margin, k1 - k0, j1 - j0, self.half))
+            two = self.two_pass and child_widening(float(np.dot(child.centre - grid.centre, self.v)),
+                                                   (j1 - j0) * self.spacing, self.b_over_fc) <= TWO_PASS_MAX_WIDENING
+            self.wide_children += self.two_pass and not two
+            (merge_two_pass if two else _merge)(
                 grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
                 1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, self.ktab, acc)
         grid.img = acc
@@ -417,16 +427,14 @@ def _plan(rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, fact, ov
         check_kernel(kernel)
     check_interpolation(interpolation, upsample)
 
-    def passes(kern):                          # whether kern's merges run in two 1-D passes (ffbp_merge)
-        return isinstance(merge, (int, np.integer)) and merge >= 2 and two_pass_applies(int(merge), bw, fc, kern)
-
+    two_pass = isinstance(merge, (int, np.integer)) and merge >= 2 and two_pass_applies(int(merge), bw, fc)
     if error_db is not None:
         oversample, base_pulses, levels, kernel = _for_error(
             error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw,
             lambda o, kern: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, FFBP_KERNELS[kern],
-                                      passes(kern)))
+                                      two_pass))
     kernel = "kaiser6" if kernel is None else kernel
-    taps, two_pass = FFBP_KERNELS[kernel], passes(kernel)
+    taps = FFBP_KERNELS[kernel]
     oversample = 2.0 if oversample is None else oversample
     os_ = float(oversample) if isinstance(oversample, (int, float)) else oversample
     cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps, two_pass) \
@@ -455,7 +463,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
         :func:`ffbp_error_model`); default 2, or chosen by ``error_db``.
     kernel : polar-image interpolation, one of :data:`FFBP_KERNELS`: "kaiser6" (6 x 6 taps, Kaiser-windowed
         sinc; -50.6 dB a stage at os 2; the default), "kaiser8" / "kaiser10" (8 x 8 / 10 x 10 taps: -73.3 / -90.6 dB
-        a stage at os 2.5; their merges use the 2-D kernel, ``ffbp_merge.TWO_PASS_KERNELS``) or "cubic" (4 x 4 Keys;
+        a stage at os 2.5) or "cubic" (4 x 4 Keys;
         -47.5 dB a stage at os 4). With ``error_db`` and no kernel, the cheapest of kaiser6, kaiser8 and kaiser10.
     interpolation, upsample : range interpolation of the pulses in the level-0 formation, as ``backproject``'s; "auto"
         (default): the cheapest whose predicted error is a third of the polar stages' (``resolve_ffbp_range``: at
@@ -470,7 +478,8 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     SarImage (complex128), ``metadata["algorithm"] = "ffbp"`` plus the plan and its predicted error against an ideal
     (band-limited) back-projection: the polar stages' plus the level-0 range interpolation's, the band B it
     assumed (``ffbp_bandwidth_hz``) and how the merges interpolated (``ffbp_merge_passes``: 2 for two 1-D passes, 1
-    for the 2-D kernel).
+    for the 2-D kernel; ``ffbp_wide_children``: the children of a two-pass plan whose own band widening,
+    ``ffbp_merge.child_widening``, was too wide, merged with the 2-D kernel).
     """
     g = as_grid(grid)
     plane = plane_of(g)
@@ -538,7 +547,7 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
                          "ffbp_oversample": plan.oversample, "ffbp_kernel": plan.kernel,
                          "ffbp_predicted_error_db": plan.predicted_error_db, "ffbp_bandwidth_hz": bw,
-                         "ffbp_merge_passes": 2 if two_pass else 1})
+                         "ffbp_merge_passes": 2 if two_pass else 1, "ffbp_wide_children": former.wide_children})
     return img
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from sarnav.imaging.kernels import cis32, taps_along, taps_down
 
-__all__ = ["TWO_PASS_MAX_WIDENING", "TWO_PASS_KERNELS", "merge_two_pass", "two_pass_applies"]
+__all__ = ["TWO_PASS_MAX_WIDENING", "merge_two_pass", "two_pass_applies", "child_widening"]
 
 #: the largest band widening (|a| / l_C)(B / f_c) of the outermost child at which ``ffbp`` merges in two passes (else
 #: with the 2-D kernel): measured on the 192^2 test scene, merge 4, os 2 and 3, the two-pass image error against the 2-D
@@ -43,19 +43,19 @@ __all__ = ["TWO_PASS_MAX_WIDENING", "TWO_PASS_KERNELS", "merge_two_pass", "two_p
 TWO_PASS_MAX_WIDENING = 0.15
 
 
-#: the kernels a merge runs in two passes with. Not kaiser8 and kaiser10: on the peer's collect (1024^2, base 32, two
-#: merges of 4, 16384-row tables) the two-pass image was -64.0 dB against exact on the uniform sample where the 2-D
-#: merge gave -75.4 (os 2.5), -74.9 against -81.6 (os 3): an error of the two-pass merge, -74 dB (os 2.5) and -80 dB
-#: (os 3) on the whole image against the 2-D merge's, that no kernel term of the error model predicts (a pass-2 table
-#: made for os / 1.25 recovered 4 dB of the 11); under kaiser6's own error (-57 dB a stage at os 2.5) it adds 0.1 dB
-TWO_PASS_KERNELS = ("kaiser6", "cubic")
+def two_pass_applies(merge: int, bandwidth: float, carrier: float) -> bool:
+    """Whether a merge of ``merge`` children widens the pass-1 band by at most :data:`TWO_PASS_MAX_WIDENING`: the
+    outermost child sits (merge - 1) / 2 child lengths from the parent's centre (module doc); a shorter last child is
+    judged on its own (:func:`child_widening`)."""
+    return 0.5 * (merge - 1) * bandwidth / carrier <= TWO_PASS_MAX_WIDENING
 
 
-def two_pass_applies(merge: int, bandwidth: float, carrier: float, kernel: str = "kaiser6") -> bool:
-    """Whether a merge of ``merge`` children runs in two passes: a kernel of :data:`TWO_PASS_KERNELS`, and the pass-1
-    band widened by at most :data:`TWO_PASS_MAX_WIDENING` (the outermost child sits (merge - 1) / 2 child lengths
-    from the parent's centre, module doc)."""
-    return kernel in TWO_PASS_KERNELS and 0.5 * (merge - 1) * bandwidth / carrier <= TWO_PASS_MAX_WIDENING
+def child_widening(offset: float, length: float, bandwidth_over_carrier: float) -> float:
+    """The pass-1 band widening of one child, (|a| / l_C)(B / f_c) (module doc): ``offset`` a [m] of its centre from the
+    parent's along the track, ``length`` l_C [m] of its aperture. For equal children of a merge of 4 at most
+    1.5 B / f_c (:func:`two_pass_applies`); a short last child far from its parent's centre has much more (10 pulses at
+    192 pulses from the centre: 19 B / f_c, 0.6 at X band with 300 MHz), and ``ffbp`` merges it with the 2-D kernel."""
+    return abs(offset) / length * bandwidth_over_carrier
 
 
 #: parent rows per parallel work item
