@@ -220,9 +220,11 @@ def peer_table(npx: int, args) -> None:
         ffbp(rc, small, **kw)
         t_f, _, img = timed(lambda: ffbp(rc, grid, **kw), args.repeat)
         md = img.metadata
+        also = "" if whole is None else f", whole image vs precise BP {pc.gain_error_db(img.data, whole):6.1f} dB"
         print(f"  {f'sarnav ffbp error_db {target:g}':26s} {t_f:8.2f} s {work / t_f:9.3e} px-pulse/s  error vs exact "
-              f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {md['ffbp_predicted_error_db']:.1f}); "
-              f"{t_e / t_f:5.1f}x sarnav's exact BP; os {md['ffbp_oversample']:g}, range {_range(md)}", flush=True)
+              f"{pc.gain_error_db(img.data[sample], exact):7.1f} dB (predicted {md['ffbp_predicted_error_db']:.1f}"
+              f"{also}); {t_e / t_f:5.1f}x sarnav's exact BP; {md['ffbp_kernel']} os {md['ffbp_oversample']:g}, "
+              f"range {_range(md)}", flush=True)
     # the call as a user writes it: no band given, ffbp takes the pulses' (ffbp_bandwidth_hz); before 2026-12-06 it took
     # the sample rate (fs/B 4 here), which made every polar grid 4x finer in range
     t_d, _, img = timed(lambda: ffbp(rc, grid), args.repeat)

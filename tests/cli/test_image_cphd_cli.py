@@ -130,6 +130,33 @@ def test_ffbp_of_the_cphd_matches_bpa_within_its_error_model(outs):
     assert m["ffbp"]["bandwidth_hz"] == pytest.approx(m["bandwidth_hz"], rel=1e-12), (m["ffbp"], m["bandwidth_hz"])
 
 
+def test_error_db_plans_the_ffbp_image_of_the_cphd(outs, tmp_path, capsys):
+    """``--error-db -80``: the cheapest plan predicted within -80 dB, out of kaiser6's reach, so a longer kernel
+    (``ffbp_plan.ERROR_KERNELS``), recorded in metrics.json; the image closer to the exact BPA image than the default
+    FFBP's; the option is refused with bpa, for a scenario, and for a target no plan reaches, each in one line."""
+    a, b, c, _ = outs
+    d = tmp_path / "d"
+    cphd = str(a / "collect.cphd")
+    assert main(["image", cphd, "--algorithm", "ffbp", "--error-db", "-80", "--spacing", SPACING, "--extent", EXTENT,
+                 "--out", str(d)]) == 0
+    m = json.loads((d / "metrics.json").read_text())
+    assert m["ffbp"]["kernel"] in ("kaiser8", "kaiser10") and m["ffbp"]["predicted_error_db"] <= -80.0, m["ffbp"]
+    ref = np.load(b / "image.npz")["data"]
+    errs = []
+    for out in (c, d):
+        img = np.load(out / "image.npz")["data"]
+        errs.append(error_db(np.vdot(img, ref) / np.vdot(img, img) * img, ref))
+    print(f"FFBP vs BPA of the CPHD: default {errs[0]:.1f} dB, --error-db -80 {errs[1]:.1f} dB")
+    assert errs[1] < errs[0] - 10.0, errs
+    out = ["--out", str(tmp_path / "x")]
+    one_error_line(capsys, main(["image", cphd, "--error-db", "-70", *out]), "--error-db")          # bpa
+    one_error_line(capsys, main(["image", cphd, "--algorithm", "ffbp", "--error-db", "x", *out]), "--error-db")
+    line = one_error_line(capsys, main(["image", cphd, "--algorithm", "ffbp", "--error-db", "-300", *out]),
+                          "--error-db")
+    assert "the least error" in line
+    one_error_line(capsys, main(["image", "point-target", "--error-db", "-70", *out]), "--error-db")
+
+
 def _rewrite(src, dst, *, drop=None, nan_pvp=None, line_spacing=None):
     with open(src, "rb") as f, skcphd.Reader(f) as r:
         tree = r.metadata.xmltree

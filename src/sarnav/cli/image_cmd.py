@@ -46,6 +46,8 @@ def add_parser(subparsers) -> None:
                    "data and removed (in-data, default) or already compensated and ignored (compensated)")
     p.add_argument("--budget", metavar="SIZE", help="FILE.cphd: memory of the image formation, e.g. 512M, 2G "
                    "(default 1G); the vectors are read and imaged in blocks that fit")
+    p.add_argument("--error-db", metavar="DB", help="FILE.cphd with --algorithm ffbp: the FFBP image's predicted error "
+                   "against exact back-projection [dB], e.g. -70 (the cheapest plan within it; default: os 2, kaiser6)")
     p.add_argument("--overwrite", action="store_true", help="replace another scenario's results in --out")
     p.set_defaults(handler=run)
 
@@ -63,8 +65,7 @@ def _cphd(args) -> int:
     report = run_cphd_image(path, out, algorithm=args.algorithm or "bpa", spacing=args.spacing, extent=args.extent,
                             window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite,
                             channel=args.channel, pulses=args.pulses, tropo=args.tropo or "in-data",
-                            budget=args.budget,
-                            geotiff=args.geotiff)
+                            budget=args.budget, geotiff=args.geotiff, error_db=args.error_db)
     shape = report["image_shape"]
     st = report["stream"]
     print(f"{path.name}: {report['algorithm']} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses of channel "
@@ -82,7 +83,7 @@ def run(args) -> int:
         return _cphd(args)
     for flag, given in (("--spacing", args.spacing), ("--extent", args.extent), ("--filter", args.filter),
                         ("--channel", args.channel), ("--pulses", args.pulses), ("--tropo", args.tropo),
-                        ("--budget", args.budget), ("--geotiff", args.geotiff or None)):
+                        ("--budget", args.budget), ("--geotiff", args.geotiff or None), ("--error-db", args.error_db)):
         if given is not None:
             raise ConfigError(flag, "applies to a CPHD file (sarnav image FILE.cphd), not to a simulated scenario")
     if args.algorithm == "ffbp":

@@ -129,14 +129,18 @@ def _figures(c: CphdCollect, mid: PulseData) -> CollectFigures:
 
 def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, window_field: str = "window",
                   filter=None, range_axis=None, oversample: float = DEFAULT_OVERSAMPLE, budget: float = DEFAULT_BUDGET,
-                  budget_field: str = "budget") -> tuple[SarImage, CollectFigures, dict]:
+                  budget_field: str = "budget", error_db: float | None = None,
+                  error_db_field: str = "error_db") -> tuple[SarImage, CollectFigures, dict]:
     """The image of the selected vectors of ``c`` (``io.cphd_read.open_collect``) on ``grid`` by ``algorithm``
     ("bpa" or "ffbp"), formed in blocks within ``budget`` bytes (module doc); the azimuth ``window`` over all the
-    selected pulses, ``filter`` the frequency samples' weights. Returns what ``imaging.collect_image.
+    selected pulses, ``filter`` the frequency samples' weights, ``error_db`` FFBP's target error (``imaging.ffbp.ffbp``).
+    Returns what ``imaging.collect_image.
     run_collect_image`` returns for the whole collect read into memory (image, figures, metrics), the metrics with
     ``stream`` (blocks, pulses per block, budget, estimated peak)."""
     if algorithm not in ALGORITHMS:
         raise ConfigError("algorithm", f"must be one of {ALGORITHMS}, got {algorithm!r}")
+    if error_db is not None and algorithm != "ffbp":
+        raise ConfigError(error_db_field, f"plans an FFBP image: applies to algorithm 'ffbp', not {algorithm!r}")
     _check_aperture(c)
     axis = default_range_axis(c.header(), oversample) if range_axis is None else np.asarray(range_axis, np.float64)
     p = c.n_pulses
@@ -159,7 +163,7 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
         if weights is not None:
             rc.data *= weights[a:b, None]
         img = backproject(rc, grid, interpolation=mode, upsample=up, bandwidth=figures.bandwidth) \
-            if algorithm == "bpa" else ffbp(rc, grid, bandwidth=figures.bandwidth)
+            if algorithm == "bpa" else _ffbp(rc, grid, figures.bandwidth, error_db, error_db_field)
         acc = img.data if acc is None else acc + img.data
         del rc
     img.data = acc
@@ -167,6 +171,15 @@ def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, 
     metrics = collect_image_metrics(_Shape(p, axis.size, _C / c.fxc), img, algorithm, figures.bandwidth)
     metrics["stream"] = plan.as_dict()
     return img, figures, metrics
+
+
+def _ffbp(rc, grid, bandwidth, error_db, field):
+    try:
+        return ffbp(rc, grid, bandwidth=bandwidth, error_db=error_db)
+    except ConfigError as err:            # a target no plan reaches, named as the caller's key
+        if err.field == "error_db":
+            raise ConfigError(field, err.message) from None
+        raise
 
 
 class _Shape:

@@ -17,6 +17,7 @@ file's field.
 from __future__ import annotations
 
 import hashlib
+import math
 from pathlib import Path
 
 
@@ -52,18 +53,33 @@ def _open(path: Path, channel, pulses, tropo):
         raise ConfigError(_FLAGS.get(err.field, err.field), err.message) from None
 
 
-def _form(c, grid, algorithm, window, filter_path, budget):
+def _form(c, grid, algorithm, window, filter_path, budget, error_db=None):
     from sarnav.io.cphd import read_filter
     from sarnav.io.cphd_stream import run_image_collect
 
     h = None if filter_path is None else read_filter(filter_path, "--filter")
     try:
         return run_image_collect(c, grid, algorithm, window=window, window_field="--window", filter=h, budget=budget,
-                             budget_field="--budget")
+                                 budget_field="--budget", error_db=error_db, error_db_field="--error-db")
     except InputDataError as err:   # the filter's length against the collect's frequency samples
         if err.field in ("phase_history.data", "filter") and filter_path is not None:
             raise InputDataError("--filter", f"{err.message} ({str(filter_path)!r})") from None
         raise
+
+
+def parse_error_db(value, algorithm: str):
+    """``--error-db`` as a float (None when not given): a finite number of dB, and only with ``--algorithm ffbp``."""
+    if value is None:
+        return None
+    if algorithm != "ffbp":
+        raise ConfigError("--error-db", f"plans an FFBP image: give it with --algorithm ffbp, not {algorithm!r}")
+    try:
+        db = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError("--error-db", f"must be a number of dB, e.g. -70, got {value!r}") from None
+    if not (math.isfinite(db) and db < 0):
+        raise ConfigError("--error-db", f"must be a finite number of dB below 0, e.g. -70, got {value!r}")
+    return db
 
 
 def _identity(path: Path, options: dict) -> dict:
@@ -75,10 +91,11 @@ def _identity(path: Path, options: dict) -> dict:
 
 def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=None, window: str | None = None,
                    filter_path=None, sicd: bool = False, overwrite: bool = False, channel=None, pulses=None,
-                   tropo: str = "in-data", budget=None, geotiff: bool = False) -> dict:
+                   tropo: str = "in-data", budget=None, geotiff: bool = False, error_db=None) -> dict:
     """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics.
     ``channel``: identifier (default the first); ``pulses``: ``START:STOP`` or (start, stop); ``tropo``: the
-    reading of TDTropoSRP (``io.cphd_read.TROPO``); ``budget``: memory of the image formation (``--budget``)."""
+    reading of TDTropoSRP (``io.cphd_read.TROPO``); ``budget``: memory of the image formation (``--budget``);
+    ``error_db``: FFBP's target error against exact back-projection [dB] (``--error-db``, ``imaging.ffbp.ffbp``)."""
     from sarnav.io.sicd import SicdGeometry
     from sarnav.montecarlo.outdir import OutputFolder
     from sarnav.report.image_files import write_image_files
@@ -88,6 +105,7 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
         raise ConfigError("FILE", f"{str(path)!r} is not a readable file")
     if algorithm not in ALGORITHMS:
         raise ConfigError("--algorithm", f"a CPHD is back-projected: must be one of {ALGORITHMS}, got {algorithm!r}")
+    error_db = parse_error_db(error_db, algorithm)
     if geotiff:
         from sarnav.io.geotiff import check_geo_extra
 
@@ -105,9 +123,10 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
                               "give --spacing or a smaller --extent")
     options = {"algorithm": algorithm, "spacing": spacing, "extent": extent, "window": window,
                "filter": str(filter_path), "sicd": sicd, "channel": c.channel, "pulses": [c.start, c.stop],
-               "tropo": tropo, **({"geotiff": True} if geotiff else {})}
+               "tropo": tropo, **({"geotiff": True} if geotiff else {}),
+               **({"error_db": error_db} if error_db is not None else {})}
     with OutputFolder(out, _identity(path, options), overwrite=overwrite):
-        img, figures, metrics = _form(c, grid, algorithm, window, filter_path, budget)
+        img, figures, metrics = _form(c, grid, algorithm, window, filter_path, budget, error_db)
         report = {"source": str(path), "channel": c.channel, "vectors": [c.start, c.stop], "tropo": tropo,
                   **metrics}
         if sicd or geotiff:
