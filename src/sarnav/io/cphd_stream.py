@@ -28,7 +28,7 @@ from sarnav.signal.phase_history import DEFAULT_OVERSAMPLE, default_range_axis, 
 from sarnav.signal.windows import as_window
 
 __all__ = ["image_collect", "run_image_collect", "stream_plan", "StreamPlan", "DEFAULT_BUDGET", "read_sicd_geometry",
-           "read_budget_flag", "read_pulses_flag"]
+           "read_budget_flag", "read_pulses_flag", "read_error_db_flag"]
 
 _C = 299792458.0
 _FFBP_UPSAMPLE = 8                 # bound on ffbp's "auto" level-0 range upsampling (x5 at fs/B 1, none at 4)
@@ -55,6 +55,22 @@ class StreamPlan:
     def as_dict(self) -> dict:
         return {"pulses_per_block": self.pulses_per_block, "blocks": self.n_blocks, "budget_bytes": float(self.budget),
                 "estimated_peak_bytes": self.peak_bytes}
+
+
+def read_error_db_flag(value, algorithm: str, field: str = "error_db"):
+    """FFBP's target error as a float (None when not given): a finite number of dB below 0, only with ``algorithm``
+    "ffbp"; a ConfigError naming ``field`` otherwise."""
+    if value is None:
+        return None
+    if algorithm != "ffbp":
+        raise ConfigError(field, f"plans an FFBP image: give it with --algorithm ffbp, not {algorithm!r}")
+    try:
+        db = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(field, f"must be a number of dB, e.g. -70, got {value!r}") from None
+    if not (math.isfinite(db) and db < 0):
+        raise ConfigError(field, f"must be a finite number of dB below 0, e.g. -70, got {value!r}")
+    return db
 
 
 def _check_budget(budget, field: str) -> float:

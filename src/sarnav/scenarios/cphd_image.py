@@ -17,7 +17,6 @@ file's field.
 from __future__ import annotations
 
 import hashlib
-import math
 from pathlib import Path
 
 
@@ -25,7 +24,7 @@ from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.collect_image import ALGORITHMS
 from sarnav.imaging.grid import check_resampled
 from sarnav.io.cphd_stream import read_budget_flag as parse_budget
-from sarnav.io.cphd_stream import read_pulses_flag as parse_pulses
+from sarnav.io.cphd_stream import read_error_db_flag as parse_error_db, read_pulses_flag as parse_pulses
 
 __all__ = ["ALGORITHMS", "MAX_PIXELS", "is_cphd", "run_cphd_image"]
 
@@ -67,21 +66,6 @@ def _form(c, grid, algorithm, window, filter_path, budget, error_db=None):
         raise
 
 
-def parse_error_db(value, algorithm: str):
-    """``--error-db`` as a float (None when not given): a finite number of dB, and only with ``--algorithm ffbp``."""
-    if value is None:
-        return None
-    if algorithm != "ffbp":
-        raise ConfigError("--error-db", f"plans an FFBP image: give it with --algorithm ffbp, not {algorithm!r}")
-    try:
-        db = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError("--error-db", f"must be a number of dB, e.g. -70, got {value!r}") from None
-    if not (math.isfinite(db) and db < 0):
-        raise ConfigError("--error-db", f"must be a finite number of dB below 0, e.g. -70, got {value!r}")
-    return db
-
-
 def _identity(path: Path, options: dict) -> dict:
     st = path.stat()
     text = f"{path.resolve()}|{st.st_size}|{st.st_mtime_ns}|{sorted(options.items())}"
@@ -93,9 +77,8 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
                    filter_path=None, sicd: bool = False, overwrite: bool = False, channel=None, pulses=None,
                    tropo: str = "in-data", budget=None, geotiff: bool = False, error_db=None) -> dict:
     """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics.
-    ``channel``: identifier (default the first); ``pulses``: ``START:STOP`` or (start, stop); ``tropo``: the
-    reading of TDTropoSRP (``io.cphd_read.TROPO``); ``budget``: memory of the image formation (``--budget``);
-    ``error_db``: FFBP's target error against exact back-projection [dB] (``--error-db``, ``imaging.ffbp.ffbp``)."""
+    ``channel``: identifier (default the first); ``pulses``: ``START:STOP`` or (start, stop); ``tropo``: TDTropoSRP's
+    reading (``io.cphd_read.TROPO``); ``budget``, ``error_db``: as the flags ``--budget``, ``--error-db``."""
     from sarnav.io.sicd import SicdGeometry
     from sarnav.montecarlo.outdir import OutputFolder
     from sarnav.report.image_files import write_image_files
@@ -105,12 +88,11 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
         raise ConfigError("FILE", f"{str(path)!r} is not a readable file")
     if algorithm not in ALGORITHMS:
         raise ConfigError("--algorithm", f"a CPHD is back-projected: must be one of {ALGORITHMS}, got {algorithm!r}")
-    error_db = parse_error_db(error_db, algorithm)
     if geotiff:
         from sarnav.io.geotiff import check_geo_extra
 
         check_geo_extra("--geotiff")
-    budget = parse_budget(budget, "--budget")
+    budget, error_db = parse_budget(budget, "--budget"), parse_error_db(error_db, algorithm, "--error-db")
     pulses = parse_pulses(pulses, "--pulses") if isinstance(pulses, str) else pulses
     c, default = _open(path, channel, pulses, tropo)
     grid = _grid(default, spacing, extent)
