@@ -244,7 +244,8 @@ class _Polar:
 
 
 def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: np.ndarray, dr: float,
-                spacing: float, lam_eff: float, os: float, margin: tuple[int, int] = (POLAR_MARGIN, POLAR_MARGIN)) -> _Polar:
+                spacing: float, lam_eff: float, os: float,
+                margin: tuple[int, int] = (POLAR_MARGIN, POLAR_MARGIN)) -> _Polar:
     c = pos.mean(axis=0)
     off = scene_centre - c
     w = off - np.dot(off, v) * v
