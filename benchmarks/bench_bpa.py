@@ -57,6 +57,7 @@ import numpy as np
 
 from sarnav.imaging.backprojection import backproject, backproject_numpy, resolve_interpolation
 from sarnav.errors import ConfigError
+from sarnav.imaging.collect_image import auto_image
 from sarnav.imaging.ffbp import ffbp
 from sarnav.signal.data import PulseData
 from sarnav.imaging.grid import GroundGrid, PointGrid, regular_axis
@@ -294,6 +295,8 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
     confs = {k: (fn, sarnav_confs(rc, small, npx * npx)[k]) for k, fn in sarnav_confs(rc, grid).items()
              if modes is None or k[len("sarnav "):] in modes}
     resolved = {f"sarnav {label}": resolve_interpolation(rc, m, up, None, npx * npx) for label, m, up in MODES}
+    if modes is None or "default" in modes:   # sarnav image FILE.cphd's default: the faster image within -60 dB
+        confs["sarnav default (auto_image)"] = (lambda: auto_image(rc, grid), lambda: auto_image(rc, small))
     for e in ffbp_errors:
         confs[f"sarnav ffbp error_db {e:g}"] = (lambda e=e: ffbp(rc, grid, error_db=e),
                                                 lambda e=e: ffbp(rc, small, error_db=e))
@@ -314,6 +317,8 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
             md = f"  [{m}" + (f" x{up}]" if m in UPSAMPLED else "]")
         elif k.startswith("sarnav"):
             md = f"  [{img.metadata['interpolation']}" if hasattr(img, "metadata") else ""
+            if "algorithm_choice" in getattr(img, "metadata", {}):
+                md += f", {img.metadata['algorithm_choice']}"
             if "ffbp_oversample" in getattr(img, "metadata", {}):
                 md += (f", {img.metadata['ffbp_kernel']} os {img.metadata['ffbp_oversample']:g}, predicted "
                        f"{img.metadata['ffbp_predicted_error_db']:.1f} dB (whole image)")
@@ -335,7 +340,8 @@ def main(argv=None):
     ap.add_argument("--targets", type=int, default=20)
     ap.add_argument("--peer-sizes", type=int, nargs="*", default=[1024], help="image sizes on the peer's collect")
     ap.add_argument("--peer-modes", nargs="*", default=None,
-                    help="sarnav modes timed on the peer's collect (labels of MODES, e.g. auto precise; default all)")
+                    help="sarnav modes timed on the peer's collect (labels of MODES, e.g. auto precise, or default: "
+                         "imaging.collect_image.auto_image, sarnav image FILE.cphd's default; default all)")
     ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
     ap.add_argument("--peer-ffbp-error-db", type=float, nargs="*", default=[],
                     help="also sarnav's FFBP planned for these target errors [dB] on the peer's collect")

@@ -51,8 +51,8 @@ def outs(tmp_path_factory):
     root = tmp_path_factory.mktemp("cphd_cli")
     a, b, c = root / "a", root / "b", root / "c"
     assert main(["image", "point-target", "--algorithm", "bpa", "--cphd", "--sicd", "--out", str(a), *SETS]) == 0
-    assert main(["image", str(a / "collect.cphd"), "--sicd", "--spacing", SPACING, "--extent", EXTENT,
-                 "--out", str(b)]) == 0
+    assert main(["image", str(a / "collect.cphd"), "--algorithm", "bpa", "--sicd", "--spacing", SPACING, "--extent",
+                 EXTENT, "--out", str(b)]) == 0
     assert main(["image", str(a / "collect.cphd"), "--algorithm", "ffbp", "--spacing", SPACING, "--extent", EXTENT,
                  "--out", str(c)]) == 0
     cfg = load_scenario("point-target", [s for s in SETS if s != "--set"])
@@ -130,6 +130,33 @@ def test_ffbp_of_the_cphd_matches_bpa_within_its_error_model(outs):
     assert m["ffbp"]["bandwidth_hz"] == pytest.approx(m["bandwidth_hz"], rel=1e-12), (m["ffbp"], m["bandwidth_hz"])
 
 
+def test_the_default_is_auto_the_faster_image_within_minus_60_db(outs, tmp_path, capsys):
+    """``sarnav image FILE.cphd`` without ``--algorithm``: "auto" (``imaging.collect_image.auto_image``), recorded in metrics.json
+    with the algorithm that formed the image and why; the image within -60 dB of the BPA image (FFBP planned for -75 dB
+    where it forms it); ``--error-db`` applies to it too, and a target no plan reaches gives back-projection, not an
+    error."""
+    a, b, _, _ = outs
+    cphd = str(a / "collect.cphd")
+    ref = np.load(b / "image.npz")["data"]
+    for name, extra in (("auto", []), ("auto-low", ["--error-db", "-300"])):
+        out = tmp_path / name
+        assert main(["image", cphd, *extra, "--spacing", SPACING, "--extent", EXTENT, "--out", str(out)]) == 0
+        line = capsys.readouterr().out.strip().splitlines()[-1]
+        m = json.loads((out / "metrics.json").read_text())
+        assert m["algorithm"] == "auto" and m["formed_by"] in ("bpa", "ffbp") and line.split()[1] == m["formed_by"]
+        assert m["auto_blocks"] == {m["formed_by"]: m["stream"]["blocks"]}
+        assert m["algorithm_choice"].startswith(m["formed_by"] + ": ")
+        img = np.load(out / "image.npz")["data"]
+        with np.errstate(divide="ignore"):                  # back-projection: the BPA image itself (-inf dB)
+            err = error_db(np.vdot(img, ref) / np.vdot(img, img) * img, ref)
+        print(f"{name}: {m['algorithm_choice']}, {err:.1f} dB against the BPA image")
+        if m["formed_by"] == "ffbp":
+            assert m["ffbp"]["predicted_error_db"] <= -75.0 and err < -60.0, (err, m["ffbp"])
+        else:
+            assert err < -100.0, err
+    assert m["formed_by"] == "bpa" and "no FFBP plan reaches -300 dB" in m["algorithm_choice"]
+
+
 def test_error_db_plans_the_ffbp_image_of_the_cphd(outs, tmp_path, capsys):
     """``--error-db -80``: the cheapest plan predicted within -80 dB, out of kaiser6's reach, so a longer kernel
     (``ffbp_plan.ERROR_KERNELS``), recorded in metrics.json; the image closer to the exact BPA image than the default
@@ -149,7 +176,7 @@ def test_error_db_plans_the_ffbp_image_of_the_cphd(outs, tmp_path, capsys):
     print(f"FFBP vs BPA of the CPHD: default {errs[0]:.1f} dB, --error-db -80 {errs[1]:.1f} dB")
     assert errs[1] < errs[0] - 10.0, errs
     out = ["--out", str(tmp_path / "x")]
-    one_error_line(capsys, main(["image", cphd, "--error-db", "-70", *out]), "--error-db")          # bpa
+    one_error_line(capsys, main(["image", cphd, "--algorithm", "bpa", "--error-db", "-70", *out]), "--error-db")
     one_error_line(capsys, main(["image", cphd, "--algorithm", "ffbp", "--error-db", "x", *out]), "--error-db")
     line = one_error_line(capsys, main(["image", cphd, "--algorithm", "ffbp", "--error-db", "-300", *out]),
                           "--error-db")

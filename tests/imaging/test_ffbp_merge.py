@@ -11,7 +11,8 @@ import pytest
 from test_ffbp import C, gain_error_db, scene
 
 import sarnav.imaging.ffbp as F
-from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, _newton, child_widening, merge_two_pass, two_pass_applies
+from sarnav.imaging.ffbp_merge import (TWO_PASS_MAX_WIDENING, _newton, child_widening, merge_2d, merge_two_pass,
+                                       two_pass_applies)
 
 FC, BW = 9.75e9, 150e6
 LAM = C / FC
@@ -56,7 +57,7 @@ def test_two_pass_merge_gives_the_exact_parent_image_for_a_child_on_or_off_the_t
     exact = _exact_polar(parent, v, child_pos, targets, amps, parent.centre)
     ktab = F.kernel_table("kaiser6", os_)
     errors = []
-    for merge in (merge_two_pass, F._merge):
+    for merge in (merge_two_pass, merge_2d):
         out = np.zeros((parent.nr, parent.nu), np.complex64)
         merge(parent.centre, v, parent.w, parent.r0, parent.dr, parent.u0, parent.du, child.centre, child.r0,
               1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / LAM, ktab, out)

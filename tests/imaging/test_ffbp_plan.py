@@ -137,3 +137,26 @@ def test_polar_margins_cover_every_tap_a_parent_margin_reads():
     assert child_margin((6, 6), 33, 32, 5) == (11, 11) and child_margin((6, 6), 33, 1, 5) == (11, 6)
     assert child_margin((6, 6), 128, 32, 5) == (11, 7)
     assert polar_margins("kaiser10", 4, 1) == [(11, 7), (6, 6)]
+
+
+def test_a_track_off_its_line_gets_fewer_merges_and_the_unreachable_target_says_so():
+    """``track(top_pulses)`` (the track's error for last-level subapertures of that many pulses, ``track_error``) adds to
+    every plan's prediction: a track whose error grows with the top subaperture gets a plan with fewer merges than a
+    straight one, every plan it is given predicts within the target with the track counted, and a target under the
+    track's own error names the track."""
+    def cost_at(os_, kernel):
+        return lambda base, levels: os_ ** 2 * (1.0 + levels) * 1e9 / (1.0 + levels) ** 2   # merges pay
+
+    def track(n):
+        return 1e-9 * n ** 2                                                # -60 dB at 32 pulses, -48 dB at 128
+    straight = plan_for_error(-58.0, 2048, cost_at, base_pulses=8, merge=4, levels=None, kernel="kaiser8")
+    bent = plan_for_error(-58.0, 2048, cost_at, base_pulses=8, merge=4, levels=None, kernel="kaiser8", track=track)
+    assert bent[2] < straight[2]
+    os_, base, lev, kern = bent
+    assert 10 * math.log10(10 ** (ffbp_error_model(os_, lev + 1, kernel=kern) / 10) + track(base * 4 ** lev)) <= -58
+    plan = ffbp_plan(2048, bandwidth=1e8, base_pulses=8, levels=1, oversample=os_, kernel=kern, track=track)
+    assert plan.track_error_db == pytest.approx(10 * math.log10(track(32)))
+    assert plan.predicted_error_db == pytest.approx(
+        10 * math.log10(10 ** (ffbp_error_model(os_, 2, kernel=kern) / 10) + track(32)))
+    with pytest.raises(ConfigError, match=r"^error_db: must be >= -\d\d\.\d dB .* on this track\), got -90"):
+        plan_for_error(-90.0, 2048, cost_at, base_pulses=8, merge=4, levels=None, kernel=None, track=track)

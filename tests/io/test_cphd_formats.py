@@ -130,7 +130,7 @@ def test_in_memory_read_and_stream_agree_with_bpa(tmp_path):
     path = tmp_path / "m.cphd"
     V.write(path, V.Collect(), "CI2", 1)
     c = open_collect(path)
-    img, _, metrics = image_collect(c, GRID, budget=5 * 2**20)
+    img, _, metrics = image_collect(c, GRID, "bpa", budget=5 * 2**20)
     assert metrics["stream"]["blocks"] > 1
     rc, _ = read_collect(path)
     ref = backproject(rc, GRID, interpolation=img.metadata["interpolation"], upsample=img.metadata.get("upsample", 4))

@@ -63,10 +63,10 @@ def test_small_collect_in_blocks_within_a_proportional_budget_equals_the_in_memo
     # warm-up: the same call once untraced (numba's compilation of the kernels this collect's mode needs, FFT plans,
     # lazy imports: ~11 MiB once per process at oversample 4, whatever the file's size; measured 12.9 MiB traced on
     # a first call against 1.9 MiB on the next ones)
-    image_collect(open_collect(path), GRID, oversample=oversample, budget=budget)
+    image_collect(open_collect(path), GRID, "bpa", oversample=oversample, budget=budget)
     tracemalloc.start()
     try:
-        img, _, metrics = image_collect(open_collect(path), GRID, budget=budget, oversample=oversample)
+        img, _, metrics = image_collect(open_collect(path), GRID, "bpa", budget=budget, oversample=oversample)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -86,7 +86,7 @@ def test_ffbp_blocks_add_coherently(tmp_path):
     path = tmp_path / "f.cphd"
     write_in_blocks(path, col)
     c = open_collect(path)
-    bpa = image_collect(c, GRID)[0].data
+    bpa = image_collect(c, GRID, "bpa")[0].data
     img, figures, metrics = image_collect(c, GRID, "ffbp", budget=12 * 2**20)
     assert metrics["stream"]["blocks"] > 1
     assert img.metadata["ffbp_bandwidth_hz"] == figures.bandwidth       # the signal's band, not the sample rate
@@ -99,7 +99,7 @@ def test_a_budget_too_small_is_one_line(tmp_path):
     write_in_blocks(path, V.Collect(n_pulses=32, n_samples=128, scss_jitter=0.0))
     with pytest.raises(ConfigError, match=r"^budget: 1 MiB cannot hold the image \(6561 pixels\) and 1 vector\(s\) "
                                           r"of 128 samples on \d+ range samples: needs at least [\d.]+ MiB$"):
-        image_collect(open_collect(path), GRID, budget=2**20)
+        image_collect(open_collect(path), GRID, "bpa", budget=2**20)
     with pytest.raises(ConfigError, match=r"^budget: reading 32 vectors x 128 samples into memory takes"):
         read_collect(path, budget=1e4)
 

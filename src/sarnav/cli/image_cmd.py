@@ -1,5 +1,5 @@
 """``sarnav image SCENARIO|FILE.toml|FILE.cphd``: simulate one block of echoes and focus it (RDA or BPA, optional
-autofocus), or form an image from a CPHD file (BPA or FFBP); write ``image.npz``, ``image.png`` and ``metrics.json``
+autofocus), or form an image from a CPHD file (BPA, FFBP, or by default the faster of the two within -60 dB of exact); write ``image.npz``, ``image.png`` and ``metrics.json``
 to ``--out`` (default ``./sarnav-out/image-<name>/``), with ``--cphd`` the simulated collect as ``collect.cphd``, with
 ``--sicd`` the back-projected image as ``image.nitf``, with ``--geotiff`` (FILE.cphd) the image geocoded as
 ``image.tif``. Parses and prints only: the work is
@@ -13,10 +13,10 @@ from pathlib import Path
 NAME = "image"
 DEFAULT_OUT_ROOT = "sarnav-out"
 DESCRIPTION = ("Simulate one block of echoes and focus it (RDA or BPA, optional autofocus), or form an image from a "
-               "CPHD file (BPA or FFBP); write image.npz, image.png and metrics.json to --out (default "
+               "CPHD file (BPA, FFBP, or by default the faster within -60 dB of exact); write image.npz, image.png and metrics.json to --out (default "
                "./sarnav-out/image-<name>/), with --cphd the collect as collect.cphd, with --sicd the image as image.nitf.")
 ALGORITHMS = ("rda", "bpa")  # == sarnav.imaging.straight_block.ALGORITHMS (tested)
-CPHD_ALGORITHMS = ("bpa", "ffbp")  # == sarnav.scenarios.cphd_image.ALGORITHMS (tested)
+CPHD_ALGORITHMS = ("auto", "bpa", "ffbp")  # == sarnav.scenarios.cphd_image.ALGORITHMS (tested)
 IMAGE_SCENARIOS = ("point-target", "scatterers")  # the registered scenarios of kind "image" (tested)
 
 
@@ -24,8 +24,9 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(NAME, help="form one SAR image of a simulated scene or of a CPHD file",
                               description=DESCRIPTION)
     p.add_argument("scenario", metavar="SCENARIO", help=f"{' | '.join(IMAGE_SCENARIOS)}, FILE.toml or FILE.cphd")
-    p.add_argument("--algorithm", choices=ALGORITHMS + ("ffbp",),
-                   help="image formation: rda | bpa for a scenario (image.algorithm), bpa (default) | ffbp for a CPHD")
+    p.add_argument("--algorithm", choices=ALGORITHMS + ("ffbp", "auto"),
+                   help="image formation: rda | bpa for a scenario (image.algorithm); auto (default: FFBP where it is "
+                   "within -60 dB of exact and faster, else bpa) | bpa | ffbp for a CPHD")
     p.add_argument("--window", metavar="NAME", help="azimuth window: none, hamming, taylor, kaiser (image.window)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, TOML value), repeatable")
@@ -46,8 +47,9 @@ def add_parser(subparsers) -> None:
                    "data and removed (in-data, default) or already compensated and ignored (compensated)")
     p.add_argument("--budget", metavar="SIZE", help="FILE.cphd: memory of the image formation, e.g. 512M, 2G "
                    "(default 1G); the vectors are read and imaged in blocks that fit")
-    p.add_argument("--error-db", metavar="DB", help="FILE.cphd with --algorithm ffbp: the FFBP image's predicted error "
-                   "against exact back-projection [dB], e.g. -70 (the cheapest plan within it; default: os 2, kaiser6)")
+    p.add_argument("--error-db", metavar="DB", help="FILE.cphd with --algorithm ffbp or auto: the FFBP image's predicted "
+                   "error against exact back-projection [dB], e.g. -70 (the cheapest plan within it; default: os 2, "
+                   "kaiser6 under ffbp, -75 under auto)")
     p.add_argument("--overwrite", action="store_true", help="replace another scenario's results in --out")
     p.set_defaults(handler=run)
 
@@ -61,14 +63,15 @@ def _cphd(args) -> int:
             raise ConfigError(flag, f"applies to simulated scenarios, not to the CPHD file {args.scenario!r}")
     path = Path(args.scenario)
     out = Path(args.out) if args.out else Path(DEFAULT_OUT_ROOT) / f"image-{path.stem}"
-    _progress(f"{path.name}: forming the {args.algorithm or 'bpa'} image")
-    report = run_cphd_image(path, out, algorithm=args.algorithm or "bpa", spacing=args.spacing, extent=args.extent,
+    _progress(f"{path.name}: forming the {args.algorithm or 'auto'} image")
+    report = run_cphd_image(path, out, algorithm=args.algorithm or "auto", spacing=args.spacing, extent=args.extent,
                             window=args.window, filter_path=args.filter, sicd=args.sicd, overwrite=args.overwrite,
                             channel=args.channel, pulses=args.pulses, tropo=args.tropo or "in-data",
                             budget=args.budget, geotiff=args.geotiff, error_db=args.error_db)
     shape = report["image_shape"]
     st = report["stream"]
-    print(f"{path.name}: {report['algorithm']} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses of channel "
+    formed = report.get("formed_by", report["algorithm"])
+    print(f"{path.name}: {formed} image {shape[0]}x{shape[1]} from {report['n_pulses']} pulses of channel "
           f"{report['channel']} ({st['blocks']} block(s) of <= {st['pulses_per_block']}) -> {out}")
     return 0
 
@@ -86,8 +89,9 @@ def run(args) -> int:
                         ("--budget", args.budget), ("--geotiff", args.geotiff or None), ("--error-db", args.error_db)):
         if given is not None:
             raise ConfigError(flag, "applies to a CPHD file (sarnav image FILE.cphd), not to a simulated scenario")
-    if args.algorithm == "ffbp":
-        raise ConfigError("--algorithm", f"ffbp forms images of a CPHD file; a scenario takes one of {ALGORITHMS}")
+    if args.algorithm in CPHD_ALGORITHMS and args.algorithm not in ALGORITHMS:
+        raise ConfigError("--algorithm", f"{args.algorithm} forms images of a CPHD file; a scenario takes one of "
+                                         f"{ALGORITHMS}")
     overrides = list(args.overrides)
     if args.algorithm:
         overrides.append(f"image.algorithm={args.algorithm}")

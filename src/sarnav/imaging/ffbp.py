@@ -58,14 +58,14 @@ from sarnav.imaging.interpolation_error import kernel_values
 from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, cis64, demodulate_parts, polar_tap,
                                     padded_pulses, tabulate, taps_2d)
 from sarnav.imaging.grid import as_grid
-from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, child_widening, merge_two_pass, two_pass_applies
+from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, child_widening, merge_2d, merge_two_pass, two_pass_applies
 from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, TABLE_STEPS, FfbpPlan,  # noqa: F401
                                       check_kernel, child_margin, ffbp_error_model, ffbp_plan, plan_cost,
-                                      plan_for_error, polar_margins)
+                                      plan_for_error, polar_margins, track_error)
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS", "BASE_CHOICES", "polar_image",
-           "kernel_table"]
+           "kernel_table", "FfbpInputs", "PlannedFfbp", "plan_ffbp", "form_ffbp"]
 
 _C = 299792458.0
 #: the level-0 range interpolation's share of the error under "auto": at most this times the polar stages' predicted
@@ -158,48 +158,6 @@ def _polar_eval_plane(origin, e_row, e_col, ny, nx, tile, centre, v, r0, inv_dr,
                         wide[o + b] = np.complex128(out[o + b]) + complex(acc_re[i], acc_im[i])
                     else:
                         out[o + b] += np.complex64(complex(acc_re[i], acc_im[i]))
-
-
-#: parent rows per parallel work item of a merge
-_MERGE_ROWS = 8
-
-
-@numba.njit(parallel=True, fastmath=True, cache=True)
-def _merge(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, two_over_lambda, ktab,
-           out):  # pragma: no cover - compiled
-    """out (Nr, Nu) complex64 += child image ``img`` (complex64) at the parent's polar grid points q(r, u), generated
-    on the fly row by row (float64), interpolated as in ``_polar_eval`` (a parent sums ``merge`` children in float32:
-    rounding ~-140 dB)."""
-    nr, nu = out.shape
-    cnr, cnu = img.shape
-    flat = img.ravel()
-    nt = ktab.shape[1]
-    half = nt // 2
-    pairs = out.ravel().view(np.float32)     # complex64 as interleaved float32 (re, im): taps_2d adds into both
-    ore = pairs[0::2]
-    oim = pairs[1::2]
-    ex = np.empty(nu)                         # the parent's directions e(u) = u v + sqrt(1 - u^2) w, shared by its rows
-    ey = np.empty(nu)
-    ez = np.empty(nu)
-    for j in range(nu):
-        u = pu0 + j * pdu
-        sw = math.sqrt(max(1.0 - u * u, 0.0))
-        ex[j] = u * pv[0] + sw * pw[0]
-        ey[j] = u * pv[1] + sw * pw[1]
-        ez[j] = u * pv[2] + sw * pw[2]
-    chunk = _MERGE_ROWS
-    for blk in numba.prange((nr + chunk - 1) // chunk):
-        base = np.empty(nu, np.uint32)        # work arrays once per block of rows
-        wr = np.empty(nu, np.float32)
-        wu = np.empty(nu, np.float32)
-        f = np.empty(nu, np.float32)
-        for i in range(blk * chunk, min(nr, (blk + 1) * chunk)):
-            r = pr0 + i * pdr
-            for j in range(nu):
-                base[j], wr[j], wu[j], f[j] = polar_tap(pc[0] + r * ex[j], pc[1] + r * ey[j], pc[2] + r * ez[j], r,
-                                                        cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu, two_over_lambda,
-                                                        half)
-            taps_2d(flat, cnu, nu, base, wr, wu, f, ktab, ore, oim, i * nu)
 
 
 @numba.njit(fastmath=True, cache=True)
@@ -373,7 +331,7 @@ class _Former:
             two = self.two_pass and child_widening(float(np.dot(child.centre - grid.centre, self.v)),
                                                    (j1 - j0) * self.spacing, self.b_over_fc) <= TWO_PASS_MAX_WIDENING
             self.wide_children += self.two_pass and not two
-            (merge_two_pass if two else _merge)(
+            (merge_two_pass if two else merge_2d)(
                 grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
                 1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, self.ktab, acc)
         grid.img = acc
@@ -405,7 +363,8 @@ def _plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacin
     return ffbp_plan(p, **kw, data_error=range_error(rc, interpolation, upsample, bw)), interpolation, upsample
 
 
-def _for_error(error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw, cost_at):
+def _for_error(error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw, cost_at,
+               track):
     """(oversample, base_pulses, levels, kernel) of the cheapest plan predicted within ``error_db`` (``plan_for_error``; under
     "auto" the range interpolation's share is ``_RANGE_SHARE``, else its error is known in advance)."""
     if oversample is not None:
@@ -416,14 +375,14 @@ def _for_error(error_db, oversample, rc, p, base_pulses, merge, levels, kernel, 
     else:
         share, fixed = 0.0, range_error(rc, *resolve_interpolation(rc, interpolation, upsample, bw), bw)
     return plan_for_error(error_db, p, cost_at, base_pulses=base_pulses, merge=merge, levels=levels, kernel=kernel,
-                          data_share=share, data_error=fixed)
+                          data_share=share, data_error=fixed, track=track)
 
 
 def _plan(rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, fact, oversample, kernel, error_db,
           interpolation, upsample):
     """(plan, range interpolation, upsample, two-pass merges) for ``ffbp``'s arguments (``fact``: base_pulses, merge,
     levels as given): with ``error_db`` the cheapest (os, base, levels, kernel) predicted within it."""
-    base_pulses, merge, levels = fact["base_pulses"], fact["merge"], fact["levels"]
+    base_pulses, merge, levels, track = fact["base_pulses"], fact["merge"], fact["levels"], fact["track"]
     if kernel is not None:
         check_kernel(kernel)
     check_interpolation(interpolation, upsample)
@@ -433,7 +392,7 @@ def _plan(rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, fact, ov
         oversample, base_pulses, levels, kernel = _for_error(
             error_db, oversample, rc, p, base_pulses, merge, levels, kernel, interpolation, upsample, bw,
             lambda o, kern: plan_cost(p, n_pix, pos, v, hull, bw, o, spacing, lam_eff, merge, FFBP_KERNELS[kern],
-                                      two_pass))
+                                      two_pass), track)
     kernel = "kaiser6" if kernel is None else kernel
     taps = FFBP_KERNELS[kernel]
     oversample = 2.0 if oversample is None else oversample
@@ -441,7 +400,7 @@ def _plan(rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, fact, ov
     cost = plan_cost(p, n_pix, pos, v, hull, bw, os_, spacing, lam_eff, merge, taps, two_pass) \
         if isinstance(os_, float) and os_ >= 1.5 and isinstance(merge, int) and merge >= 2 else None
     kw = dict(base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample, bandwidth=bw, cost=cost,
-              kernel=kernel)
+              kernel=kernel, track=track)
     return (*_plan_range(rc, p, kw, interpolation, upsample, pos, v, hull, centre, spacing, lam_eff), two_pass)
 
 
@@ -482,50 +441,101 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     for the 2-D kernel; ``ffbp_wide_children``: the children of a two-pass plan whose own band widening,
     ``ffbp_merge.child_widening``, was too wide, merged with the 2-D kernel).
     """
-    g = as_grid(grid)
-    plane = plane_of(g)
-    if plane is not None:                        # a plane grid: its pixels are never listed (hull and centre from it)
-        origin, e_row, e_col, ny, nx = plane
-        if not all(np.all(np.isfinite(a)) for a in (origin, e_row, e_col)):
-            raise InputDataError("grid", "pixel positions must be finite (found NaN/inf)")
-        shape = (ny, nx)
-        hull = _plane_hull(origin, e_row, e_col, ny, nx)
-        centre = origin + 0.5 * (ny - 1) * e_row + 0.5 * (nx - 1) * e_col
-        n_pix = ny * nx
-    else:
-        g, pts = grid_points(g)
-        shape = pts.shape[:-1]
-        hull = _hull_points(pts)
-        flat = pts.reshape(-1, 3)
-        centre = flat.mean(axis=0)
-        n_pix = flat.shape[0]
-    data, rng, pos = check_pulses(rc, positions)
-    lam = wavelength_of(rc, wavelength)
-    dr_data = float(rng[1] - rng[0])
-    # default: the band back-projection's "auto" sees (rc.bandwidth, else the pulses' spectrum), not the sample rate: on
-    # CPHD pulses (fs/B 4) the sample rate made every polar grid 4x finer in range and FFBP 4-6x slower
-    bw = _C / (2.0 * dr_data) / data_oversampling(rc) if bandwidth is None else float(bandwidth)
-    if not (math.isfinite(bw) and bw > 0):
-        raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
-    p = data.shape[0]
-    if p < 2:
-        raise InputDataError("rc.data", "FFBP needs >= 2 pulses (use backproject)")
-    track = pos[-1] - pos[0]
-    if np.linalg.norm(track) == 0:
-        raise InputDataError("positions", "first and last antenna positions coincide: no track direction")
-    v = track / np.linalg.norm(track)
-    spacing = float(np.linalg.norm(track)) / (p - 1)
-    fc = _C / lam
-    lam_eff = lam / (1.0 + bw / (2.0 * fc))
+    s = FfbpInputs(rc, grid, positions, wavelength, bandwidth)
+    return form_ffbp(rc, s, plan_ffbp(rc, s, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample,
+                                      kernel=kernel, error_db=error_db, interpolation=interpolation, upsample=upsample))
+
+
+@dataclass(frozen=True)
+class PlannedFfbp:
+    """An FFBP image's plan (:func:`plan_ffbp`): the factorisation, the level-0 range interpolation, whether merges
+    take two 1-D passes, and the predicted cost [back-projected pixel-pulses, ``ffbp_plan.plan_cost``]."""
+
+    plan: FfbpPlan
+    interpolation: str
+    upsample: int
+    two_pass: bool
+    cost: float
+
+
+def plan_ffbp(rc: PulseData, s: "FfbpInputs", *, base_pulses=None, merge=4, levels=None, oversample=None, kernel=None,
+              error_db=None, interpolation="auto", upsample=8) -> PlannedFfbp:
+    """:func:`ffbp`'s plan for its arguments on the inputs ``s`` (a ConfigError naming ``error_db`` where no plan
+    reaches it)."""
     plan, interpolation, upsample, two_pass = _plan(
-        rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, dict(base_pulses=base_pulses, merge=merge,
-                                                                           levels=levels), oversample, kernel,
-        error_db, interpolation, upsample)
-    dr = _C / (2.0 * bw * plan.oversample)
-    rc_c = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
-    former = _Former(rc_c, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass)
-    step = plan.final_pulses
-    if plane is not None:                        # pixels generated tile by tile (no coordinates read)
+        rc, s.p, s.n_pix, s.pos, s.v, s.hull, s.centre, s.spacing, s.lam_eff, s.bw, s.fc,
+        dict(base_pulses=base_pulses, merge=merge, levels=levels, track=s.track), oversample, kernel, error_db,
+        interpolation, upsample)
+    cost = plan_cost(s.p, s.n_pix, s.pos, s.v, s.hull, s.bw, plan.oversample, s.spacing, s.lam_eff, plan.merge,
+                     FFBP_KERNELS[plan.kernel], two_pass)(plan.base_pulses, plan.levels)
+    return PlannedFfbp(plan, interpolation, upsample, two_pass, float(cost))
+
+
+class FfbpInputs:
+    """What :func:`ffbp` reads of its inputs: the grid (a plane's (origin, e_row, e_col, ny, nx) or its points), the
+    pixels that bound its polar extent (``hull``) and a uniform sample of them (for :func:`ffbp_plan.track_error`), the
+    checked pulses, their band and the track's direction."""
+
+    def __init__(self, rc, grid, positions, wavelength, bandwidth):
+        g = as_grid(grid)
+        self.plane = plane_of(g)
+        if self.plane is not None:               # a plane grid: its pixels are never listed (hull and centre from it)
+            origin, e_row, e_col, ny, nx = self.plane
+            if not all(np.all(np.isfinite(a)) for a in (origin, e_row, e_col)):
+                raise InputDataError("grid", "pixel positions must be finite (found NaN/inf)")
+            self.shape, self.flat = (ny, nx), None
+            self.hull = _plane_hull(origin, e_row, e_col, ny, nx)
+            iy, ix = np.meshgrid(np.linspace(0, ny - 1, min(ny, 17)), np.linspace(0, nx - 1, min(nx, 17)),
+                                 indexing="ij")
+            self.sample = origin + iy.reshape(-1, 1) * e_row + ix.reshape(-1, 1) * e_col
+            self.centre = origin + 0.5 * (ny - 1) * e_row + 0.5 * (nx - 1) * e_col
+            self.n_pix = ny * nx
+        else:
+            g, pts = grid_points(g)
+            self.shape = pts.shape[:-1]
+            self.hull = _hull_points(pts)
+            self.flat = pts.reshape(-1, 3)
+            self.centre = self.flat.mean(axis=0)
+            self.n_pix = self.flat.shape[0]
+            self.sample = self.flat[::max(1, self.n_pix // 289)]
+        self.grid = g
+        self.data, self.rng, self.pos = check_pulses(rc, positions)
+        self.lam = wavelength_of(rc, wavelength)
+        dr_data = float(self.rng[1] - self.rng[0])
+        # default: the band back-projection's "auto" sees (rc.bandwidth, else the pulses' spectrum), not the sample
+        # rate: on CPHD pulses (fs/B 4) the sample rate made every polar grid 4x finer in range and FFBP 4-6x slower
+        self.bw = _C / (2.0 * dr_data) / data_oversampling(rc) if bandwidth is None else float(bandwidth)
+        if not (math.isfinite(self.bw) and self.bw > 0):
+            raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
+        self.p = self.data.shape[0]
+        if self.p < 2:
+            raise InputDataError("rc.data", "FFBP needs >= 2 pulses (use backproject)")
+        chord = self.pos[-1] - self.pos[0]
+        if np.linalg.norm(chord) == 0:
+            raise InputDataError("positions", "first and last antenna positions coincide: no track direction")
+        self.v = chord / np.linalg.norm(chord)
+        self.spacing = float(np.linalg.norm(chord)) / (self.p - 1)
+        self.fc = _C / self.lam
+        self.lam_eff = self.lam / (1.0 + self.bw / (2.0 * self.fc))
+        self._bent = {}
+
+    def track(self, n: int) -> float:
+        """The track's error (linear) with last-level subapertures of ``n`` pulses (``ffbp_plan.track_error``)."""
+        if n not in self._bent:
+            self._bent[n] = track_error(self.pos, self.sample, self.v, self.centre, self.lam, n)
+        return self._bent[n]
+
+
+def form_ffbp(rc: PulseData, s: FfbpInputs, planned: PlannedFfbp) -> SarImage:
+    """The image of ``planned`` (:func:`ffbp` steps 2-4) on the inputs ``s``, with its metadata."""
+    plan, interpolation, upsample, two_pass = planned.plan, planned.interpolation, planned.upsample, planned.two_pass
+    dr = _C / (2.0 * s.bw * plan.oversample)
+    rc_c = PulseData(s.data, s.rng, np.asarray(rc.pulse_times), s.pos, None, compressed=True, wavelength=s.lam)
+    former = _Former(rc_c, s.pos, s.lam, s.v, s.hull, s.centre, dr, s.spacing, s.lam_eff, plan, interpolation,
+                     upsample, two_pass)
+    step, p, v, lam = plan.final_pulses, s.p, s.v, s.lam
+    if s.plane is not None:                      # pixels generated tile by tile (no coordinates read)
+        origin, e_row, e_col, ny, nx = s.plane
         acc = np.zeros(ny * nx, np.complex64)
         values = np.empty(ny * nx, np.complex128)
         starts = range(0, p, step)
@@ -534,20 +544,21 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
             _polar_eval_plane(origin, e_row, e_col, ny, nx, _EVAL_TILE, sb.centre, v, sb.r0, 1.0 / sb.dr, sb.u0,
                               1.0 / sb.du, sb.img, 2.0 / lam, former.ktab, acc, k0 == starts[-1], values)
     else:
-        order = _tile_order(shape)      # pixels in 32 x 32 tiles: polar footprint stays in cache
-        tiled = np.ascontiguousarray(flat[order])
-        out_re = np.zeros(flat.shape[0])
-        out_im = np.zeros(flat.shape[0])
-        zero = np.zeros(flat.shape[0])
+        order = _tile_order(s.shape)    # pixels in 32 x 32 tiles: polar footprint stays in cache
+        tiled = np.ascontiguousarray(s.flat[order])
+        out_re = np.zeros(s.n_pix)
+        out_im = np.zeros(s.n_pix)
+        zero = np.zeros(s.n_pix)
         for k0 in range(0, p, step):
             sub = former.build(k0, min(p, k0 + step), plan.levels)
             _evaluate(sub, tiled, zero, v, lam, former.ktab, out_re, out_im)
-        values = np.empty(flat.shape[0], dtype=np.complex128)
+        values = np.empty(s.n_pix, dtype=np.complex128)
         values[order] = out_re + 1j * out_im
-    img = sar_image(g, values.reshape(shape), rc, lam, interpolation, upsample, "ffbp")
+    img = sar_image(s.grid, values.reshape(s.shape), rc, lam, interpolation, upsample, "ffbp")
     img.metadata.update({"ffbp_base_pulses": plan.base_pulses, "ffbp_merge": plan.merge, "ffbp_levels": plan.levels,
                          "ffbp_oversample": plan.oversample, "ffbp_kernel": plan.kernel,
-                         "ffbp_predicted_error_db": plan.predicted_error_db, "ffbp_bandwidth_hz": bw,
+                         "ffbp_predicted_error_db": plan.predicted_error_db, "ffbp_bandwidth_hz": s.bw,
+                         "ffbp_track_error_db": plan.track_error_db,
                          "ffbp_merge_passes": 2 if two_pass else 1, "ffbp_wide_children": former.wide_children})
     return img
 

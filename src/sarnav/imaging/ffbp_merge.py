@@ -2,7 +2,7 @@
 
 The child image I_C(rho, mu) (range rho from its centre c_C, direction cosine mu against the track direction v) is
 wanted at the parent's grid points q(r, u) = c_P + r (u v + sqrt(1 - u^2) w_P), remodulated by
-exp(j 4 pi (rho(q) - r) / lambda) (``ffbp`` module doc, step 3). The 2-D kernel of ``ffbp._merge`` reads N x N taps
+exp(j 4 pi (rho(q) - r) / lambda) (``ffbp`` module doc, step 3). The 2-D kernel of ``merge_2d`` reads N x N taps
 at each point. A parent row (fixed r) is a circle in the parent's half-plane, and along it the point's child
 coordinate mu(q) runs monotonically; so, per parent row r_i (the classic two-pass warp, Catmull & Smith 1980;
 FFBP's factorisation is Ulander et al. 2003):
@@ -32,9 +32,9 @@ import math
 import numba
 import numpy as np
 
-from sarnav.imaging.kernels import cis32, taps_along, taps_down
+from sarnav.imaging.kernels import cis32, polar_tap, taps_2d, taps_along, taps_down
 
-__all__ = ["TWO_PASS_MAX_WIDENING", "merge_two_pass", "two_pass_applies", "child_widening"]
+__all__ = ["TWO_PASS_MAX_WIDENING", "merge_two_pass", "merge_2d", "two_pass_applies", "child_widening"]
 
 #: the largest band widening (|a| / l_C)(B / f_c) of the outermost child at which ``ffbp`` merges in two passes (else
 #: with the 2-D kernel): measured on the 192^2 test scene, merge 4, os 2 and 3, the two-pass image error against the 2-D
@@ -81,7 +81,7 @@ def merge_two_pass(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cd
     """out (Nr, Nu) complex64 += child image ``img`` ((cnr, cnu) complex64; rows: range r0 + i / inv_dr, columns:
     direction cosine u0 + j / inv_du, about the child centre ``cc``) at the parent's grid points, remodulated (module
     doc); ``ktab``: the kernel table (F + 1, N) of ``ffbp.kernel_table``; points whose support leaves the child
-    image add nothing (as in ``ffbp._merge``)."""
+    image add nothing (as in ``merge_2d``)."""
     nr, nu = out.shape
     cnr, cnu = img.shape
     flat = img.ravel()
@@ -171,3 +171,45 @@ def merge_two_pass(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cd
                 taps_along(jre, jim, base2, w2, c2_, s2, ktab, nt, scale, are, aim)
             for j in range(nu):
                 out[i, j] += np.complex64(complex(are[j], aim[j]))
+
+
+#: parent rows per parallel work item of a 2-D merge
+_MERGE_ROWS = 8
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def merge_2d(pc, pv, pw, pr0, pdr, pu0, pdu, cc, cr0, inv_cdr, cu0, inv_cdu, img, two_over_lambda, ktab,
+           out):  # pragma: no cover - compiled
+    """out (Nr, Nu) complex64 += child image ``img`` (complex64) at the parent's polar grid points q(r, u), generated
+    on the fly row by row (float64), interpolated as in ``_polar_eval`` (a parent sums ``merge`` children in float32:
+    rounding ~-140 dB)."""
+    nr, nu = out.shape
+    cnr, cnu = img.shape
+    flat = img.ravel()
+    nt = ktab.shape[1]
+    half = nt // 2
+    pairs = out.ravel().view(np.float32)     # complex64 as interleaved float32 (re, im): taps_2d adds into both
+    ore = pairs[0::2]
+    oim = pairs[1::2]
+    ex = np.empty(nu)                         # the parent's directions e(u) = u v + sqrt(1 - u^2) w, shared by its rows
+    ey = np.empty(nu)
+    ez = np.empty(nu)
+    for j in range(nu):
+        u = pu0 + j * pdu
+        sw = math.sqrt(max(1.0 - u * u, 0.0))
+        ex[j] = u * pv[0] + sw * pw[0]
+        ey[j] = u * pv[1] + sw * pw[1]
+        ez[j] = u * pv[2] + sw * pw[2]
+    chunk = _MERGE_ROWS
+    for blk in numba.prange((nr + chunk - 1) // chunk):
+        base = np.empty(nu, np.uint32)        # work arrays once per block of rows
+        wr = np.empty(nu, np.float32)
+        wu = np.empty(nu, np.float32)
+        f = np.empty(nu, np.float32)
+        for i in range(blk * chunk, min(nr, (blk + 1) * chunk)):
+            r = pr0 + i * pdr
+            for j in range(nu):
+                base[j], wr[j], wu[j], f[j] = polar_tap(pc[0] + r * ex[j], pc[1] + r * ey[j], pc[2] + r * ez[j], r,
+                                                        cc, pv, cr0, inv_cdr, cu0, inv_cdu, cnr, cnu, two_over_lambda,
+                                                        half)
+            taps_2d(flat, cnu, nu, base, wr, wu, f, ktab, ore, oim, i * nu)

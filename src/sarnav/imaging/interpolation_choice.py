@@ -20,7 +20,7 @@ from sarnav.imaging.kernels import RANGE_KERNEL, UPSAMPLED
 from sarnav.signal.data import PulseData
 
 __all__ = ["AUTO_MAX_ERROR", "PRECISE_MAX_ERROR", "data_oversampling", "resolve_interpolation", "resolve_ffbp_range",
-           "range_error"]
+           "range_error", "auto_cost"]
 
 #: "auto" picks the cheapest of linear / upsample x2..x8 / lagrange / upsample-lagrange x2..x32 whose predicted error
 #: (flat band at fs/B * factor, per-sample error of the kernel: sarnav.imaging.interpolation_error) is at most this:
@@ -103,6 +103,16 @@ def range_error(rc: PulseData, mode: str, factor: int, bandwidth: float | None) 
     if mode in UPSAMPLED:
         return summed_interpolation_error(RANGE_KERNEL[mode], os_data * factor)
     return summed_interpolation_error(RANGE_KERNEL[mode], os_data)
+
+
+def auto_cost(rc: PulseData, bandwidth: float | None, pixels: int) -> float:
+    """Predicted time of back-projecting ``rc`` onto ``pixels`` pixels under "auto" [linear pixel-pulses]: the pulses
+    times :func:`_auto_cost` of the mode "auto" resolves to (what ``imaging.collect_image.auto_image`` weighs FFBP's plan
+    against)."""
+    mode, factor = resolve_interpolation(rc, "auto", 4, bandwidth, pixels)
+    n_samples = int(np.shape(rc.data)[1]) if np.ndim(rc.data) == 2 else 1
+    per = _auto_cost(RANGE_KERNEL[mode], factor if mode in UPSAMPLED else 1, n_samples, pixels)[0]
+    return float(np.shape(rc.data)[0]) * per
 
 
 def _cheapest(os_: float, limit: float, n_samples: int, pixels: int | None, upsample: int, error) -> tuple[str, int]:

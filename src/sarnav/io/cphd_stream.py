@@ -19,7 +19,7 @@ import numpy as np
 
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging.backprojection import backproject, data_oversampling, resolve_interpolation
-from sarnav.imaging.collect_image import ALGORITHMS, CollectFigures, collect_image_metrics
+from sarnav.imaging.collect_image import ALGORITHMS, AUTO_ERROR_DB, CollectFigures, auto_image, collect_image_metrics
 from sarnav.imaging.ffbp import ffbp
 from sarnav.imaging.kernels import UPSAMPLED
 from sarnav.io.cphd_read import DEFAULT_BUDGET, CphdCollect, conversion_bytes
@@ -59,11 +59,11 @@ class StreamPlan:
 
 def read_error_db_flag(value, algorithm: str, field: str = "error_db"):
     """FFBP's target error as a float (None when not given): a finite number of dB below 0, only with ``algorithm``
-    "ffbp"; a ConfigError naming ``field`` otherwise."""
+    "ffbp" or "auto"; a ConfigError naming ``field`` otherwise."""
     if value is None:
         return None
-    if algorithm != "ffbp":
-        raise ConfigError(field, f"plans an FFBP image: give it with --algorithm ffbp, not {algorithm!r}")
+    if algorithm not in ("ffbp", "auto"):
+        raise ConfigError(field, f"plans an FFBP image: give it with --algorithm ffbp or auto, not {algorithm!r}")
     try:
         db = float(value)
     except (TypeError, ValueError):
@@ -143,54 +143,61 @@ def _figures(c: CphdCollect, mid: PulseData) -> CollectFigures:
     return CollectFigures(c.fxc, bandwidth, _C / c.fxc, prf, speed)
 
 
-def image_collect(c: CphdCollect, grid, algorithm: str = "bpa", *, window=None, window_field: str = "window",
+def image_collect(c: CphdCollect, grid, algorithm: str = "auto", *, window=None, window_field: str = "window",
                   filter=None, range_axis=None, oversample: float = DEFAULT_OVERSAMPLE, budget: float = DEFAULT_BUDGET,
                   budget_field: str = "budget", error_db: float | None = None,
                   error_db_field: str = "error_db") -> tuple[SarImage, CollectFigures, dict]:
     """The image of the selected vectors of ``c`` (``io.cphd_read.open_collect``) on ``grid`` by ``algorithm``
-    ("bpa" or "ffbp"), formed in blocks within ``budget`` bytes (module doc); the azimuth ``window`` over all the
-    selected pulses, ``filter`` the frequency samples' weights, ``error_db`` FFBP's target error (``imaging.ffbp.ffbp``).
-    Returns what ``imaging.collect_image.
-    run_collect_image`` returns for the whole collect read into memory (image, figures, metrics), the metrics with
-    ``stream`` (blocks, pulses per block, budget, estimated peak)."""
+    ("auto", "bpa" or "ffbp"), formed in blocks within ``budget`` bytes (module doc); the azimuth ``window`` over all
+    the selected pulses, ``filter`` the frequency samples' weights, ``error_db`` FFBP's target error
+    (``imaging.ffbp.ffbp``; under "auto" instead of ``collect_image.AUTO_ERROR_DB``: ``imaging.collect_image.auto_image``, block by
+    block). Returns what ``imaging.collect_image.run_collect_image`` returns for the whole collect read into memory
+    (image, figures, metrics), the metrics with ``stream`` (blocks, pulses per block, budget, estimated peak) and under
+    "auto" ``auto_blocks`` (how many blocks each algorithm formed)."""
     if algorithm not in ALGORITHMS:
         raise ConfigError("algorithm", f"must be one of {ALGORITHMS}, got {algorithm!r}")
-    if error_db is not None and algorithm != "ffbp":
-        raise ConfigError(error_db_field, f"plans an FFBP image: applies to algorithm 'ffbp', not {algorithm!r}")
+    if error_db is not None and algorithm == "bpa":
+        raise ConfigError(error_db_field, "plans an FFBP image: applies to algorithm 'ffbp' or 'auto', not 'bpa'")
+    memory = "bpa" if algorithm == "bpa" else "ffbp"          # "auto" is planned for the larger of the two
     _check_aperture(c)
     axis = default_range_axis(c.header(), oversample) if range_axis is None else np.asarray(range_axis, np.float64)
     p = c.n_pulses
     pixels = int(np.prod(grid.shape))
-    n_band = band_vectors(c, axis.size, pixels, algorithm, _check_budget(budget, budget_field))
+    n_band = band_vectors(c, axis.size, pixels, memory, _check_budget(budget, budget_field))
     k0 = max(0, p // 2 - n_band // 2)
     mid = _pulses(c, k0, min(p, k0 + n_band), axis, filter)        # the band, once for all blocks
     figures = _figures(c, mid)
-    mode, up = ("upsample", _FFBP_UPSAMPLE) if algorithm == "ffbp" else \
+    mode, up = ("upsample", _FFBP_UPSAMPLE) if memory == "ffbp" else \
         resolve_interpolation(mid, "auto", 4, figures.bandwidth, pixels)
     del mid
-    plan = stream_plan(c, axis.size, pixels, algorithm, up if mode in UPSAMPLED else None, budget,
+    plan = stream_plan(c, axis.size, pixels, memory, up if mode in UPSAMPLED else None, budget,
                        budget_field=budget_field)
     w = as_window(window or "none", window_field)
     weights = w.samples(p) if w.name != "none" else None
-    acc, img = None, None
+    acc, img, formed = None, None, {}
     for a in range(0, p, plan.pulses_per_block):
         b = min(p, a + plan.pulses_per_block)
         rc = _pulses(c, a, b, axis, filter)
         if weights is not None:
             rc.data *= weights[a:b, None]
         img = backproject(rc, grid, interpolation=mode, upsample=up, bandwidth=figures.bandwidth) \
-            if algorithm == "bpa" else _ffbp(rc, grid, figures.bandwidth, error_db, error_db_field)
+            if algorithm == "bpa" else _ffbp(rc, grid, figures.bandwidth, error_db, error_db_field, algorithm)
         acc = img.data if acc is None else acc + img.data
+        formed[img.metadata["algorithm"]] = formed.get(img.metadata["algorithm"], 0) + 1
         del rc
     img.data = acc
     img.metadata.update({"n_pulses": p, "window": w.label})
     metrics = collect_image_metrics(_Shape(p, axis.size, _C / c.fxc), img, algorithm, figures.bandwidth)
     metrics["stream"] = plan.as_dict()
+    if algorithm == "auto":
+        metrics["auto_blocks"] = formed
     return img, figures, metrics
 
 
-def _ffbp(rc, grid, bandwidth, error_db, field):
+def _ffbp(rc, grid, bandwidth, error_db, field, algorithm):
     try:
+        if algorithm == "auto":
+            return auto_image(rc, grid, bandwidth=bandwidth, error_db=AUTO_ERROR_DB if error_db is None else error_db)
         return ffbp(rc, grid, bandwidth=bandwidth, error_db=error_db)
     except ConfigError as err:            # a target no plan reaches, named as the caller's key
         if err.field == "error_db":

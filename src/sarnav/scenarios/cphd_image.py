@@ -73,7 +73,7 @@ def _identity(path: Path, options: dict) -> dict:
             "seed": None}
 
 
-def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=None, window: str | None = None,
+def run_cphd_image(path, out, *, algorithm: str = "auto", spacing=None, extent=None, window: str | None = None,
                    filter_path=None, sicd: bool = False, overwrite: bool = False, channel=None, pulses=None,
                    tropo: str = "in-data", budget=None, geotiff: bool = False, error_db=None) -> dict:
     """Read the CPHD ``path``, form the image, write the files into ``out`` (module doc); return the metrics.
@@ -115,6 +115,6 @@ def run_cphd_image(path, out, *, algorithm: str = "bpa", spacing=None, extent=No
             report["files"] = [name for name, on in (("image.nitf", sicd), ("image.tif", geotiff)) if on]
         geometry = SicdGeometry(grid, c.positions, c.pulse_times, figures.wavelength, figures.bandwidth) \
             if sicd else None
-        write_image_files(out, img, figures, report, f"{path.name}: {algorithm.upper()}", speed=figures.speed,
+        write_image_files(out, img, figures, report, f"{path.name}: {report.get('formed_by', algorithm).upper()}", speed=figures.speed,
                           sicd=geometry, geotiff=grid if geotiff else None)
         return report
