@@ -270,7 +270,7 @@ def peak_mib(fn) -> float:
         tracemalloc.stop()
 
 
-def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
+def peer_collect_table(npx: int, modes=None, ffbp_errors=(), plane: bool = False) -> None:
     """The peer's simulated collect through sarnav's CPHD path: every mode of both tools, one timed call each (after
     a warm-up at 64^2), time, pixel-pulses/s and error against the exact float64 sum on the 16 x 16 sample; with
     ``ffbp_errors`` (dB) also sarnav's FFBP planned for each target error (``ffbp(rc, grid, error_db=...)``), the
@@ -300,6 +300,9 @@ def peer_collect_table(npx: int, modes=None, ffbp_errors=()) -> None:
     for e in ffbp_errors:
         confs[f"sarnav ffbp error_db {e:g}"] = (lambda e=e: ffbp(rc, grid, error_db=e),
                                                 lambda e=e: ffbp(rc, small, error_db=e))
+        if plane:                          # the polar images on the grid's plane (a bent track's surface) for the cost
+            confs[f"sarnav ffbp error_db {e:g} plane"] = (lambda e=e: ffbp(rc, grid, error_db=e, surface="plane"),
+                                                          lambda e=e: ffbp(rc, small, error_db=e, surface="plane"))
     if pc.peer_available() is None:
         for interp in ("cubic", "linear"):
             confs[f"fastsar bp {interp} x8"] = (lambda i=interp: pc.fastsar_image(ph, npx, "bp", interp=i),
@@ -343,6 +346,9 @@ def main(argv=None):
                     help="sarnav modes timed on the peer's collect (labels of MODES, e.g. auto precise, or default: "
                          "imaging.collect_image.auto_image, sarnav image FILE.cphd's default; default all)")
     ap.add_argument("--no-table", action="store_true", help="skip the interpolation-error table")
+    ap.add_argument("--peer-plane", action="store_true",
+                    help="also time each --peer-ffbp-error-db plan with its polar images on the grid's plane "
+                         "(surface='plane': what a bent track gets)")
     ap.add_argument("--peer-ffbp-error-db", type=float, nargs="*", default=[],
                     help="also sarnav's FFBP planned for these target errors [dB] on the peer's collect")
     args = ap.parse_args(argv)
@@ -353,7 +359,7 @@ def main(argv=None):
     if args.rounds > 0:
         own_collect(args, threads)
     for npx in args.peer_sizes:
-        peer_collect_table(npx, args.peer_modes, args.peer_ffbp_error_db)
+        peer_collect_table(npx, args.peer_modes, args.peer_ffbp_error_db, args.peer_plane)
     if not args.no_table:
         interpolation_table()
 

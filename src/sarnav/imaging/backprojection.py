@@ -64,7 +64,7 @@ from sarnav.imaging.kernels import (GATHER_MODE, PAD, PHASE_F32_MAX_ERROR, PHASE
 __all__ = ["backproject", "backproject_numpy", "backproject_points", "backproject_fan", "resolve_interpolation",
            "data_oversampling", "plane_of", "PHASE_F32_MAX_ERROR",
            "INTERPOLATIONS", "PHASE_POLY_MAX_ERROR", "AUTO_MAX_ERROR", "PRECISE_MAX_ERROR",
-           "bpa_fan_kernel", "check_pulses", "check_interpolation", "wavelength_of", "grid_points", "sar_image"]
+           "bpa_fan_kernel", "bpa_point_kernel", "check_pulses", "check_interpolation", "wavelength_of", "grid_points", "sar_image"]
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "lagrange", "upsample", "upsample-lagrange", "precise", "auto")
 #: pixels per parallel work item (a block of contiguous pixels: the row stays in L1 cache)
@@ -163,6 +163,10 @@ def _bpa_kernel(px, py, pz, ant, data, u_offset, inv_dr, u_max, two_over_lambda,
             for i in range(n):
                 out_re[i0 + i] += acc_r[i]
                 out_im[i0 + i] += acc_i[i]
+
+
+#: the point kernel under a public name (``imaging.ffbp``'s level 0 on the image's plane, ``ffbp_surface``)
+bpa_point_kernel = _bpa_kernel
 
 
 @numba.njit(fastmath=True, cache=True)

@@ -19,7 +19,8 @@ import numpy as np
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.imaging import quality
 from sarnav.imaging.backprojection import backproject, data_oversampling
-from sarnav.imaging.ffbp import FfbpInputs, ffbp, form_ffbp, plan_ffbp
+from sarnav.imaging.ffbp import ffbp, form_ffbp, plan_ffbp
+from sarnav.imaging.ffbp_inputs import FfbpInputs
 from sarnav.imaging.interpolation_choice import auto_cost
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.signal.windows import as_window

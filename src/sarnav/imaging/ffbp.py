@@ -37,8 +37,9 @@ error that survives the sum over pulses (``summed_interpolation_error``): predic
 range interpolation is the cheapest with eps_data <= ``_RANGE_SHARE`` (a third) of the stages' error. The
 "tile" of this factorisation is the subaperture (``base_pulses`` x ``merge^levels`` pulses) and
 its polar cell (Delta_r, Delta_u). A subaperture that is not straight (navigation errors,
-manoeuvres) adds an error the model does not include: the residual of its positions about the
-line through c_J along v, ~ (4 pi / lambda) d_perp * angle-spread.
+manoeuvres) adds, on the half-planes of step 1, the track's own error (``ffbp_plan.track_error``, in every
+prediction); on a plane grid the polar grids' points lie instead on the grid's plane where the track is not straight
+(``ffbp_surface``: exact for any track, 2-D merges; ``surface``).
 """
 
 from __future__ import annotations
@@ -52,17 +53,19 @@ import numpy as np
 from sarnav.errors import ConfigError, InputDataError
 from sarnav.signal.data import PulseData, SarImage
 from sarnav.imaging.backprojection import (DEFAULT_BLOCK, DEFAULT_PULSE_BLOCK, backproject_points, bpa_fan_kernel,
+                                           bpa_point_kernel,
                                            check_interpolation, check_pulses, grid_points,
-                                           plane_of, resolve_interpolation, sar_image, wavelength_of)
+                                           resolve_interpolation, sar_image, wavelength_of)
 from sarnav.imaging.interpolation_error import kernel_values
 from sarnav.imaging.kernels import (GATHER_MODE, UPSAMPLED, cis64, demodulate_parts, polar_tap,
                                     padded_pulses, tabulate, taps_2d)
-from sarnav.imaging.grid import as_grid
 from sarnav.imaging.ffbp_merge import TWO_PASS_MAX_WIDENING, child_widening, merge_2d, merge_two_pass, two_pass_applies
-from sarnav.imaging.interpolation_choice import data_oversampling, range_error, resolve_ffbp_range
+from sarnav.imaging.interpolation_choice import range_error, resolve_ffbp_range
+from sarnav.imaging.ffbp_inputs import FfbpInputs, hull_points
+from sarnav.imaging.ffbp_surface import merge_2d_plane, merge_two_pass_plane, plane_points, surface_constants
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, FFBP_KERNELS, POLAR_MARGIN, TABLE_STEPS, FfbpPlan,  # noqa: F401
                                       check_kernel, child_margin, ffbp_error_model, ffbp_plan, plan_cost,
-                                      plan_for_error, polar_margins, track_error)
+                                      plan_for_error, polar_margins)
 
 __all__ = ["ffbp", "ffbp_plan", "ffbp_error_model", "FfbpPlan", "FFBP_KERNELS", "BASE_CHOICES", "polar_image",
            "kernel_table", "FfbpInputs", "PlannedFfbp", "plan_ffbp", "form_ffbp"]
@@ -189,6 +192,7 @@ class _Polar:
     du: float
     nu: int
     img: np.ndarray | None = None          # (nr, nu) complex64, once formed
+    sc: np.ndarray | None = None           # on the image's plane: ffbp_surface.surface_constants; else the half-plane
 
     def directions(self, v: np.ndarray) -> np.ndarray:
         """(nu, 3) unit vectors e(u) = u v + sqrt(1 - u^2) w: the grid's points are q(r, u) = centre + r e(u)."""
@@ -203,7 +207,7 @@ class _Polar:
 
 def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: np.ndarray, dr: float,
                 spacing: float, lam_eff: float, os: float,
-                margin: tuple[int, int] = (POLAR_MARGIN, POLAR_MARGIN)) -> _Polar:
+                margin: tuple[int, int] = (POLAR_MARGIN, POLAR_MARGIN), plane=None) -> _Polar:
     c = pos.mean(axis=0)
     off = scene_centre - c
     w = off - np.dot(off, v) * v
@@ -223,35 +227,7 @@ def _polar_grid(pos: np.ndarray, v: np.ndarray, hull: np.ndarray, scene_centre: 
     nu = int(math.ceil((float(u.max()) + m_u * du - u0) / du)) + 1
     if nr * nu >= 2**31:  # kernels.polar_tap's flat index is int32 (16 GiB of complex64 per polar image before that)
         raise ConfigError("grid", f"a polar image of {nr} x {nu} samples: at most 2^31 - 1; form the image in tiles")
-    return _Polar(c, w, r0, dr, nr, u0, du, nu)
-
-
-def _hull_points(pts: np.ndarray) -> np.ndarray:
-    """Pixels that bound the image's (r, u) extent: the border of a (Ny, Nx) grid plus a coarse interior."""
-    if pts.ndim == 3 and min(pts.shape[:2]) >= 2:
-        step = max(1, min(pts.shape[:2]) // 32)
-        parts = [pts[0], pts[-1], pts[:, 0], pts[:, -1], pts[::step, ::step].reshape(-1, 3)]
-        return np.concatenate([p.reshape(-1, 3) for p in parts])
-    return pts.reshape(-1, 3)
-
-
-def _plane_hull(origin, e_row, e_col, ny, nx) -> np.ndarray:
-    """:func:`_hull_points` of the plane grid origin + i e_row + j e_col (i < ny, j < nx), without listing its pixels.
-    The edges at most 257 points each, ends included: between two of them a range or direction cosine can pass its
-    sampled extreme by at most (step x pixel)^2 / (8 r), 1e-4 m for 2-m steps at 5 km, against the polar grids' margin
-    of POLAR_MARGIN samples (every subaperture's polar grid is sized from these points: 0.1 s at 2048^2 with every
-    edge pixel)."""
-    step = max(1, min(ny, nx) // 32) if min(ny, nx) >= 2 else 1
-    iy, ix = np.arange(ny, dtype=np.float64), np.arange(nx, dtype=np.float64)
-    ey = np.append(iy[::max(1, -(-ny // 256))], ny - 1.0)
-    ex = np.append(ix[::max(1, -(-nx // 256))], nx - 1.0)
-    parts = [(np.zeros(ex.size), ex), (np.full(ex.size, ny - 1.0), ex), (ey, np.zeros(ey.size)),
-             (ey, np.full(ey.size, nx - 1.0))]
-    a, b = np.meshgrid(iy[::step], ix[::step], indexing="ij")
-    parts.append((a.ravel(), b.ravel()))
-    i = np.concatenate([q[0] for q in parts])
-    j = np.concatenate([q[1] for q in parts])
-    return origin + i[:, None] * e_row + j[:, None] * e_col
+    return _Polar(c, w, r0, dr, nr, u0, du, nu, None, None if plane is None else surface_constants(c, v, w, *plane))
 
 
 def _tile_order(shape, tile: int = 32) -> np.ndarray:
@@ -275,8 +251,9 @@ def _demodulate(values: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
 class _Former:
     """Builds polar images recursively (depth first: memory of one branch only)."""
 
-    def __init__(self, rc, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass):
-        self.rc, self.pos, self.lam, self.v, self.two_pass = rc, pos, lam, v, two_pass
+    def __init__(self, rc, pos, lam, v, hull, centre, dr, spacing, lam_eff, plan, interpolation, upsample, two_pass,
+                 plane=None):
+        self.rc, self.pos, self.lam, self.v, self.two_pass, self.plane = rc, pos, lam, v, two_pass, plane
         self.b_over_fc = 2.0 * (lam / lam_eff - 1.0)      # lam_eff = lam / (1 + B / (2 f_c))
         self.wide_children = 0                             # children merged with the 2-D kernel in a two-pass plan
         self.hull, self.centre, self.dr, self.spacing, self.lam_eff = hull, centre, dr, spacing, lam_eff
@@ -301,11 +278,18 @@ class _Former:
         if self._pulses is None or not (self._pulses[0] <= k0 and k1 <= self._pulses[1]):
             self._prepare(k0, k1)
         b0, _, padded, common = self._pulses
-        e = grid.directions(self.v)
         out_re = np.zeros(grid.nu * grid.nr)
         out_im = np.zeros(grid.nu * grid.nr)
-        bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
-                        np.ascontiguousarray(self.pos[k0:k1]), padded[k0 - b0:k1 - b0], *common, out_re, out_im)
+        ant = np.ascontiguousarray(self.pos[k0:k1])
+        if grid.sc is not None:                      # on the image's plane: the points of each line (ffbp_surface)
+            pts = np.empty((3, grid.nu * grid.nr))
+            plane_points(grid.centre, self.v, grid.w, grid.sc, grid.r0, grid.dr, grid.nr, grid.u0, grid.du, grid.nu,
+                         *pts)
+            bpa_point_kernel(*pts, ant, padded[k0 - b0:k1 - b0], *common, out_re, out_im)
+        else:
+            e = grid.directions(self.v)
+            bpa_fan_kernel(np.ascontiguousarray(grid.centre + grid.r0 * e), np.ascontiguousarray(grid.dr * e), grid.nr,
+                           ant, padded[k0 - b0:k1 - b0], *common, out_re, out_im)
         img = np.empty((grid.nr, grid.nu), np.complex64)
         _demodulate_lines(out_re, out_im, grid.r0, grid.dr, 2.0 / self.lam, img)
         return img
@@ -320,7 +304,7 @@ class _Former:
         if level > 0 and k1 - k0 <= step:    # one child (the aperture's last, short block): the parent's grid is the
             return self.build(k0, k1, level - 1, margin)  # child's (the same pulses), so it is the image as it is
         grid = _polar_grid(self.pos[k0:k1], self.v, self.hull, self.centre, self.dr, self.spacing, self.lam_eff,
-                           self.plan.oversample, margin)
+                           self.plan.oversample, margin, self.plane)
         if level == 0:
             grid.img = self._level0(grid, k0, k1)
             return grid
@@ -331,9 +315,12 @@ class _Former:
             two = self.two_pass and child_widening(float(np.dot(child.centre - grid.centre, self.v)),
                                                    (j1 - j0) * self.spacing, self.b_over_fc) <= TWO_PASS_MAX_WIDENING
             self.wide_children += self.two_pass and not two
-            (merge_two_pass if two else merge_2d)(
-                grid.centre, self.v, grid.w, grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0,
-                1.0 / child.dr, child.u0, 1.0 / child.du, child.img, 2.0 / self.lam, self.ktab, acc)
+            at = (grid.r0, grid.dr, grid.u0, grid.du, child.centre, child.r0, 1.0 / child.dr, child.u0, 1.0 / child.du,
+                  child.img, 2.0 / self.lam, self.ktab, acc)
+            if grid.sc is not None:
+                (merge_two_pass_plane if two else merge_2d_plane)(grid.centre, self.v, grid.w, grid.sc, *at)
+            else:
+                (merge_two_pass if two else merge_2d)(grid.centre, self.v, grid.w, *at)
         grid.img = acc
         return grid
 
@@ -407,7 +394,7 @@ def _plan(rc, p, n_pix, pos, v, hull, centre, spacing, lam_eff, bw, fc, fact, ov
 def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None, bandwidth: float | None = None,
          base_pulses: int | None = None, merge: int = 4, levels: int | None = None, oversample: float | None = None,
          kernel: str | None = None, interpolation: str = "auto", upsample: int = 8,
-         error_db: float | None = None) -> SarImage:
+         error_db: float | None = None, surface: str | None = None) -> SarImage:
     """Form an image by fast factorised back-projection (module doc); same conventions as ``backproject``.
 
     Parameters
@@ -432,6 +419,10 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     error_db : a target for the predicted error [dB] instead of ``oversample``: the plan of least operation count
         (``ffbp_plan.plan_for_error``: os 1.6-4.0 in 0.1 steps and, unless given, the subaperture length and levels)
         whose prediction, the range interpolation's included, is within it.
+    surface : where the polar images lie: "half-plane" (through each subaperture's centre towards the scene centre:
+        exact for a straight subaperture, the track's error ``ffbp_plan.track_error`` counted in the prediction),
+        "plane" (a plane grid's own plane, ``ffbp_surface``: exact for any track; 2-D merges), or None (default): the
+        plane for a plane grid whose track is not straight (its error over -100 dB), else the half-plane.
 
     Returns
     -------
@@ -443,7 +434,8 @@ def ffbp(rc: PulseData, grid, positions=None, *, wavelength: float | None = None
     """
     s = FfbpInputs(rc, grid, positions, wavelength, bandwidth)
     return form_ffbp(rc, s, plan_ffbp(rc, s, base_pulses=base_pulses, merge=merge, levels=levels, oversample=oversample,
-                                      kernel=kernel, error_db=error_db, interpolation=interpolation, upsample=upsample))
+                                      kernel=kernel, error_db=error_db, interpolation=interpolation, upsample=upsample,
+                                      surface=surface))
 
 
 @dataclass(frozen=True)
@@ -456,74 +448,45 @@ class PlannedFfbp:
     upsample: int
     two_pass: bool
     cost: float
+    plane: tuple | None = None       # (origin, unit normal) of the polar images' plane (ffbp_surface); None: half-planes
 
 
-def plan_ffbp(rc: PulseData, s: "FfbpInputs", *, base_pulses=None, merge=4, levels=None, oversample=None, kernel=None,
-              error_db=None, interpolation="auto", upsample=8) -> PlannedFfbp:
+#: the half-planes' track error (linear, ``ffbp_plan.track_error`` with the whole aperture as one subaperture) above
+#: which a plane grid's polar images lie on its plane (``ffbp_surface``): -100 dB, under the least error a plan
+#: predicts (kaiser10 at os 4, -98.7 dB), so a straight track keeps the half-planes and their two-pass merges
+_TRACK_NEGLIGIBLE = 1e-10
+
+
+def plan_ffbp(rc: PulseData, s: FfbpInputs, *, base_pulses=None, merge=4, levels=None, oversample=None, kernel=None,
+              error_db=None, interpolation="auto", upsample=8, surface=None) -> PlannedFfbp:
     """:func:`ffbp`'s plan for its arguments on the inputs ``s`` (a ConfigError naming ``error_db`` where no plan
     reaches it)."""
+    plane = _surface_plane(s, surface)
     plan, interpolation, upsample, two_pass = _plan(
         rc, s.p, s.n_pix, s.pos, s.v, s.hull, s.centre, s.spacing, s.lam_eff, s.bw, s.fc,
-        dict(base_pulses=base_pulses, merge=merge, levels=levels, track=s.track), oversample, kernel, error_db,
-        interpolation, upsample)
+        dict(base_pulses=base_pulses, merge=merge, levels=levels, track=None if plane else s.track), oversample, kernel,
+        error_db, interpolation, upsample)
     cost = plan_cost(s.p, s.n_pix, s.pos, s.v, s.hull, s.bw, plan.oversample, s.spacing, s.lam_eff, plan.merge,
                      FFBP_KERNELS[plan.kernel], two_pass)(plan.base_pulses, plan.levels)
-    return PlannedFfbp(plan, interpolation, upsample, two_pass, float(cost))
+    return PlannedFfbp(plan, interpolation, upsample, two_pass, float(cost), plane)
 
 
-class FfbpInputs:
-    """What :func:`ffbp` reads of its inputs: the grid (a plane's (origin, e_row, e_col, ny, nx) or its points), the
-    pixels that bound its polar extent (``hull``) and a uniform sample of them (for :func:`ffbp_plan.track_error`), the
-    checked pulses, their band and the track's direction."""
-
-    def __init__(self, rc, grid, positions, wavelength, bandwidth):
-        g = as_grid(grid)
-        self.plane = plane_of(g)
-        if self.plane is not None:               # a plane grid: its pixels are never listed (hull and centre from it)
-            origin, e_row, e_col, ny, nx = self.plane
-            if not all(np.all(np.isfinite(a)) for a in (origin, e_row, e_col)):
-                raise InputDataError("grid", "pixel positions must be finite (found NaN/inf)")
-            self.shape, self.flat = (ny, nx), None
-            self.hull = _plane_hull(origin, e_row, e_col, ny, nx)
-            iy, ix = np.meshgrid(np.linspace(0, ny - 1, min(ny, 17)), np.linspace(0, nx - 1, min(nx, 17)),
-                                 indexing="ij")
-            self.sample = origin + iy.reshape(-1, 1) * e_row + ix.reshape(-1, 1) * e_col
-            self.centre = origin + 0.5 * (ny - 1) * e_row + 0.5 * (nx - 1) * e_col
-            self.n_pix = ny * nx
-        else:
-            g, pts = grid_points(g)
-            self.shape = pts.shape[:-1]
-            self.hull = _hull_points(pts)
-            self.flat = pts.reshape(-1, 3)
-            self.centre = self.flat.mean(axis=0)
-            self.n_pix = self.flat.shape[0]
-            self.sample = self.flat[::max(1, self.n_pix // 289)]
-        self.grid = g
-        self.data, self.rng, self.pos = check_pulses(rc, positions)
-        self.lam = wavelength_of(rc, wavelength)
-        dr_data = float(self.rng[1] - self.rng[0])
-        # default: the band back-projection's "auto" sees (rc.bandwidth, else the pulses' spectrum), not the sample
-        # rate: on CPHD pulses (fs/B 4) the sample rate made every polar grid 4x finer in range and FFBP 4-6x slower
-        self.bw = _C / (2.0 * dr_data) / data_oversampling(rc) if bandwidth is None else float(bandwidth)
-        if not (math.isfinite(self.bw) and self.bw > 0):
-            raise ConfigError("bandwidth", f"must be finite and > 0 Hz, got {bandwidth!r}")
-        self.p = self.data.shape[0]
-        if self.p < 2:
-            raise InputDataError("rc.data", "FFBP needs >= 2 pulses (use backproject)")
-        chord = self.pos[-1] - self.pos[0]
-        if np.linalg.norm(chord) == 0:
-            raise InputDataError("positions", "first and last antenna positions coincide: no track direction")
-        self.v = chord / np.linalg.norm(chord)
-        self.spacing = float(np.linalg.norm(chord)) / (self.p - 1)
-        self.fc = _C / self.lam
-        self.lam_eff = self.lam / (1.0 + self.bw / (2.0 * self.fc))
-        self._bent = {}
-
-    def track(self, n: int) -> float:
-        """The track's error (linear) with last-level subapertures of ``n`` pulses (``ffbp_plan.track_error``)."""
-        if n not in self._bent:
-            self._bent[n] = track_error(self.pos, self.sample, self.v, self.centre, self.lam, n)
-        return self._bent[n]
+def _surface_plane(s: FfbpInputs, surface):
+    """(origin, unit normal) of the plane the polar images lie on, or None for the half-planes: ``surface`` "plane"
+    (a plane grid only), "half-plane", or None: the plane where the grid is one and the track is not straight
+    (:data:`_TRACK_NEGLIGIBLE`)."""
+    if surface not in (None, "plane", "half-plane"):
+        raise ConfigError("surface", f"must be 'plane', 'half-plane' or None, got {surface!r}")
+    if s.plane is None or surface == "half-plane":
+        if surface == "plane":
+            raise ConfigError("surface", "'plane' puts the polar images on a plane grid's plane: this grid is a list "
+                                         "of points")
+        return None
+    if surface is None and s.track(s.p) <= _TRACK_NEGLIGIBLE:
+        return None
+    origin, e_row, e_col = s.plane[:3]
+    n = np.cross(e_row, e_col)
+    return origin, n / np.linalg.norm(n)
 
 
 def form_ffbp(rc: PulseData, s: FfbpInputs, planned: PlannedFfbp) -> SarImage:
@@ -532,7 +495,7 @@ def form_ffbp(rc: PulseData, s: FfbpInputs, planned: PlannedFfbp) -> SarImage:
     dr = _C / (2.0 * s.bw * plan.oversample)
     rc_c = PulseData(s.data, s.rng, np.asarray(rc.pulse_times), s.pos, None, compressed=True, wavelength=s.lam)
     former = _Former(rc_c, s.pos, s.lam, s.v, s.hull, s.centre, dr, s.spacing, s.lam_eff, plan, interpolation,
-                     upsample, two_pass)
+                     upsample, two_pass, planned.plane)
     step, p, v, lam = plan.final_pulses, s.p, s.v, s.lam
     if s.plane is not None:                      # pixels generated tile by tile (no coordinates read)
         origin, e_row, e_col, ny, nx = s.plane
@@ -559,6 +522,7 @@ def form_ffbp(rc: PulseData, s: FfbpInputs, planned: PlannedFfbp) -> SarImage:
                          "ffbp_oversample": plan.oversample, "ffbp_kernel": plan.kernel,
                          "ffbp_predicted_error_db": plan.predicted_error_db, "ffbp_bandwidth_hz": s.bw,
                          "ffbp_track_error_db": plan.track_error_db,
+                         "ffbp_surface": "half-plane" if planned.plane is None else "plane",
                          "ffbp_merge_passes": 2 if two_pass else 1, "ffbp_wide_children": former.wide_children})
     return img
 
@@ -588,7 +552,7 @@ def polar_image(rc: PulseData, grid, positions=None, *, wavelength: float | None
     flat = pts.reshape(-1, 3)
     lam_eff = lam / (1.0 + bw / (2.0 * _C / lam))
     spacing = float(np.linalg.norm(track)) / (data.shape[0] - 1)
-    pg = _polar_grid(pos, v, _hull_points(pts), flat.mean(axis=0), _C / (2.0 * bw * oversample), spacing, lam_eff,
+    pg = _polar_grid(pos, v, hull_points(pts), flat.mean(axis=0), _C / (2.0 * bw * oversample), spacing, lam_eff,
                      oversample)
     q, rq = pg.points(v)
     sub = PulseData(data, rng, np.asarray(rc.pulse_times), pos, None, compressed=True, wavelength=lam)
