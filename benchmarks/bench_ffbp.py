@@ -55,9 +55,16 @@ LAM = C / FC
 SLANT, PX = 5000.0, 0.5
 
 
-def scene(npx: int, n_targets: int = 300, seed: int = 0):
+def scene(npx: int, n_targets: int = 300, seed: int = 0, walk: float = 0.0):
+    """The own collect; ``walk`` [m]: the antennas on a seeded 3-D random walk of at most that much about the straight
+    track (a recorded flight's bent track: FFBP puts its polar images on the grid's plane, ``imaging.ffbp_surface``)."""
     p, w = npx, npx * PX
     pos, tg, amp, rt, east = random_point_scene(npx, p, SLANT, PX, n_targets, seed, LAM)
+    if walk > 0:
+        steps = np.cumsum(np.random.default_rng(np.random.SeedSequence(seed + 1)).standard_normal((p, 3)), axis=0)
+        steps -= steps.mean(axis=0)
+        pos = pos + walk * steps / np.abs(steps).max()
+        rt = np.linalg.norm(tg[None] - pos[:, None], axis=2)
     dr = C / (4 * BW)
     # the receive window covers every pixel (not only the targets): pixels outside it see no data at all
     corners = np.array([[a, east + b, 0.0] for a in (-w / 2, w / 2) for b in (-w / 2, w / 2)] + [[0.0, east - w / 2, 0.0]])
@@ -121,6 +128,8 @@ def main(argv=None):
                     help="FFBP os values on the peer's collect (kaiser6)")
     ap.add_argument("--peer-whole", action="store_true", help="also the whole-image error on the peer's collect, "
                     "against sarnav's 'precise' exact BP (-86 dB; one more exact image)")
+    ap.add_argument("--track-walk", type=float, default=0.0, metavar="M",
+                    help="own collect: the antennas on a 3-D random walk of at most M metres (a bent track)")
     ap.add_argument("--repeat", type=int, default=2, help="FFBP and FastSAR calls timed (best of; the own exact BP is "
                     "best of 2, the peer-collect exact BP one call)")
     ap.add_argument("--no-fastsar", action="store_true", help="skip FastSAR's FFBP")
@@ -131,7 +140,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     print(f"numba {numba.__version__}, threads {numba.get_num_threads()}, load average {os.getloadavg()[0]:.1f}")
     for npx in args.sizes:
-        rc, grid, east = scene(npx)
+        rc, grid, east = scene(npx, walk=args.track_walk)
         p = rc.n_pulses
         work = npx * npx * p
         kw = dict(bandwidth=BW, oversample=args.oversample, kernel=args.kernel, interpolation=args.interpolation,
@@ -157,7 +166,9 @@ def main(argv=None):
               f"{c_e / c_f:5.1f}x CPU (goal >= 10x at 2048^2); error {err:6.1f} dB (predicted "
               f"{md['ffbp_predicted_error_db']:6.1f}); tile: subapertures of {md['ffbp_base_pulses']} pulses, "
               f"{md['ffbp_levels']} merges of {md['ffbp_merge']} -> {final} pulses, polar cell c/(2B os) x "
-              f"lambda/(2 l os), os {md['ffbp_oversample']}, kernel {md['ffbp_kernel']}, range {_range(md)}", flush=True)
+              f"lambda/(2 l os), os {md['ffbp_oversample']}, kernel {md['ffbp_kernel']}, range {_range(md)}, polar "
+              f"images on the {md['ffbp_surface']}" + (f" (track: {args.track_walk:g} m random walk)"
+                                                      if args.track_walk else ""), flush=True)
         peer = fastsar_ffbp(rc, npx, east) if not args.no_fastsar else None
         if peer is not None:
             t_p, c_p, img_p = peer

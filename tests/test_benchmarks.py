@@ -22,8 +22,10 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
     ("bench_navigate.py", ["--duration", "3", "--runs", "2"]),
     ("bench_quality_search.py", ["--block", "200", "--size", "16", "--repeat", "1", "--runs", "1"]),
     ("bench_spacecraft.py", ["--runs", "2", "--loop-runs", "2", "--images", "1"]),
-    ("bench_bpa.py", ["--rounds", "0", "--no-table", "--peer-sizes", "64", "--peer-modes", "auto",
-                      "--peer-ffbp-error-db", "-45", "-99"]),
+    ("bench_bpa.py", ["--rounds", "0", "--no-table", "--peer-sizes", "64", "--peer-modes", "auto", "default",
+                      "--peer-ffbp-error-db", "-45", "-99", "--peer-plane"]),
+    ("bench_ffbp.py", ["--sizes", "128", "--exact-pulses", "16", "--check", "32", "--peer-sizes", "--no-fastsar",
+                       "--track-walk", "0.3"]),
     ("bench_bpa_chip.py", ["--runs", "1", "--apertures", "3", "--rounds", "1", "--straight"]),
 ])
 def test_benchmark_runs(script, args):

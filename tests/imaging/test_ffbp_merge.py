@@ -136,8 +136,8 @@ def test_a_block_of_one_child_is_that_childs_image_not_a_merge(monkeypatch):
 
 def test_on_the_grids_plane_the_two_pass_merge_gives_the_2d_merges_image(monkeypatch):
     """A track on a 0.3 m 3-D random walk, polar images on the ground grid's plane (``ffbp_surface``): the two-pass merge
-    there (``merge_two_pass_plane``: pass 1 finds each child column's point of the parent row by Newton on the parent's
-    u) and the 2-D merge (``merge_2d_plane``, forced for every child) give the same image to within -85 dB (kaiser10
+    there (``merge_two_pass_plane``: pass 1 finds each child column's point of the parent row by cubic Lagrange over the
+    row's samples, or a chord-Newton step beyond them) and the 2-D merge (``merge_2d_plane``, forced for every child) give the same image to within -85 dB (kaiser10
     os 3.5, two merges, predicted -91.7 dB each against exact back-projection)."""
     rng = np.random.default_rng(np.random.SeedSequence(5))
     walk = np.cumsum(rng.standard_normal((192, 3)), axis=0)
