@@ -12,7 +12,7 @@ from sarnav.errors import ConfigError
 from sarnav.imaging.ffbp_plan import (BASE_CHOICES, ERROR_KERNELS, FFBP_KERNELS, OVERSAMPLE_CHOICES, TABLE_STEPS,
                                      child_margin, ffbp_error_model, ffbp_plan, merge_cost, plan_cost, plan_for_error,
                                      polar_margins,
-                                     stage_error, table_error)
+                                     stage_error, table_error, track_error)
 from sarnav.imaging.interpolation_error import interpolation_error_2d
 
 
@@ -160,3 +160,22 @@ def test_a_track_off_its_line_gets_fewer_merges_and_the_unreachable_target_says_
         10 * math.log10(10 ** (ffbp_error_model(os_, 2, kernel=kern) / 10) + track(32)))
     with pytest.raises(ConfigError, match=r"^error_db: must be >= -\d\d\.\d dB .* on this track\), got -90"):
         plan_for_error(-90.0, 2048, cost_at, base_pulses=8, merge=4, levels=None, kernel=None, track=track)
+
+
+def test_track_error_is_the_same_in_chunks_of_pulses_as_in_one():
+    """``track_error`` sums over pulses in chunks (bounded memory): on a 1300-pulse bent track the result equals the
+    sum over one chunk (the chunk made larger than the track) to 1e-12, for tops shorter and longer than a chunk."""
+    import sarnav.imaging.ffbp_plan as fp
+
+    rng = np.random.default_rng(np.random.SeedSequence(2))
+    pos = np.column_stack([np.linspace(-300, 300, 1300), 0.02 * rng.standard_normal(1300), np.full(1300, -2500.0)])
+    sample = np.column_stack([rng.uniform(-40, 40, 50), 4330 + rng.uniform(-40, 40, 50), np.zeros(50)])
+    v, centre = np.array([1.0, 0.0, 0.0]), np.array([0.0, 4330.0, 0.0])
+    chunked = [track_error(pos, sample, v, centre, 0.03, n) for n in (100, 1300)]
+    saved = fp._TRACK_CHUNK
+    try:
+        fp._TRACK_CHUNK = 10**6
+        whole = [track_error(pos, sample, v, centre, 0.03, n) for n in (100, 1300)]
+    finally:
+        fp._TRACK_CHUNK = saved
+    assert chunked == pytest.approx(whole, rel=1e-12) and all(e > 0 for e in whole)

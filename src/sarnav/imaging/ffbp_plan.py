@@ -113,11 +113,16 @@ def track_error(pos: np.ndarray, sample: np.ndarray, v: np.ndarray, scene_centre
         r = np.linalg.norm(dx, axis=1)
         u = np.clip(dx @ v / r, -1.0, 1.0)
         q = c + r[:, None] * (u[:, None] * v + np.sqrt(1.0 - u * u)[:, None] * w)
-        d = p - c
-        num = -2.0 * (d @ (x - q).T)                                       # (pulses, pixels)
-        den = np.linalg.norm(x[None] - p[:, None], axis=2) + np.linalg.norm(q[None] - p[:, None], axis=2)
-        total += float(np.sum(2.0 - 2.0 * np.cos(k * num / den)))
+        for j0 in range(0, p.shape[0], _TRACK_CHUNK):                   # bounded memory whatever the pulse count
+            pj = p[j0:j0 + _TRACK_CHUNK]
+            num = -2.0 * ((pj - c) @ (x - q).T)                             # (pulses, pixels)
+            den = np.linalg.norm(x[None] - pj[:, None], axis=2) + np.linalg.norm(q[None] - pj[:, None], axis=2)
+            total += float(np.sum(2.0 - 2.0 * np.cos(k * num / den)))
     return total / (pos.shape[0] * x.shape[0])
+
+
+#: pulses :func:`track_error` takes at a time (its (pulses, pixels) arrays: 512 x 289 float64, 1.2 MB each)
+_TRACK_CHUNK = 512
 
 
 def polar_margin(kernel: str) -> int:
