@@ -78,3 +78,16 @@ def test_bad_geometry_is_named(sicd_file, tmp_path):
     with pytest.raises(InputDataError, match="^geometry.grid"):
         write_image(tmp_path / "x.nitf", img, SicdGeometry(grid.points(), rc.positions, rc.pulse_times,
                                                            rc.wavelength, 150e6))
+
+
+def test_file_title_names_the_algorithm_that_formed_the_pixels(sicd_file, tmp_path):
+    """FTITLE says BPA for a back-projected image and FFBP for a factorised one (not "BPA" for every image)."""
+    from dataclasses import replace
+
+    path, rc, grid, img = sicd_file
+    with open(path, "rb") as f, sksicd.NitfReader(f) as reader:
+        assert reader.metadata.file_header_part.ftitle == "sarnav BPA image"
+    fast = replace(img, metadata=dict(img.metadata, algorithm="ffbp"))
+    write_image(tmp_path / "ffbp.nitf", fast, SicdGeometry(grid, rc.positions, rc.pulse_times, rc.wavelength, 150e6))
+    with open(tmp_path / "ffbp.nitf", "rb") as f, sksicd.NitfReader(f) as reader:
+        assert reader.metadata.file_header_part.ftitle == "sarnav FFBP image"

@@ -215,6 +215,10 @@ def _corners(nr, nc, scp_px, ss_r, ss_c, scp, urow, ucol, pos, up) -> np.ndarray
     return wgs84.cartesian_to_geodetic(corner_ecf)[:, :2]
 
 
+#: the NITF file title (FTITLE) by ``image.metadata["algorithm"]``: the algorithm that formed the pixels
+_TITLES = {"ffbp": "FFBP", "bpa": "BPA", "bpa-numpy": "BPA"}
+
+
 def write_image(path, image: SarImage, geometry: SicdGeometry) -> et._ElementTree:
     """Write ``image`` (formed on ``geometry.grid``) as a SICD NITF (e.g. ``out / "image.nitf"``).
 
@@ -239,7 +243,8 @@ def write_image(path, image: SarImage, geometry: SicdGeometry) -> et._ElementTre
     corners = _corners(nr, nc, scp_px, ss_r, ss_c, scp, urow, ucol, pos, up)
     tree = _root(nr, nc, scp_px, scp, corners, {"Row": row, "Col": col}, t, pos, geometry, plane)
     sec = {"security": {"clas": "U"}}
-    meta = sksicd.NitfMetadata(xmltree=tree, file_header_part={"ostaid": "sarnav", "ftitle": "sarnav BPA image"} | sec,
+    title = f"sarnav {_TITLES.get(str(image.metadata.get('algorithm', '')), 'back-projection')} image"
+    meta = sksicd.NitfMetadata(xmltree=tree, file_header_part={"ostaid": "sarnav", "ftitle": title} | sec,
                                im_subheader_part={"isorce": "sarnav simulation"} | sec, de_subheader_part=sec)
     with open(path, "wb") as f, sksicd.NitfWriter(f, meta) as w:
         w.write_image((data * deramp).astype(np.complex64))
