@@ -13,6 +13,9 @@ arrays):
   speed and its focusing shift modelled, innovation gate, receive window following the geometry.
   Again for issue 29 (f6cb414): the predicted registration sigma uses the gradient energy both images share and
   Rice-distributed magnitudes near the noise floor (R changes, the shifts do not; errors move by < 1e-3 relative).
+  ``rda_nav_image`` again for issue 29 (2026-12-07): the mismatch test's gain is corrected for the template's noise
+  (``imaging.registration.corrected_gain``); one update's kappa changed, its R with it (errors move by < 4e-5
+  relative).
 * ``image_point_target_bpa_hamming`` (issue 28, 2026-12-06): FFT upsampling of pulses whose length the FFT does
   slowly runs at ``next_fast_len`` with a cubic Hermite bridge from the last samples to the first
   (``imaging.kernels.upsample_pulses``): its 1e-5 relative change is the old wrap's interpolation error near the ends.

@@ -31,7 +31,7 @@ import scipy.fft as sfft
 from sarnav.errors import ConfigError, InputDataError
 
 __all__ = ["Registration", "register", "register_axis", "cross_correlation", "refine_shift", "distinctness",
-           "SeparableNoise", "magnitude_shift_precision"]
+           "SeparableNoise", "magnitude_shift_precision", "corrected_gain"]
 
 
 @dataclass
@@ -364,7 +364,9 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     Scene changes between the passes (speckle decorrelated by time or baseline, geometry) are not in that model; they
     are in the fit's residual ``r = |image| - a |reference(shifted)| - b``. With ``mismatch`` the residual power over
     the pixels where the template stands 10 dB above the noise (where ``Re(n exp(-j phi))`` is the magnitude noise and
-    its variance is ``(N_image + a^2 N_reference) / 2``) is compared with that expectation: a ratio kappa significantly
+    its variance is ``(N_image + a^2 N_reference) / 2``; the fit's gain a by :func:`corrected_gain`, since least squares
+    on the noisy template attenuates it and leaves signal in those pixels' residual) is compared with that
+    expectation: a ratio kappa significantly
     above 1 (beyond three standard errors of a noise-only ratio, ``sqrt(2 / n)`` over n pixels) scales the
     prediction by sqrt(kappa): the mismatch is treated as more noise of the same spectrum (the shared gradient energy
     leaves out the decorrelated texture's gradients, which the other image does not have) (docs/scenarios/rda-nav.md
@@ -391,7 +393,7 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
     (a, b), *_ = np.linalg.lstsq(A, np.abs(img).ravel(), rcond=None)
     if mismatch:  # the residual of the complex-shifted template: the magnitude's own interpolation error is no mismatch
         cz = np.abs(shifted)
-        (az, bz), *_ = np.linalg.lstsq(np.column_stack([cz.ravel(), np.ones(cz.size)]), np.abs(img).ravel(), rcond=None)
+        az, bz = corrected_gain(cz, np.abs(img), 0.5 * noise_reference[0].power * rician_weight(shifted, noise_reference[0].power))
         turn, clutter = _phase_turn(ref, phase_turn, noise_reference[0].power)
         scale = mismatch_ratio(np.abs(img) - az * cz - bz, cz, az, noise_reference[0].power, noise_image[0].power,
                                explained=None if turn is None else 0.5 * clutter * np.abs(turn) ** 2)
@@ -413,6 +415,26 @@ def magnitude_shift_precision(reference, image, shift, noise_reference, noise_im
         out.append(np.sqrt(max(num, 0.0)) / energy if energy > 0 else np.inf)
     return float(out[0]), float(out[1])
 
+
+
+def corrected_gain(x, y, noise_variance) -> tuple[float, float]:
+    """(a, b) of ``y ~ a x + b`` when the regressor ``x`` carries noise of variance ``noise_variance`` per pixel (the
+    template's magnitude noise): the least-squares slope over the attenuation its noise causes. Least squares on a
+    noisy regressor estimates ``lambda a``, ``lambda = 1 - sum(v) / sum((x - mean x)^2)`` (the reliability ratio;
+    errors in variables, Fuller 1987, *Measurement Error Models*, §1.1); the moment estimator divides it out. Where
+    the regressor's spread is not above its noise (``lambda <= 0``: no signal to fit a gain on) the plain least squares
+    is returned. Why (issue 29): near the noise floor (15 dB peak SNR, lambda ~ 0.5) the attenuated gain leaves
+    ``(1 - lambda) a |s|`` of the signal in the residual of the bright pixels, which :func:`mismatch_ratio` took for a
+    scene mismatch (kappa 3-4 with none)."""
+    x = np.asarray(x, dtype=np.float64).ravel()
+    y = np.asarray(y, dtype=np.float64).ravel()
+    xc = x - x.mean()
+    sxx = float(np.sum(xc * xc))
+    v = np.asarray(noise_variance, dtype=np.float64)
+    spread = sxx - (float(np.sum(v)) if v.ndim else float(v) * x.size)
+    denom = spread if spread > 0 else sxx
+    a = float(np.sum(xc * (y - y.mean()))) / denom if denom > 0 else 0.0
+    return a, float(y.mean() - a * x.mean())
 
 
 def rician_weight(x, noise_power: float) -> np.ndarray:
