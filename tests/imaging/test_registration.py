@@ -198,6 +198,11 @@ def test_corrected_gain_removes_the_attenuation_of_a_noisy_regressor():
     assert a == pytest.approx(2.0, abs=0.03) and b == pytest.approx(1.0, abs=0.03)
     assert corrected_gain(seen, y, np.full(x.size, 1.0))[0] == pytest.approx(a, rel=1e-12)
     assert corrected_gain(seen, y, 10.0)[0] == pytest.approx(a_ls, rel=1e-9)  # no spread above the noise
+    from sarnav.errors import InputDataError
+
+    for bad in (np.ones(3), -1.0, np.nan):
+        with pytest.raises(InputDataError, match="^noise_variance"):
+            corrected_gain(seen, y, bad)
 
 
 @pytest.mark.parametrize("amp, fired_before", [(3.0, 0.3), (2.0, 0.9)])

@@ -431,6 +431,9 @@ def corrected_gain(x, y, noise_variance) -> tuple[float, float]:
     xc = x - x.mean()
     sxx = float(np.sum(xc * xc))
     v = np.asarray(noise_variance, dtype=np.float64)
+    if (v.ndim and v.size != x.size) or not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise InputDataError("noise_variance", f"must be one finite value >= 0 or one per sample ({x.size}), got shape "
+                             f"{v.shape}")
     spread = sxx - (float(np.sum(v)) if v.ndim else float(v) * x.size)
     denom = spread if spread > 0 else sxx
     a = float(np.sum(xc * (y - y.mean()))) / denom if denom > 0 else 0.0
